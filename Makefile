@@ -1,0 +1,42 @@
+# Two commands for a newcomer: `make demo` and `make test`. Every target sets up what it needs.
+SHELL := /bin/bash
+.SHELLFLAGS := -eo pipefail -c
+ENV := source scripts/env.sh &&
+
+.PHONY: setup test lint pytest demo train eval bench bag clean help
+
+help:
+	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
+	@echo "make test   - set up if needed, lint (ruff, hadolint), run every test"
+	@echo "make train  - train the push-grasp policy in the fast sim (resumable)"
+	@echo "make eval   - paper's evaluation: methods x scenarios, table and chart"
+	@echo "make bench  - latency and throughput figures"
+	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
+
+setup:
+	@bash scripts/setup.sh
+
+lint: setup
+	@$(ENV) ruff check src tests benchmarks scripts bringup
+	@$(ENV) hadolint Dockerfile
+	@echo "lint: ok"
+
+pytest: setup
+	@$(ENV) bash scripts/run_pytest.sh tests
+
+test: lint pytest
+
+demo: setup
+	@$(ENV) python bringup/demo.py
+
+train: setup
+	@$(ENV) python -m impurity_policy.core.train_cli $(TRAIN_ARGS)
+
+eval: setup
+	@$(ENV) python -m impurity_policy.core.eval_cli $(EVAL_ARGS)
+
+bench: setup
+	@$(ENV) for b in benchmarks/bench_*.py; do echo "== $$b"; python "$$b"; done
+
+clean:
+	rm -rf ros2_ws/build ros2_ws/install ros2_ws/log ros2_ws/colcon-build.log

@@ -1,0 +1,1 @@
+"""Pure core (no rclpy): called directly by training, evaluation and tests."""

@@ -1,0 +1,1 @@
+"""Shared pieces of the impurity-picking cell: geometry constants, message conversions, node main."""

@@ -1,0 +1,63 @@
+"""Geometry of the cell, in one place: every default for workspace, heightmap, camera and gripper.
+
+Frames follow REP-103: `base_link` is the UR5 base (x forward, y left, z up) with the table top at
+z = TABLE_Z; the camera's optical frame is `camera_color_optical_frame` (z out of the lens).
+Nodes expose these as parameters (bringup/config/cell.yaml); cores take them as arguments with
+these defaults.
+"""
+
+import math
+
+BASE_FRAME = "base_link"
+CAMERA_OPTICAL_FRAME = "camera_color_optical_frame"
+
+# Workspace: a 448 mm x 448 mm square in front of the UR5 base (paper section 3).
+WORKSPACE_X = (0.276, 0.724)  # m, base_link
+WORKSPACE_Y = (-0.224, 0.224)  # m, base_link
+TABLE_Z = 0.0  # m, table top in base_link
+
+# Heightmap: 224 x 224 pixels at 2 mm. Pixel (row, col) covers
+#   x = WORKSPACE_X[0] + (col + 0.5) * RESOLUTION,  y = WORKSPACE_Y[0] + (row + 0.5) * RESOLUTION.
+HEIGHTMAP_RESOLUTION = 0.002  # m / px
+HEIGHTMAP_SIZE = 224  # px
+CROP_SIZE = 112  # px, the attention module's target- or cluster-centric crop
+
+# Action space (paper section 3): 16 orientations, pushes 10 cm long.
+NUM_ROTATIONS = 16
+PUSH_LENGTH = 0.10  # m
+GRIPPER_MAX_OPENING = 0.110  # m, RG2-like stroke; TCDD's eta
+
+# Simulated RealSense colour stream (aligned depth shares the intrinsics).
+CAMERA_WIDTH = 640
+CAMERA_HEIGHT = 480
+CAMERA_FX = 618.62
+CAMERA_FY = 618.62
+CAMERA_CX = (CAMERA_WIDTH - 1) / 2.0
+CAMERA_CY = (CAMERA_HEIGHT - 1) / 2.0
+# Overhead camera above the workspace centre, optical axis straight down, image x along -y_base
+# ... given as position (m) and orientation quaternion (x, y, z, w) of the optical frame in base_link.
+CAMERA_POSITION = (0.5, 0.0, 0.75)
+CAMERA_ORIENTATION = (1.0, 0.0, 0.0, 0.0)  # 180 deg about x: optical z points down (-z_base)
+CAMERA_NEAR = 0.05  # m
+CAMERA_FAR = 2.0  # m
+
+
+def rotation_yaw(index: int) -> float:
+    """Yaw (rad, about base_link +z) of rotation index 0..NUM_ROTATIONS-1."""
+    return (index % NUM_ROTATIONS) * 2.0 * math.pi / NUM_ROTATIONS
+
+
+def pixel_to_base(row: float, col: float, resolution: float = HEIGHTMAP_RESOLUTION,
+                  x_min: float = WORKSPACE_X[0], y_min: float = WORKSPACE_Y[0]) -> tuple:
+    """Heightmap pixel centre -> (x, y) in base_link (m)."""
+    return x_min + (col + 0.5) * resolution, y_min + (row + 0.5) * resolution
+
+
+def base_to_pixel(x: float, y: float, resolution: float = HEIGHTMAP_RESOLUTION,
+                  x_min: float = WORKSPACE_X[0], y_min: float = WORKSPACE_Y[0]) -> tuple:
+    """(x, y) in base_link -> heightmap (row, col), integer, unclipped."""
+    return int(math.floor((y - y_min) / resolution)), int(math.floor((x - x_min) / resolution))
+
+
+def in_workspace(x: float, y: float) -> bool:
+    return WORKSPACE_X[0] <= x <= WORKSPACE_X[1] and WORKSPACE_Y[0] <= y <= WORKSPACE_Y[1]

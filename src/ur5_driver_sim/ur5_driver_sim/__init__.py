@@ -1,0 +1,1 @@
+"""PyBullet UR5 + parallel-gripper cell: scenes, primitives, simulated RealSense camera and the driver node."""
