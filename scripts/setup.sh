@@ -12,6 +12,11 @@ venv_stamp=$venv/.requirements.sha
 build_stamp=$top/ros2_ws/install/.build-inputs.sha
 did=()
 
+# One set-up at a time: parallel `make` targets must not run pip or colcon over each other.
+mkdir -p "$top/.setup-lock.d"
+exec 9>"$top/.setup-lock.d/lock"
+flock 9
+
 if ! command -v "$PYTHON" >/dev/null; then
   echo "setup: $PYTHON not found; the ROS 2 Jazzy wheels need CPython 3.11" >&2
   exit 1

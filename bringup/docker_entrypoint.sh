@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# Source ROS and the workspace, then run whatever the container was asked to run.
+set -e
+# shellcheck disable=SC1091
+source /opt/ros/jazzy/setup.bash
+# shellcheck disable=SC1091
+source /ws/install/setup.bash
+exec "$@"

@@ -1,0 +1,185 @@
+"""Start the cell's executables as real processes and talk to them with rclpy, always with timeouts.
+
+In the spirit of the UR driver's test_common.py: every wait is bounded and says what it waited for.
+Processes run on the test session's isolated ROS_DOMAIN_ID (set in conftest.py).
+"""
+
+import os
+import pathlib
+import signal
+import subprocess
+import time
+
+import rclpy
+from rclpy.action import ActionClient
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, qos_profile_sensor_data
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+INSTALL = ROOT / "ros2_ws" / "install"
+LOG_DIR = ROOT / "ros2_ws" / "log" / "test-processes"
+
+
+def executable_path(package: str, executable: str) -> pathlib.Path:
+    """Where `ros2 run <package> <executable>` finds it (setup.cfg script_dir)."""
+    path = INSTALL / package / "lib" / package / executable
+    if not path.exists():
+        raise FileNotFoundError(f"{path} does not exist: run `make setup` (colcon build) first")
+    return path
+
+
+def ros_args(parameters: dict | None = None, params_file: str | os.PathLike | None = None,
+             remappings: dict | None = None, node_name: str | None = None) -> list[str]:
+    args = ["--ros-args"]
+    if params_file is not None:
+        args += ["--params-file", str(params_file)]
+    for name, value in (parameters or {}).items():
+        if isinstance(value, bool):
+            value = "true" if value else "false"
+        elif isinstance(value, (list, tuple)):
+            value = "[" + ",".join(str(v) for v in value) + "]"
+        args += ["-p", f"{name}:={value}"]
+    for src, dst in (remappings or {}).items():
+        args += ["-r", f"{src}:={dst}"]
+    if node_name:
+        args += ["-r", f"__node:={node_name}"]
+    return args if len(args) > 1 else []
+
+
+class NodeProcess:
+    """One executable in its own process; output goes to a log file read back on failure."""
+
+    def __init__(self, package: str, executable: str, args: list[str] | None = None,
+                 env: dict | None = None):
+        self.name = f"{package}/{executable}"
+        LOG_DIR.mkdir(parents=True, exist_ok=True)
+        self.log_path = LOG_DIR / f"{executable}-{os.getpid()}-{time.monotonic_ns()}.log"
+        self._log = open(self.log_path, "w")
+        full_env = dict(os.environ)
+        full_env.update(env or {})
+        full_env.setdefault("PYTHONUNBUFFERED", "1")
+        self.process = subprocess.Popen(
+            [str(executable_path(package, executable)), *(args or [])],
+            stdout=self._log, stderr=subprocess.STDOUT, env=full_env, start_new_session=True)
+
+    @property
+    def alive(self) -> bool:
+        return self.process.poll() is None
+
+    def output(self) -> str:
+        if not self._log.closed:
+            self._log.flush()
+        return self.log_path.read_text(errors="replace")
+
+    def send_signal(self, sig: int) -> None:
+        if self.alive:
+            os.killpg(self.process.pid, sig)
+
+    def stop(self, timeout: float = 10.0) -> int:
+        """SIGINT (what Ctrl-C sends), then SIGTERM, then SIGKILL; returns the exit code."""
+        for sig, wait in ((signal.SIGINT, timeout), (signal.SIGTERM, 3.0), (signal.SIGKILL, 3.0)):
+            if not self.alive:
+                break
+            try:
+                os.killpg(self.process.pid, sig)
+            except ProcessLookupError:
+                break
+            try:
+                self.process.wait(wait)
+            except subprocess.TimeoutExpired:
+                continue
+        self._log.close()
+        return self.process.returncode
+
+
+class WaitTimeout(AssertionError):
+    """A bounded wait ran out; the message says what was awaited."""
+
+
+def spin_until(node: Node, predicate, timeout: float, what: str, processes=()) -> None:
+    """Spin `node` until predicate() is true; fail with `what` (and dead processes' output)."""
+    deadline = time.monotonic() + timeout
+    while not predicate():
+        for proc in processes:
+            if not proc.alive:
+                raise WaitTimeout(f"{proc.name} died while waiting for {what}:\n{proc.output()[-3000:]}")
+        if time.monotonic() > deadline:
+            raise WaitTimeout(f"timed out after {timeout:.0f} s waiting for {what}")
+        rclpy.spin_once(node, timeout_sec=0.05)
+
+
+def wait_for_service(node: Node, srv_type, name: str, timeout: float = 30.0, processes=()):
+    client = node.create_client(srv_type, name)
+    spin_until(node, client.service_is_ready, timeout, f"service {name}", processes)
+    return client
+
+
+def call_service(node: Node, srv_type, name: str, request, timeout: float = 30.0, processes=()):
+    client = wait_for_service(node, srv_type, name, timeout, processes)
+    future = client.call_async(request)
+    spin_until(node, future.done, timeout, f"response from {name}", processes)
+    node.destroy_client(client)
+    return future.result()
+
+
+class ActionHelper:
+    """Send goals to one action server and collect feedback, every step bounded by a timeout."""
+
+    def __init__(self, node: Node, action_type, name: str, timeout: float = 30.0, processes=()):
+        self.node, self.name, self.processes = node, name, processes
+        self.client = ActionClient(node, action_type, name)
+        spin_until(node, self.client.server_is_ready, timeout, f"action server {name}", processes)
+        self.feedback = []
+
+    def send_goal(self, goal, timeout: float = 30.0):
+        """Returns the goal handle (check .accepted)."""
+        future = self.client.send_goal_async(
+            goal, feedback_callback=lambda fb: self.feedback.append(fb.feedback))
+        spin_until(self.node, future.done, timeout, f"goal response from {self.name}", self.processes)
+        return future.result()
+
+    def get_result(self, goal_handle, timeout: float = 60.0):
+        future = goal_handle.get_result_async()
+        spin_until(self.node, future.done, timeout, f"result from {self.name}", self.processes)
+        return future.result()
+
+    def run(self, goal, timeout: float = 60.0):
+        handle = self.send_goal(goal, timeout=min(timeout, 30.0))
+        if not handle.accepted:
+            return handle, None
+        return handle, self.get_result(handle, timeout)
+
+    def cancel(self, goal_handle, timeout: float = 30.0):
+        future = goal_handle.cancel_goal_async()
+        spin_until(self.node, future.done, timeout, f"cancel response from {self.name}", self.processes)
+        return future.result()
+
+    def destroy(self):
+        self.client.destroy()
+
+
+class TopicRecorder:
+    """Subscribe to a topic and keep what arrives; wait for messages with a timeout."""
+
+    def __init__(self, node: Node, msg_type, topic: str, qos: QoSProfile | int = 10):
+        self.node, self.topic, self.messages = node, topic, []
+        self.subscription = node.create_subscription(msg_type, topic, self.messages.append, qos)
+
+    def wait_for(self, count: int = 1, timeout: float = 30.0, predicate=None, processes=()):
+        """Wait until `count` messages (matching predicate, if given) arrived; returns them."""
+        def matching():
+            return [m for m in self.messages if predicate is None or predicate(m)]
+        spin_until(self.node, lambda: len(matching()) >= count, timeout,
+                   f"{count} message(s) on {self.topic}", processes)
+        return matching()
+
+    def destroy(self):
+        self.node.destroy_subscription(self.subscription)
+
+
+def wait_for_subscribers(node: Node, publisher, count: int = 1, timeout: float = 30.0, processes=()):
+    spin_until(node, lambda: publisher.get_subscription_count() >= count, timeout,
+               f"{count} subscriber(s) on {publisher.topic_name}", processes)
+
+
+SENSOR_QOS = qos_profile_sensor_data
