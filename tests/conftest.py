@@ -5,6 +5,7 @@ import random
 
 import pytest
 import rclpy
+
 from ros_harness import NodeProcess
 
 # Before rclpy is initialised anywhere: this session's own DDS domain, discovery on this host only,

@@ -16,5 +16,7 @@ setup(
     maintainer_email="robotics@impurity-cell.dev",
     description="Push-grasp DQN with fully convolutional action-value functions, TCDD reward, trainer, policy and episode nodes.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "episode_node = impurity_policy.episode_node:main",
+    ]},
 )
