@@ -1,0 +1,106 @@
+#!/usr/bin/env python3
+"""Command-line client: start a picking episode, print one line per action, then the paper's metrics.
+
+Equivalent on a ROS install:
+  ros2 action send_goal --feedback /episode/run impurity_interfaces/action/RunEpisode \
+      "{scenario: random, seed: 7}"
+"""
+
+import argparse
+import sys
+import time
+
+import rclpy
+from rclpy.action import ActionClient
+
+from impurity_interfaces.action import RunEpisode
+from impurity_interfaces.msg import Primitive
+from impurity_interfaces.srv import StartEpisode
+
+KIND = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
+
+
+def format_step(step) -> str:
+    p = step.primitive
+    outcome = "target picked" if step.target_grasped else ("ok" if step.success else "failed")
+    return (f"step {step.step:2d}  {step.attention_mode:<15s} {KIND.get(p.kind, '?'):<5s} "
+            f"x={p.position.x:.3f} y={p.position.y:+.3f} z={p.position.z:.3f} yaw={p.yaw:+.2f} "
+            f"q={p.q_value:.3f}  -> {outcome:<13s} targets left {step.targets_remaining}")
+
+
+def format_result(result) -> str:
+    return "\n".join([
+        f"episode {result.episode_id}: {result.termination_reason}",
+        f"  targets picked   {result.targets_picked}/{result.targets_total}",
+        f"  actions          {result.actions} ({result.pushes} pushes, {result.grasp_attempts} grasps, "
+        f"{result.grasp_successes} lifted something, {result.false_rejects} false rejects)",
+        f"  grasp success    {100 * result.grasp_success:.1f} %",
+        f"  action efficiency {100 * result.action_efficiency:.1f} %",
+        f"  record           {result.record_path}",
+    ])
+
+
+def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
+    """Send the goal, print feedback as it comes; returns the result (None if rejected)."""
+    client = ActionClient(node, RunEpisode, "/episode/run")
+    if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
+        raise TimeoutError("action server /episode/run not available (is the cell running?)")
+    future = client.send_goal_async(goal, feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
+    rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+    handle = future.result()
+    if handle is None or not handle.accepted:
+        return None
+    result_future = handle.get_result_async()
+    deadline = time.monotonic() + timeout
+    while not result_future.done():
+        if time.monotonic() > deadline:
+            handle.cancel_goal_async()
+            raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
+        rclpy.spin_once(node, timeout_sec=0.1)
+    return result_future.result().result
+
+
+def main(argv=None) -> int:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--scenario", default="random", help="random | challenging | invisible | file")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--targets", type=int, default=2)
+    parser.add_argument("--objects", type=int, default=20)
+    parser.add_argument("--max-actions", type=int, default=0, help="0: 15 per target")
+    parser.add_argument("--scene-file", default="")
+    parser.add_argument("--timeout", type=float, default=900.0, help="s for the whole episode")
+    parser.add_argument("--start-only", action="store_true",
+                        help="use the /episode/start service and return at once")
+    args = parser.parse_args(argv)
+    fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
+                  max_actions=args.max_actions, scene_file=args.scene_file)
+    rclpy.init()
+    node = rclpy.create_node("episode_client")
+    try:
+        if args.start_only:
+            client = node.create_client(StartEpisode, "/episode/start")
+            if not client.wait_for_service(timeout_sec=60.0):
+                print("service /episode/start not available (is the cell running?)", file=sys.stderr)
+                return 2
+            future = client.call_async(StartEpisode.Request(**fields))
+            rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+            response = future.result()
+            print(f"accepted={response.accepted} episode_id={response.episode_id} {response.reason}")
+            return 0 if response.accepted else 1
+        result = run_episode(node, RunEpisode.Goal(**fields), args.timeout)
+        if result is None:
+            print("goal rejected (see the episode node's log for the reason: busy, bad request)",
+                  file=sys.stderr)
+            return 1
+        print(format_result(result))
+        return 1 if result.termination_reason.startswith(("node_lost", "error")) else 0
+    except TimeoutError as error:
+        print(f"episode_client: {error}", file=sys.stderr)
+        return 2
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    sys.exit(main())
