@@ -4,15 +4,17 @@ import rclpy
 from rclpy.executors import ExternalShutdownException
 
 
-def spin_node(node_factory, args=None, executor=None) -> None:
-    """Init, build the node, spin until Ctrl-C or shutdown, then clean up."""
+def spin_node(node_factory, args=None, executor_factory=None) -> None:
+    """Init, build the node (and executor, e.g. MultiThreadedExecutor), spin until Ctrl-C or
+    shutdown, then clean up. Factories run after rclpy.init, as executors need a context."""
     rclpy.init(args=args)
     node = None
     try:
         node = node_factory()
-        if executor is None:
+        if executor_factory is None:
             rclpy.spin(node)
         else:
+            executor = executor_factory()
             executor.add_node(node)
             executor.spin()
     except (KeyboardInterrupt, ExternalShutdownException):

@@ -339,7 +339,7 @@ def _describe(text: str):
 
 
 def main(args=None):
-    spin_node(EpisodeNode, args=args, executor=MultiThreadedExecutor(num_threads=4))
+    spin_node(EpisodeNode, args=args, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
 
 
 if __name__ == "__main__":

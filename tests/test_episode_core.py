@@ -1,0 +1,114 @@
+"""Episode bookkeeping: request checks, the paper's metrics, termination, crash-safe records."""
+
+import json
+
+import numpy as np
+import pytest
+
+from impurity_policy.core.episode import (
+    TERMINATION_ACTION_LIMIT,
+    TERMINATION_ALL_PICKED,
+    TERMINATION_REPEATED_FAILURE,
+    EpisodeRecorder,
+    EpisodeRequest,
+    EpisodeTracker,
+    StepRecord,
+    action_limit,
+    draw_episode,
+    read_steps,
+    validate_request,
+)
+
+
+def step(index, kind="grasp", success=False, target=False, remaining=2, pixel=(100, 100)):
+    return StepRecord(step=index, attention_mode="TARGET", kind=kind, position=(0.5, 0.0, 0.02), yaw=0.3,
+                      q_value=0.7, rotation_index=1, pixel=pixel, decision_stamp_ns=10 * index,
+                      motion_finished_ns=10 * index + 5, success=success, target_grasped=target,
+                      object_grasped=success, targets_remaining=remaining)
+
+
+@pytest.mark.parametrize("request_fields, fragment", [
+    (dict(scenario="upside_down"), "unknown scenario"),
+    (dict(num_targets=0), "num_targets"),
+    (dict(num_targets=-3), "num_targets"),
+    (dict(num_objects=-1), "num_objects"),
+    (dict(max_actions=-5), "max_actions"),
+    (dict(scenario="file"), "scene_file"),
+    (dict(scenario="file", scene_file="/nonexistent/scene.json"), "does not exist"),
+])
+def test_bad_requests_are_refused_with_a_reason(request_fields, fragment):
+    assert fragment in validate_request(EpisodeRequest(**request_fields))
+
+
+def test_good_request_passes_and_action_limit_scales_with_targets():
+    request = EpisodeRequest(scenario="invisible", num_targets=3)
+    assert validate_request(request) is None
+    assert action_limit(request, 3) == 45
+    assert action_limit(EpisodeRequest(max_actions=7), 3) == 7
+
+
+def test_metrics_follow_the_paper_definitions():
+    tracker = EpisodeTracker("e", EpisodeRequest(), targets_total=2, max_actions=30)
+    tracker.record(step(1, kind="push", success=True))
+    tracker.record(step(2, success=False))
+    tracker.record(step(3, success=True, target=True, remaining=1))
+    tracker.record(step(4, success=True, target=False, remaining=1))  # a product block: false reject
+    tracker.record(step(5, success=True, target=True, remaining=0))
+    metrics = tracker.metrics()
+    assert metrics["targets_picked"] == 2
+    assert metrics["grasp_attempts"] == 4
+    assert metrics["grasp_success"] == pytest.approx(2 / 4)
+    assert metrics["action_efficiency"] == pytest.approx(2 / 5)
+    assert metrics["false_rejects"] == 1
+    assert metrics["pushes"] == 1
+    assert tracker.termination() == TERMINATION_ALL_PICKED
+
+
+def test_termination_by_action_limit_and_repeated_failure():
+    limited = EpisodeTracker("e", EpisodeRequest(), 2, max_actions=2)
+    limited.record(step(1, kind="push", success=True))
+    assert limited.termination() is None
+    limited.record(step(2, kind="push", success=True))
+    assert limited.termination() == TERMINATION_ACTION_LIMIT
+
+    failing = EpisodeTracker("e", EpisodeRequest(), 2, max_actions=50, max_consecutive_failures=3)
+    failing.record(step(1))
+    failing.record(step(2))
+    failing.record(step(3, success=True))  # lifting anything resets the count
+    for i in range(4, 7):
+        failing.record(step(i))
+    assert failing.termination() == TERMINATION_REPEATED_FAILURE
+
+
+def test_records_survive_a_crash_mid_line(tmp_path):
+    recorder = EpisodeRecorder(tmp_path, "ep1")
+    recorder.write_start(EpisodeRequest(), 2, 30)
+    recorder.write_step(step(1))
+    with open(recorder.steps_path, "a") as stream:  # a writer killed halfway through a line
+        stream.write('{"event": "step", "step": 2, "kin')
+    records = read_steps(recorder.steps_path)
+    assert [r["event"] for r in records] == ["start", "step"]
+    assert records[1]["pixel"] == [100, 100]
+
+
+def test_summary_is_written_to_the_episode_and_the_index(tmp_path):
+    tracker = EpisodeTracker("ep2", EpisodeRequest(), 1, 15)
+    tracker.record(step(1, success=True, target=True, remaining=0))
+    recorder = EpisodeRecorder(tmp_path, "ep2")
+    summary = recorder.write_summary(tracker.metrics(), tracker.termination())
+    assert json.loads(recorder.summary_path.read_text()) == summary
+    index = [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()]
+    assert index[0]["episode_id"] == "ep2" and index[0]["termination_reason"] == TERMINATION_ALL_PICKED
+
+
+def test_episode_picture_draws_each_primitive():
+    heightmap = np.full((224, 224, 3), 90, np.uint8)
+    steps = [dict(step=1, kind="push", pixel=[50, 60], yaw=0.0, target_grasped=False, object_grasped=False),
+             dict(step=2, kind="grasp", pixel=[150, 150], yaw=1.2, target_grasped=True, object_grasped=True)]
+    picture = draw_episode(heightmap, steps, scale=2)
+    assert picture.shape == (448, 448, 3)
+    blank = draw_episode(heightmap, [], scale=2)
+    changed = np.any(picture != blank, axis=2)
+    # The push arrow runs along +col from pixel (50, 60); the grasp mark is green around (150, 150).
+    assert changed[101, 122:200].sum() > 40
+    assert picture[301, 301, 1] > 150 and picture[301, 301, 0] < 50
