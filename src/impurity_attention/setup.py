@@ -14,7 +14,7 @@ setup(
     zip_safe=True,
     maintainer="Impurity cell team",
     maintainer_email="robotics@impurity-cell.dev",
-    description="RGB-D to heightmap projection and the attention module (VOCUS2 saliency, DBSCAN occluded-region inference).",
+    description="RGB-D to heightmaps and the attention module (VOCUS2 saliency, DBSCAN).",
     license="Apache-2.0",
     entry_points={"console_scripts": []},
 )

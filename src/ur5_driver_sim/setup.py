@@ -14,7 +14,7 @@ setup(
     zip_safe=True,
     maintainer="Impurity cell team",
     maintainer_email="robotics@impurity-cell.dev",
-    description="PyBullet UR5 + parallel-gripper cell: scenes, primitives, simulated RealSense camera and the driver node.",
+    description="PyBullet UR5 + gripper cell: scenes, primitives, camera, driver node.",
     license="Apache-2.0",
     entry_points={"console_scripts": []},
 )

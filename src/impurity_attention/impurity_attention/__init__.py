@@ -1,1 +1,1 @@
-"""RGB-D to heightmap projection and the attention module (VOCUS2 saliency, DBSCAN occluded-region inference)."""
+"""RGB-D to heightmaps and the attention module (VOCUS2 saliency, DBSCAN)."""

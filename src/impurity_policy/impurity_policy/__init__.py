@@ -1,1 +1,1 @@
-"""Push-grasp DQN with fully convolutional action-value functions, TCDD reward, trainer, policy and episode nodes."""
+"""Push-grasp DQN (FCAVF, TCDD reward), trainer, policy and episode nodes."""

@@ -1,1 +1,1 @@
-"""PyBullet UR5 + parallel-gripper cell: scenes, primitives, simulated RealSense camera and the driver node."""
+"""PyBullet UR5 + gripper cell: scenes, primitives, camera, driver node."""
