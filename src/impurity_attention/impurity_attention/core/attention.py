@@ -1,0 +1,230 @@
+"""The attention module (paper Algorithm 1) on one colour + height map pair.
+
+    salient regions m_0..m_k <- VOCUS2 saliency of the colour heightmap
+    if the best region m_t is contrasted enough:  TARGET, 112 x 112 crops centred on m_t, mask = m_t
+    elif DBSCAN finds a cluster c_t that can hide something:  OCCLUDED_REGION, crops centred on c_t,
+                                                              all-one mask
+    else:  NONE (no visible impurity and nowhere one could hide)
+
+Saliency runs on the orthographic colour heightmap (224 x 224), not on the camera image: the crops
+are cut from the heightmaps anyway, the map is 6x smaller, and 1 px = 2 mm everywhere.
+
+Two cell-specific choices on top of the paper, both parameters (see AttentionParams):
+- `background`: before saliency, cells that are table (lower than `occupied_height`) or unseen are
+  painted with the median colour of the objects. The saliency of an object then measures its
+  contrast against the other objects - the product - and not against the table, so an isolated
+  product block is not mistaken for an impurity. "table" keeps the table as it is (the paper).
+- salient regions are restricted to object cells, and a region must cover `min_region_area`.
+The decision threshold `min_target_contrast` is a mean saliency (opponent-colour contrast units)
+calibrated on rendered scenes by scripts/calibrate_attention.py.
+
+DBSCAN only runs when no target is visible: Algorithm 1 uses its result only then, and it is the
+more expensive half.
+"""
+
+from __future__ import annotations
+
+import enum
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+from impurity_common import cell
+
+from .density import Cluster, DensityParams, find_clusters, select_occluded_region
+from .heightmap import HeightmapGrid
+from .saliency import CELL_SALIENCY, SaliencyParams, normalised, opponent_colour, vocus2
+
+BACKGROUNDS = ("objects", "table")
+
+
+class AttentionMode(enum.IntEnum):
+    """Same values as impurity_interfaces/msg/AttentionResult MODE_*."""
+
+    NONE = 0
+    TARGET = 1
+    OCCLUDED_REGION = 2
+
+
+@dataclass(frozen=True)
+class AttentionParams:
+    saliency: SaliencyParams = CELL_SALIENCY
+    density: DensityParams = DensityParams()
+    crop_size: int = cell.CROP_SIZE
+    occupied_height: float = 0.008  # m; cells higher than this are objects
+    background: str = "objects"  # "objects": paint table/unseen cells with the objects' median colour
+    region_fraction: float = 0.5  # a salient region: connected object cells >= this x the peak saliency
+    min_region_area: int = 30  # px (2 mm cells): smaller regions are specks, not objects
+    min_target_contrast: float = 0.03  # mean saliency of m_t below this: no visible target
+
+    def __post_init__(self):
+        if self.crop_size < 2 or self.crop_size % 2:
+            raise ValueError(f"crop_size must be even and >= 2, got {self.crop_size}")
+        if self.background not in BACKGROUNDS:
+            raise ValueError(f"background '{self.background}' not one of {BACKGROUNDS}")
+        if not 0.0 < self.region_fraction < 1.0:
+            raise ValueError(f"region_fraction must be in (0, 1), got {self.region_fraction}")
+
+
+@dataclass
+class SalientRegion:
+    mask: np.ndarray  # (rows, cols) bool
+    area: int  # px
+    score: float  # mean saliency over the region
+    peak: float
+    centroid: tuple  # (row, col) float
+
+
+@dataclass
+class AttentionOutput:
+    mode: AttentionMode
+    score: float  # TARGET: mean saliency of m_t; OCCLUDED_REGION: cluster height (m); NONE: 0
+    center: tuple  # (row, col) heightmap pixel of the crop centre
+    center_xy: tuple  # (x, y) base_link, m
+    crop_origin: tuple  # (row0, col0) heightmap pixel of the crop's (0, 0); may be negative
+    color_crop: np.ndarray  # (S, S, 3) uint8, zero-padded outside the map
+    height_crop: np.ndarray  # (S, S) float32 m
+    mask: np.ndarray  # (S, S) uint8: 255 on m_t (TARGET), all 255 (OCCLUDED_REGION), 0 (NONE)
+    saliency: np.ndarray  # (rows, cols) float32, the full saliency map
+    regions: list = field(default_factory=list)  # SalientRegion, best first
+    clusters: list = field(default_factory=list)  # Cluster, best first (empty when not computed)
+    target_region: SalientRegion | None = None
+    cluster: Cluster | None = None
+    reason: str = ""  # one line: why this mode
+
+
+def crop_centered(image: np.ndarray, center_row: int, center_col: int, size: int) -> tuple:
+    """size x size window of `image` centred on (center_row, center_col), zero outside the image
+    (outside the workspace nothing was seen: black, height 0). Returns (crop, (row0, col0))."""
+    row0, col0 = int(center_row) - size // 2, int(center_col) - size // 2
+    crop = np.zeros((size, size) + image.shape[2:], dtype=image.dtype)
+    r_from, c_from = max(row0, 0), max(col0, 0)
+    r_to, c_to = min(row0 + size, image.shape[0]), min(col0 + size, image.shape[1])
+    if r_to > r_from and c_to > c_from:
+        crop[r_from - row0:r_to - row0, c_from - col0:c_to - col0] = image[r_from:r_to, c_from:c_to]
+    return crop, (row0, col0)
+
+
+def sanitize(color: np.ndarray, height: np.ndarray) -> tuple:
+    """Check shapes and types; NaN/inf heights become 0 (unseen), negative heights 0 (table)."""
+    if color.ndim != 3 or color.shape[2] != 3 or color.dtype != np.uint8:
+        raise ValueError(f"colour heightmap must be (H, W, 3) uint8, got {color.shape} {color.dtype}")
+    if height.shape != color.shape[:2]:
+        raise ValueError(f"height map {height.shape} does not match colour map {color.shape[:2]}")
+    height = np.nan_to_num(height.astype(np.float32, copy=False), nan=0.0, posinf=0.0, neginf=0.0)
+    return color, np.maximum(height, 0.0)
+
+
+def saliency_input(color: np.ndarray, objects: np.ndarray, background: str) -> np.ndarray:
+    """The image VOCUS2 sees: with background "objects", non-object cells take the objects' median
+    colour so that contrast is measured against the product, not the table."""
+    if background == "table" or not np.any(objects):
+        return color
+    painted = color.copy()
+    painted[~objects] = np.median(color[objects], axis=0).astype(np.uint8)
+    return painted
+
+
+def salient_regions(saliency: np.ndarray, objects: np.ndarray, params: AttentionParams) -> list:
+    """Connected object cells at >= region_fraction x the peak saliency, best (mean saliency) first."""
+    if not np.any(objects):
+        return []
+    peak = float(saliency[objects].max())
+    if peak <= 0.0:
+        return []
+    candidate = (objects & (saliency >= params.region_fraction * peak)).astype(np.uint8)
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(candidate, connectivity=8)
+    regions = []
+    for label in range(1, count):
+        area = int(stats[label, cv2.CC_STAT_AREA])
+        if area < params.min_region_area:
+            continue
+        mask = labels == label
+        values = saliency[mask]
+        regions.append(SalientRegion(mask=mask, area=area, score=float(values.mean()),
+                                     peak=float(values.max()),
+                                     centroid=(float(centroids[label][1]), float(centroids[label][0]))))
+    regions.sort(key=lambda r: r.score, reverse=True)
+    return regions
+
+
+def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
+           grid: HeightmapGrid = HeightmapGrid()) -> AttentionOutput:
+    """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
+    color, height = sanitize(color, height)
+    objects = height > params.occupied_height
+    saliency = vocus2(saliency_input(color, objects, params.background), params.saliency).saliency
+    regions = salient_regions(saliency, objects, params)
+    best = regions[0] if regions else None
+    if best is not None and best.score >= params.min_target_contrast:
+        return _output(AttentionMode.TARGET, best.score, best.centroid, color, height, saliency, params,
+                       grid, regions=regions, target_region=best, mask_cells=best.mask,
+                       reason=f"salient region of {best.area} px, contrast {best.score:.4f}")
+    clusters = find_clusters(height, grid.resolution, params.density)
+    chosen = select_occluded_region(clusters)
+    no_target = ("no salient region" if best is None else
+                 f"best region contrast {best.score:.4f} < {params.min_target_contrast:.4f}")
+    if chosen is not None:
+        return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
+                       saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,
+                       reason=f"{no_target}; cluster of {chosen.area * 1e4:.1f} cm^2, "
+                              f"{chosen.height * 100:.1f} cm high")
+    why_not = ("no dense cluster" if not clusters else
+               f"largest cluster {clusters[0].area * 1e4:.1f} cm^2, {clusters[0].height * 100:.1f} cm high "
+               f"is too small or too low to hide a target")
+    centre = ((height.shape[0] - 1) / 2.0, (height.shape[1] - 1) / 2.0)
+    return _output(AttentionMode.NONE, 0.0, centre, color, height, saliency, params, grid,
+                   regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
+
+
+def _output(mode, score, centroid, color, height, saliency, params, grid, regions=(), clusters=(),
+            target_region=None, cluster=None, mask_cells=None, reason="") -> AttentionOutput:
+    size = params.crop_size
+    center_row, center_col = int(round(centroid[0])), int(round(centroid[1]))
+    color_crop, origin = crop_centered(color, center_row, center_col, size)
+    height_crop, _ = crop_centered(height, center_row, center_col, size)
+    if mode == AttentionMode.TARGET:
+        mask, _ = crop_centered(mask_cells.astype(np.uint8) * np.uint8(255), center_row, center_col, size)
+    elif mode == AttentionMode.OCCLUDED_REGION:
+        mask = np.full((size, size), 255, dtype=np.uint8)
+    else:
+        mask = np.zeros((size, size), dtype=np.uint8)
+    return AttentionOutput(
+        mode=mode, score=float(score), center=(center_row, center_col),
+        center_xy=grid.pixel_to_base(center_row, center_col), crop_origin=origin,
+        color_crop=color_crop, height_crop=height_crop.astype(np.float32), mask=mask, saliency=saliency,
+        regions=list(regions), clusters=list(clusters), target_region=target_region, cluster=cluster,
+        reason=reason)
+
+
+MODE_COLORS = {AttentionMode.TARGET: (255, 40, 40), AttentionMode.OCCLUDED_REGION: (255, 200, 0),
+               AttentionMode.NONE: (128, 128, 128)}
+
+
+def debug_image(color: np.ndarray, output: AttentionOutput, alpha: float = 0.5) -> np.ndarray:
+    """RGB picture for rqt / Foxglove: the colour heightmap blended with the (normalised) saliency
+    map, the chosen crop box, the target region or cluster outline, and the mode as text."""
+    heat = cv2.applyColorMap((normalised(output.saliency) * 255).astype(np.uint8), cv2.COLORMAP_JET)
+    heat = cv2.cvtColor(heat, cv2.COLOR_BGR2RGB)
+    picture = cv2.addWeighted(color, 1.0 - alpha, heat, alpha, 0.0)
+    outline = None
+    if output.target_region is not None:
+        outline = output.target_region.mask
+    elif output.cluster is not None:
+        outline = output.cluster.mask
+    if outline is not None:
+        contours, _ = cv2.findContours(outline.astype(np.uint8), cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(picture, contours, -1, (255, 255, 255), 1)
+    color_box = MODE_COLORS[output.mode]
+    if output.mode != AttentionMode.NONE:
+        row0, col0 = output.crop_origin
+        size = output.mask.shape[0]
+        cv2.rectangle(picture, (col0, row0), (col0 + size - 1, row0 + size - 1), color_box, 2)
+    cv2.putText(picture, output.mode.name, (3, 12), cv2.FONT_HERSHEY_SIMPLEX, 0.4, color_box, 1, cv2.LINE_AA)
+    return picture
+
+
+def target_opponent_colour(color: np.ndarray, region: SalientRegion) -> np.ndarray:
+    """Mean (I, RG, BY) of a region: what made it stand out (for logs and calibration)."""
+    return opponent_colour(color)[region.mask].mean(axis=0)

@@ -1,0 +1,115 @@
+"""Density-based occluded-region inference (paper section 5.1.2): DBSCAN on the occupied cells of the
+height map; the largest dense cluster is where a hidden impurity most likely lies.
+
+Points are the heightmap cells standing higher than `occupied_height` above the table, taken on a
+coarser sub-grid (`stride`) so that DBSCAN sees at most (224 / stride)^2 points. Coordinates are in
+metres (x, y) plus, optionally, the height scaled by `height_weight`, so that a low layer and a
+stacked heap beside it can fall apart. A core point needs `min_samples` occupied points within `eps`:
+with eps = 12 mm on a 4 mm sub-grid that is ~2/3 of its neighbourhood filled, i.e. objects packed
+close together; sparse, scattered objects are noise and form no cluster.
+
+"No hidden target can remain" (paper Fig. 5): a cluster whose height (the `height_percentile` of
+its cells, robust to a single spike) is below `min_cluster_height` is one layer of objects with
+nothing underneath, and one whose area is below `min_cluster_area` is too small to hide an object.
+Among the clusters that pass both tests the one with the highest score is chosen ("largest": area,
+or volume = the sum of heights); when none passes, there is no occluded region to explore.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from sklearn.cluster import DBSCAN
+
+CLUSTER_SCORES = ("area", "volume")
+
+
+@dataclass(frozen=True)
+class DensityParams:
+    occupied_height: float = 0.008  # m above the table that counts as an object
+    stride: int = 2  # sub-grid step (cells) of the DBSCAN points
+    eps: float = 0.012  # m, DBSCAN neighbourhood radius
+    min_samples: int = 18  # points within eps (itself included) that make a core point
+    height_weight: float = 0.0  # metres of xy distance per metre of height (0: cluster in the plane)
+    min_cluster_height: float = 0.03  # m; lower clusters cannot hide anything
+    min_cluster_area: float = 0.0025  # m^2 (50 mm x 50 mm); smaller clusters cannot hide anything
+    height_percentile: float = 90.0  # cluster height = this percentile of its cells' heights
+    score: str = "area"  # "area" or "volume": what makes a cluster the "largest"
+
+    def __post_init__(self):
+        if self.stride < 1 or self.eps <= 0 or self.min_samples < 1:
+            raise ValueError(f"need stride >= 1, eps > 0, min_samples >= 1, got {self}")
+        if self.score not in CLUSTER_SCORES:
+            raise ValueError(f"cluster score '{self.score}' not one of {CLUSTER_SCORES}")
+
+
+@dataclass
+class Cluster:
+    label: int  # DBSCAN label
+    label_map: np.ndarray  # (rows, cols) int32: DBSCAN label of every cell, -1 = noise / not occupied
+    area: float  # m^2
+    height: float  # m, `height_percentile` of the cells' heights
+    volume: float  # m^3
+    centroid: tuple  # (row, col) float, heightmap pixels
+    score: float
+    passes: bool  # tall and large enough to hide a target
+
+    @property
+    def mask(self) -> np.ndarray:
+        """(rows, cols) bool: the cluster's cells."""
+        return self.label_map == self.label
+
+
+def find_clusters(height: np.ndarray, resolution: float, params: DensityParams = DensityParams()) -> list:
+    """DBSCAN clusters of the occupied cells, best first (passing clusters before failing ones)."""
+    stride = params.stride
+    sub = height[::stride, ::stride]
+    occupied = np.isfinite(sub) & (sub > params.occupied_height)
+    if np.count_nonzero(occupied) < params.min_samples:
+        return []
+    sub_rows, sub_cols = np.nonzero(occupied)
+    spacing = stride * resolution
+    points = np.column_stack([sub_rows * spacing, sub_cols * spacing])
+    if params.height_weight > 0:
+        points = np.column_stack([points, sub[sub_rows, sub_cols] * params.height_weight])
+    # ball_tree: the fastest of sklearn's neighbour searches on these few thousand grid points
+    labels = DBSCAN(eps=params.eps, min_samples=params.min_samples, algorithm="ball_tree").fit_predict(points)
+
+    # Each sub-grid point stands for a stride x stride block of cells; a cluster's full-resolution
+    # mask is the union of its blocks, restricted to occupied cells.
+    occupied_full = np.isfinite(height) & (height > params.occupied_height)
+    label_sub = np.full(sub.shape, -1, dtype=np.int32)
+    label_sub[sub_rows, sub_cols] = labels
+    row_of = np.arange(height.shape[0])[:, None] // stride
+    col_of = np.arange(height.shape[1])[None, :] // stride
+    label_full = label_sub[row_of, col_of]
+    label_full = np.where(occupied_full, label_full, -1).astype(np.int32)
+
+    cell_area = resolution * resolution
+    cells = np.flatnonzero(label_full >= 0)
+    cell_labels = label_full.reshape(-1)[cells]
+    order = np.argsort(cell_labels, kind="stable")
+    cells, cell_labels = cells[order], cell_labels[order]
+    cell_heights = height.reshape(-1)[cells]
+    starts = np.flatnonzero(np.r_[True, cell_labels[1:] != cell_labels[:-1]]) if cells.size else []
+    ends = np.r_[starts[1:], cells.size] if cells.size else []
+    clusters = []
+    for start, end in zip(starts, ends, strict=True):
+        heights = cell_heights[start:end]
+        rows, cols = np.divmod(cells[start:end], height.shape[1])
+        area = (end - start) * cell_area
+        cluster_height = float(np.percentile(heights, params.height_percentile))
+        volume = float(heights.sum()) * cell_area
+        clusters.append(Cluster(
+            label=int(cell_labels[start]), label_map=label_full, area=area, height=cluster_height,
+            volume=volume, centroid=(float(rows.mean()), float(cols.mean())),
+            score=area if params.score == "area" else volume,
+            passes=cluster_height >= params.min_cluster_height and area >= params.min_cluster_area))
+    clusters.sort(key=lambda c: (c.passes, c.score), reverse=True)
+    return clusters
+
+
+def select_occluded_region(clusters: list) -> Cluster | None:
+    """The cluster to explore: the best one that could hide a target, or None (nothing can remain)."""
+    return clusters[0] if clusters and clusters[0].passes else None

@@ -1,0 +1,152 @@
+"""Our VOCUS2 (Frintrop, Werner, Martin Garcia, CVPR 2015): bottom-up saliency from centre-surround
+contrast in an opponent colour space.
+
+Steps, as in the paper:
+1. Opponent colour space: intensity I = (R + G + B) / 3, red-green RG = R - G,
+   blue-yellow BY = B - (R + G) / 2 (values in [0, 1] / [-1, 1]).
+2. Twin pyramids per channel: a centre pyramid built like a SIFT scale space (octaves halve the image,
+   `n_scales` scales per octave, centre blur sigma_c * 2^(s / n_scales)), and for every centre layer a
+   surround layer blurred further so that its total blur is sigma_s (the "new" twin structure: the
+   surround is the centre blurred by sqrt(sigma_s^2 - sigma_c^2)).
+3. Contrasts per layer: on-off = max(centre - surround, 0) (bright / red / blue on a darker / greener
+   / yellower surround) and off-on = max(surround - centre, 0).
+4. Mean fusion: the layers of each contrast (resized to the finest layer) -> 6 feature maps; on-off and
+   off-on of a channel -> 3 conspicuity maps (I, RG, BY); their mean -> the saliency map.
+
+Unlike the original, the returned saliency is NOT normalised to [0, 1]: its values are contrasts in
+opponent-colour units, so one threshold ("is the best region contrasted enough to be an impurity?")
+means the same thing in every scene. `normalised()` gives the [0, 1] picture for display.
+
+Parameters (SaliencyParams): the original defaults are sigma_c = 3, sigma_s = 13, 2 scales per octave,
+layers 0..4; its authors recommend sigma_c = 2, sigma_s = 6 for cluttered robot scenes with many small
+objects. Our cell default is chosen on rendered scenes by scripts/calibrate_attention.py (see
+CELL_SALIENCY below for the values and why).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import cv2
+import numpy as np
+
+CHANNELS = ("I", "RG", "BY")
+
+
+@dataclass(frozen=True)
+class SaliencyParams:
+    center_sigma: float = 3.0  # px, blur of the finest centre layer
+    surround_sigma: float = 13.0  # px, total blur of the matching surround layer (> center_sigma)
+    n_scales: int = 2  # scales per octave
+    start_layer: int = 0  # first octave used (0 = full resolution)
+    stop_layer: int = 4  # last octave used (each halves the image)
+
+    def __post_init__(self):
+        if not (0 < self.center_sigma < self.surround_sigma):
+            raise ValueError(f"need 0 < center_sigma < surround_sigma, got {self}")
+        if self.n_scales < 1 or self.start_layer < 0 or self.stop_layer < self.start_layer:
+            raise ValueError(f"need n_scales >= 1 and 0 <= start_layer <= stop_layer, got {self}")
+
+
+VOCUS2_DEFAULTS = SaliencyParams()  # the CVPR 2015 defaults (MSRA-style images, large objects)
+VOCUS2_CLUTTER = SaliencyParams(center_sigma=2.0, surround_sigma=6.0)  # the authors' "cluttered scenes"
+# Cell default, on the 224 x 224 colour heightmap (2 mm/px; blocks are ~12-25 px across): the
+# surround must reach past one block (sigma_s ~ 2-3 block widths at the finest scale) so that a block
+# of a different colour stands out against its neighbours, while sigma_c stays below a block's width.
+# Chosen by scripts/calibrate_attention.py on rendered tuning scenes (seeds 0-29).
+CELL_SALIENCY = SaliencyParams(center_sigma=2.0, surround_sigma=10.0, n_scales=2, start_layer=0,
+                               stop_layer=3)
+
+
+@dataclass
+class SaliencyMaps:
+    saliency: np.ndarray  # (H, W) float32, mean contrast (opponent-colour units), input size
+    conspicuity: dict = field(default_factory=dict)  # channel -> (H, W) float32
+    features: dict = field(default_factory=dict)  # "I_on_off", "I_off_on", ... -> finest-layer size
+
+
+def opponent_colour(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 RGB -> (H, W, 3) float32 planes I, RG, BY (the CoDi opponent space)."""
+    if rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise ValueError(f"expected an (H, W, 3) RGB image, got shape {rgb.shape}")
+    scaled = rgb.astype(np.float32) * np.float32(1.0 / 255.0)
+    r, g, b = scaled[..., 0], scaled[..., 1], scaled[..., 2]
+    return np.stack([(r + g + b) / 3.0, r - g, b - (r + g) / 2.0], axis=-1)
+
+
+def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
+    return cv2.GaussianBlur(image, (0, 0), sigmaX=sigma, sigmaY=sigma, borderType=cv2.BORDER_REPLICATE)
+
+
+def centre_pyramid(planes: np.ndarray, params: SaliencyParams) -> list:
+    """Scale space of `planes` (H, W, C): a list over octaves of lists over scales, each layer blurred
+    to sigma_c * 2^(s / n_scales) relative to its octave's resolution (Lowe 2004)."""
+    sigma, n = params.center_sigma, params.n_scales
+    image = planes
+    for _ in range(params.start_layer):  # octaves below start_layer only feed the next one
+        image = _blur(image, 2.0 * sigma)[::2, ::2]
+    max_octave = min(int(math.log2(max(2, min(planes.shape[:2])))), params.stop_layer)
+    pyramid = []
+    for _octave in range(max_octave - params.start_layer + 1):
+        if min(image.shape[:2]) < 2:
+            break
+        layers, previous_sigma = [], 0.0
+        current = image
+        for s in range(n + 1):  # the extra scale seeds the next octave
+            total = sigma * 2.0 ** (s / n)
+            step = math.sqrt(max(total * total - previous_sigma * previous_sigma, 1e-6))
+            current = _blur(current, step)
+            layers.append(current)
+            previous_sigma = total
+        pyramid.append(layers[:n])
+        image = np.ascontiguousarray(layers[n][::2, ::2])
+    return pyramid
+
+
+def vocus2(rgb: np.ndarray, params: SaliencyParams = CELL_SALIENCY, keep_features: bool = False
+           ) -> SaliencyMaps:
+    """Saliency map of an RGB image (H, W, 3) uint8 -> SaliencyMaps (saliency at input size)."""
+    planes = opponent_colour(rgb)
+    pyramid = centre_pyramid(planes, params)
+    if not pyramid:
+        raise ValueError(f"image {rgb.shape[:2]} too small for a saliency pyramid")
+    extra_sigma = math.sqrt(params.surround_sigma ** 2 - params.center_sigma ** 2)
+    base_h, base_w = pyramid[0][0].shape[:2]
+    on_off_sum = np.zeros((base_h, base_w, 3), dtype=np.float32)
+    off_on_sum = np.zeros((base_h, base_w, 3), dtype=np.float32)
+    count = 0
+    for octave in pyramid:
+        for s, centre in enumerate(octave):
+            surround = _blur(centre, extra_sigma * 2.0 ** (s / params.n_scales))
+            difference = centre - surround
+            on_off, off_on = np.maximum(difference, 0.0), np.maximum(-difference, 0.0)
+            if on_off.shape[:2] != (base_h, base_w):
+                on_off = cv2.resize(on_off, (base_w, base_h), interpolation=cv2.INTER_CUBIC)
+                off_on = cv2.resize(off_on, (base_w, base_h), interpolation=cv2.INTER_CUBIC)
+            on_off_sum += on_off
+            off_on_sum += off_on
+            count += 1
+    # cubic upsampling overshoots a little below zero; contrasts are non-negative by definition
+    on_off_feature = np.maximum(on_off_sum / count, 0.0)
+    off_on_feature = np.maximum(off_on_sum / count, 0.0)
+    conspicuity_stack = (on_off_feature + off_on_feature) / 2.0
+    saliency = conspicuity_stack.mean(axis=2)
+    height, width = rgb.shape[:2]
+    if (base_h, base_w) != (height, width):
+        saliency = np.maximum(cv2.resize(saliency, (width, height), interpolation=cv2.INTER_CUBIC), 0.0)
+    maps = SaliencyMaps(saliency=saliency.astype(np.float32))
+    if keep_features:
+        for c, name in enumerate(CHANNELS):
+            maps.conspicuity[name] = conspicuity_stack[..., c]
+            maps.features[f"{name}_on_off"] = on_off_feature[..., c]
+            maps.features[f"{name}_off_on"] = off_on_feature[..., c]
+    return maps
+
+
+def normalised(saliency: np.ndarray) -> np.ndarray:
+    """[0, 1] version for display (what VOCUS2 itself outputs); a flat map gives zeros."""
+    low, high = float(np.min(saliency)), float(np.max(saliency))
+    if not math.isfinite(high - low) or high - low < 1e-12:
+        return np.zeros_like(saliency, dtype=np.float32)
+    return ((saliency - low) / (high - low)).astype(np.float32)
