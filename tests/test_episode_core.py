@@ -82,7 +82,7 @@ def test_termination_by_action_limit_and_repeated_failure():
 
 def test_records_survive_a_crash_mid_line(tmp_path):
     recorder = EpisodeRecorder(tmp_path, "ep1")
-    recorder.write_start(EpisodeRequest(), 2, 30)
+    recorder.write_start(EpisodeRequest(), 2, 30, scene_ready_ns=5)
     recorder.write_step(step(1))
     with open(recorder.steps_path, "a") as stream:  # a writer killed halfway through a line
         stream.write('{"event": "step", "step": 2, "kin')

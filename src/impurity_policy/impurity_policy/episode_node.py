@@ -181,10 +181,10 @@ class EpisodeNode(Node):
             targets_total = self._reset_scene(request)
             tracker.targets_total = tracker.targets_remaining = targets_total
             tracker.max_actions = action_limit(request, targets_total, int(self._param("actions_per_target")))
-            recorder.write_start(request, targets_total, tracker.max_actions)
+            motion_finished_ns = self.get_clock().now().nanoseconds
+            recorder.write_start(request, targets_total, tracker.max_actions, motion_finished_ns)
             log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}, "
                      f"{targets_total} target(s), at most {tracker.max_actions} actions")
-            motion_finished_ns = self.get_clock().now().nanoseconds
             first_view_saved = False
             while reason is None:
                 attention, primitive = self._fresh_decision(motion_finished_ns)

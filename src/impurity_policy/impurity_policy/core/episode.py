@@ -164,10 +164,13 @@ class EpisodeRecorder:
             stream.flush()
             os.fsync(stream.fileno())
 
-    def write_start(self, request: EpisodeRequest, targets_total: int, max_actions: int) -> None:
+    def write_start(self, request: EpisodeRequest, targets_total: int, max_actions: int,
+                    scene_ready_ns: int) -> None:
+        """scene_ready_ns: the clock time after which camera frames show the episode's scene."""
         self._append_line(self.steps_path, {"event": "start", "wall_time": time.time(),
                                             "request": dataclasses.asdict(request),
-                                            "targets_total": targets_total, "max_actions": max_actions})
+                                            "targets_total": targets_total, "max_actions": max_actions,
+                                            "scene_ready_ns": scene_ready_ns})
 
     def write_step(self, step: StepRecord) -> None:
         self._append_line(self.steps_path, {"event": "step", **dataclasses.asdict(step)})

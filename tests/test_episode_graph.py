@@ -1,0 +1,99 @@
+"""Whole picking episodes through the separate executables of the cell (issue: picking episodes).
+
+The graph: sim_cell (PyBullet, floating gripper for speed), heightmap_node, attention_node,
+policy_node, episode_node, each its own process on this session's isolated ROS domain.
+"""
+
+import itertools
+import json
+import signal
+
+import pytest
+
+from impurity_interfaces.action import RunEpisode
+from impurity_interfaces.srv import GetGroundTruth
+from impurity_policy.core.episode import read_steps
+from ros_harness import ROOT, ActionHelper, call_service, ros_args, spin_until
+
+CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
+GRAPH = [("ur5_driver_sim", "sim_cell"), ("impurity_attention", "heightmap_node"),
+         ("impurity_attention", "attention_node"), ("impurity_policy", "policy_node")]
+
+
+@pytest.fixture
+def cell(launch, tmp_path):
+    """The cell's processes with bringup/config/cell.yaml, the sim in its fast floating-gripper mode."""
+    processes = {}
+    for package, executable in GRAPH:
+        overrides = {"mode": "floating"} if executable == "sim_cell" else {}
+        processes[executable] = launch(package, executable, ros_args(overrides, params_file=CONFIG))
+    processes["episode_node"] = launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(tmp_path), "decision_timeout": 60.0}, params_file=CONFIG))
+    return processes
+
+
+def steps_of(record_path):
+    return [r for r in read_steps(f"{record_path}/steps.jsonl") if r["event"] == "step"]
+
+
+def test_complete_episode_matches_ground_truth(ros_node, cell):
+    procs = list(cell.values())
+    episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
+    handle, wrapped = episode.run(RunEpisode.Goal(scenario="random", seed=11, num_targets=1, num_objects=6,
+                                                  max_actions=6), timeout=400.0)
+    assert handle.accepted
+    result = wrapped.result
+    truth = call_service(ros_node, GetGroundTruth, "/cell/ground_truth", GetGroundTruth.Request(),
+                         processes=procs)
+    assert result.termination_reason in ("all_targets_picked", "action_limit", "repeated_failure",
+                                         "no_target_or_cluster_left")
+    assert result.targets_total == 1
+    assert result.targets_picked == truth.targets_removed
+    assert result.false_rejects == truth.non_targets_removed
+    assert result.actions == len(episode.feedback) >= 1
+    records = read_steps(f"{result.record_path}/steps.jsonl")
+    steps = [r for r in records if r["event"] == "step"]
+    assert len(steps) == result.actions
+    assert result.grasp_attempts == sum(s["kind"] == "grasp" for s in steps)
+    if result.grasp_attempts:
+        assert result.grasp_success == pytest.approx(result.targets_picked / result.grasp_attempts)
+    assert result.action_efficiency == pytest.approx(result.targets_picked / result.actions)
+    # No stale decisions: each executed primitive came from a frame stamped after the previous motion.
+    assert steps[0]["decision_stamp_ns"] > records[0]["scene_ready_ns"]
+    for before, after in itertools.pairwise(steps):
+        assert after["decision_stamp_ns"] > before["motion_finished_ns"]
+    summary = json.loads((ROOT / result.record_path / "summary.json").read_text())
+    assert summary["targets_picked"] == result.targets_picked
+    episode.destroy()
+
+
+def test_cancel_stops_after_the_current_motion(ros_node, cell):
+    procs = list(cell.values())
+    episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
+    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=4, num_targets=2, num_objects=16,
+                                               max_actions=30))
+    assert handle.accepted
+    spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
+    episode.cancel(handle)
+    result = episode.get_result(handle, timeout=300.0).result
+    assert result.termination_reason == "canceled"
+    assert 1 <= result.actions < 30
+    assert len(steps_of(result.record_path)) == result.actions
+    episode.destroy()
+
+
+def test_a_node_killed_mid_episode_ends_it_with_a_reason_and_intact_records(ros_node, cell):
+    procs = list(cell.values())
+    episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
+    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=5, num_targets=2, num_objects=16,
+                                               max_actions=30))
+    assert handle.accepted
+    spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
+    cell["policy_node"].send_signal(signal.SIGKILL)
+    result = episode.get_result(handle, timeout=300.0).result
+    assert result.termination_reason.startswith("node_lost")
+    steps = steps_of(result.record_path)
+    assert len(steps) == result.actions >= 1
+    assert json.loads((ROOT / result.record_path / "summary.json").read_text())["termination_reason"] == \
+        result.termination_reason
+    episode.destroy()
