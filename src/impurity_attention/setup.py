@@ -16,5 +16,8 @@ setup(
     maintainer_email="robotics@impurity-cell.dev",
     description="RGB-D to heightmaps and the attention module (VOCUS2 saliency, DBSCAN).",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "heightmap_node = impurity_attention.heightmap_node:main",
+        "attention_node = impurity_attention.attention_node:main",
+    ]},
 )

@@ -1,0 +1,166 @@
+"""Heightmap node: camera colour + aligned depth + camera_info -> /heightmap (orthographic colour and
+height maps of the workspace in base_link).
+
+Thin shell around impurity_attention.core.heightmap: it converts messages, pairs colour and depth by
+stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback).
+The camera pose in base_link is a parameter: a real cell sets it from its hand-eye calibration.
+"""
+
+import numpy as np
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
+from sensor_msgs.msg import CameraInfo, Image
+
+from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
+from impurity_attention.core.heightmap import (
+    DEPTH_ENCODINGS,
+    MAX_HEIGHT,
+    DepthFormatError,
+    HeightmapGrid,
+    ProjectorCache,
+    depth_to_meters,
+    pose_matrix,
+)
+from impurity_attention.core.sync import StampPairer
+from impurity_common import cell
+from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
+from impurity_common.node_main import spin_node
+from impurity_interfaces.msg import Heightmap
+
+COLOR_TOPIC = "/camera/camera/color/image_raw"
+DEPTH_TOPIC = "/camera/camera/aligned_depth_to_color/image_raw"
+INFO_TOPIC = "/camera/camera/color/camera_info"
+HEIGHTMAP_TOPIC = "/heightmap"
+COLOR_ENCODINGS = ("rgb8", "bgr8")
+# Lab statistics of sim-rendered heightmap colours (reference for the optional sim-to-real transfer);
+# re-measure with scripts/calibrate_attention.py --lab-reference when the sim's look changes.
+SIM_LAB_MEAN = (55.0, 0.0, 0.0)
+SIM_LAB_STD = (15.0, 10.0, 10.0)
+
+
+def _describe(text: str) -> ParameterDescriptor:
+    return ParameterDescriptor(description=text)
+
+
+class HeightmapNode(Node):
+    def __init__(self):
+        super().__init__("heightmap")
+        self.declare_parameter("camera_position", list(cell.CAMERA_POSITION), _describe(
+            "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye calibration)"))
+        self.declare_parameter("camera_orientation", list(cell.CAMERA_ORIENTATION), _describe(
+            "Camera optical frame orientation in base_link: quaternion [x, y, z, w]"))
+        self.declare_parameter("workspace_x", list(cell.WORKSPACE_X),
+                               _describe("[x_min, x_max] in base_link (m)"))
+        self.declare_parameter("workspace_y", list(cell.WORKSPACE_Y),
+                               _describe("[y_min, y_max] in base_link (m)"))
+        self.declare_parameter("resolution", cell.HEIGHTMAP_RESOLUTION, _describe("Heightmap cell size (m)"))
+        self.declare_parameter("table_z", cell.TABLE_Z, _describe("Table top height in base_link (m)"))
+        self.declare_parameter("max_height", MAX_HEIGHT, _describe(
+            "Points higher than this above the table are dropped (arm, gripper, noise) (m)"))
+        self.declare_parameter("sync_tolerance", 0.01, _describe(
+            "Largest stamp difference (s) for a colour and a depth frame to pair"))
+        self.declare_parameter("colour_adaptation", False, _describe(
+            "Reinhard Lab transfer of heightmap colours to the sim reference statistics (real cameras)"))
+        self.declare_parameter("colour_reference_mean", list(SIM_LAB_MEAN), _describe(
+            "Reference Lab mean [L, a, b] for colour adaptation"))
+        self.declare_parameter("colour_reference_std", list(SIM_LAB_STD), _describe(
+            "Reference Lab standard deviation [L, a, b] for colour adaptation"))
+        self.declare_parameter("log_throttle", 5.0, _describe("s between repeated warnings about bad frames"))
+
+        self._grid = self._read_grid()
+        self._camera_pose = pose_matrix(self._param("camera_position"), self._param("camera_orientation"))
+        self._pairer = StampPairer(tolerance_ns=int(self._param("sync_tolerance") * 1e9))
+        self._projectors = ProjectorCache()
+        self._camera_info: CameraInfo | None = None
+        self._reference = LabStatistics(tuple(self._param("colour_reference_mean")),
+                                        tuple(self._param("colour_reference_std")))
+
+        sensor = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
+                            history=qos_profile_sensor_data.history)
+        self.create_subscription(Image, COLOR_TOPIC, self._on_color, sensor)
+        self.create_subscription(Image, DEPTH_TOPIC, self._on_depth, sensor)
+        self.create_subscription(CameraInfo, INFO_TOPIC, self._on_info, sensor)
+        self._publisher = self.create_publisher(
+            Heightmap, HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
+        grid = self._grid
+        self.get_logger().info(
+            f"ready: {grid.rows}x{grid.cols} cells of {grid.resolution * 1000:.1f} mm over "
+            f"x {grid.x_min:.3f}..{grid.x_max:.3f}, y {grid.y_min:.3f}..{grid.y_max:.3f}; "
+            f"camera at {list(self._param('camera_position'))}")
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    def _read_grid(self) -> HeightmapGrid:
+        (x_min, x_max), (y_min, y_max) = self._param("workspace_x"), self._param("workspace_y")
+        return HeightmapGrid(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max,
+                             resolution=self._param("resolution"), table_z=self._param("table_z"),
+                             max_height=self._param("max_height"))
+
+    def _drop(self, reason: str) -> None:
+        self.get_logger().warning(f"frame dropped: {reason}",
+                                  throttle_duration_sec=self._param("log_throttle"))
+
+    def _on_info(self, msg: CameraInfo) -> None:
+        if msg.k[0] <= 0 or msg.k[4] <= 0 or msg.width == 0 or msg.height == 0:
+            self._drop(f"camera_info with unusable intrinsics k={list(msg.k)} size {msg.width}x{msg.height}")
+            return
+        self._camera_info = msg
+
+    def _on_color(self, msg: Image) -> None:
+        pair = self._pairer.add_color(time_to_ns(msg.header.stamp), msg)
+        if pair is not None:
+            self._process(*pair)
+
+    def _on_depth(self, msg: Image) -> None:
+        pair = self._pairer.add_depth(time_to_ns(msg.header.stamp), msg)
+        if pair is not None:
+            self._process(*pair)
+
+    def _process(self, color_msg: Image, depth_msg: Image) -> None:
+        try:
+            heightmap = self._make_heightmap(color_msg, depth_msg)
+        except (ImageFormatError, DepthFormatError, ValueError) as error:
+            self._drop(str(error))
+            return
+        if heightmap is not None:
+            self._publisher.publish(heightmap)
+
+    def _make_heightmap(self, color_msg: Image, depth_msg: Image) -> Heightmap | None:
+        info = self._camera_info
+        if info is None:
+            self._drop(f"no camera_info on {INFO_TOPIC} yet")
+            return None
+        color = image_to_numpy(color_msg, COLOR_ENCODINGS)
+        if color_msg.encoding == "bgr8":
+            color = np.ascontiguousarray(color[..., ::-1])
+        depth = depth_to_meters(image_to_numpy(depth_msg, DEPTH_ENCODINGS), depth_msg.encoding)
+        if color.shape[:2] != depth.shape:
+            raise ValueError(f"colour {color.shape[1]}x{color.shape[0]} and depth "
+                             f"{depth.shape[1]}x{depth.shape[0]} differ (depth must be aligned to colour)")
+        if (info.height, info.width) != depth.shape:
+            raise ValueError(f"camera_info is {info.width}x{info.height}, images are "
+                             f"{depth.shape[1]}x{depth.shape[0]}")
+        intrinsics = np.array(info.k).reshape(3, 3)
+        projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
+        maps = projector.project(color, depth)
+        color_map = maps.color
+        if self._param("colour_adaptation"):
+            color_map = reinhard_transfer(color_map, self._reference, valid=maps.seen)
+        msg = Heightmap()
+        msg.header.stamp = color_msg.header.stamp
+        msg.header.frame_id = cell.BASE_FRAME
+        msg.resolution = float(self._grid.resolution)
+        msg.origin.x, msg.origin.y, msg.origin.z = self._grid.x_min, self._grid.y_min, self._grid.table_z
+        msg.color = numpy_to_image(color_map, "rgb8", msg.header)
+        msg.height = numpy_to_image(maps.height, "32FC1", msg.header)
+        return msg
+
+
+def main(args=None):
+    spin_node(HeightmapNode, args=args)
+
+
+if __name__ == "__main__":
+    main()

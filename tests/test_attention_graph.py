@@ -1,0 +1,135 @@
+"""Graph test: camera frames in -> /heightmap -> /attention/result out, through the real executables
+(heightmap_node, attention_node) as separate processes; bad frames are dropped, never fatal."""
+
+import numpy as np
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
+
+from impurity_attention.core.synthetic import random_boxes, render_boxes
+from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
+from impurity_interfaces.msg import AttentionResult, Heightmap
+from ros_harness import TopicRecorder, ros_args, spin_until, wait_for_subscribers
+
+COLOR, DEPTH, INFO = ("/camera/camera/color/image_raw", "/camera/camera/aligned_depth_to_color/image_raw",
+                      "/camera/camera/color/camera_info")
+RELIABLE = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
+
+
+class FakeCamera:
+    """Publishes one synthetic frame (colour, depth, camera_info) with a given stamp every 0.2 s
+    until stopped: best-effort subscribers may miss a frame, so the tests wait for results instead."""
+
+    def __init__(self, node):
+        self.node = node
+        self.color_pub = node.create_publisher(Image, COLOR, RELIABLE)
+        self.depth_pub = node.create_publisher(Image, DEPTH, RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, INFO, RELIABLE)
+        self.frame = None
+        self.timer = node.create_timer(0.2, self._publish)
+
+    def show(self, color_msg, depth_msg, info_msg=None):
+        self.frame = (color_msg, depth_msg, info_msg)
+
+    def _publish(self):
+        if self.frame is None:
+            return
+        color_msg, depth_msg, info_msg = self.frame
+        if info_msg is not None:
+            self.info_pub.publish(info_msg)
+        self.depth_pub.publish(depth_msg)
+        self.color_pub.publish(color_msg)
+
+    def destroy(self):
+        self.node.destroy_timer(self.timer)
+        for pub in (self.color_pub, self.depth_pub, self.info_pub):
+            self.node.destroy_publisher(pub)
+
+
+def camera_messages(frame, stamp_ns, depth_encoding="32FC1", color_encoding="rgb8"):
+    header = Image().header
+    header.stamp = ns_to_time(stamp_ns)
+    header.frame_id = "camera_color_optical_frame"
+    color = frame.color if color_encoding == "rgb8" else frame.color[..., 0]
+    color_msg = numpy_to_image(color, color_encoding, header)
+    depth = frame.depth if depth_encoding == "32FC1" else np.round(frame.depth * 1000).astype(np.uint16)
+    depth_msg = numpy_to_image(depth, depth_encoding, header)
+    info = CameraInfo(header=header, width=frame.color.shape[1], height=frame.color.shape[0])
+    info.k = [float(v) for v in frame.intrinsics.reshape(-1)]
+    return color_msg, depth_msg, info
+
+
+@pytest.fixture
+def perception(ros_node, launch):
+    heightmap = launch("impurity_attention", "heightmap_node", ros_args({"log_throttle": 0.1}))
+    attention = launch("impurity_attention", "attention_node")
+    camera = FakeCamera(ros_node)
+    heightmaps = TopicRecorder(ros_node, Heightmap, "/heightmap", RELIABLE)
+    results = TopicRecorder(ros_node, AttentionResult, "/attention/result", RELIABLE)
+    processes = (heightmap, attention)
+    wait_for_subscribers(ros_node, camera.color_pub, 1, 30.0, processes)
+    wait_for_subscribers(ros_node, camera.depth_pub, 1, 30.0, processes)
+    spin_until(ros_node, lambda: heightmaps.subscription.get_publisher_count() >= 1
+               and results.subscription.get_publisher_count() >= 1, 30.0, "perception publishers", processes)
+    yield camera, heightmaps, results, processes
+    camera.destroy()
+    heightmaps.destroy()
+    results.destroy()
+
+
+def with_stamp(stamp_ns):
+    return lambda msg: time_to_ns(msg.header.stamp) == stamp_ns
+
+
+def test_frames_in_heightmap_and_attention_out(perception):
+    camera, heightmaps, results, processes = perception
+    frame = render_boxes(random_boxes(3, num_product=20, num_impurities=1))
+    stamp = 1_000_000_123
+    camera.show(*camera_messages(frame, stamp, "16UC1"))
+    heightmap = heightmaps.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
+    result = results.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
+    assert heightmap.header.frame_id == "base_link" and heightmap.resolution == pytest.approx(0.002)
+    height = image_to_numpy(heightmap.height, ("32FC1",))
+    assert height.shape == (224, 224) and 0.025 < float(height.max()) < 0.035
+    assert result.mode == AttentionResult.MODE_TARGET
+    assert result.color_crop.width == 112 and result.mask.encoding == "mono8"
+    assert image_to_numpy(result.mask, ("mono8",)).max() == 255
+    assert result.heightmap.header.stamp == heightmap.header.stamp
+
+
+def test_bad_frames_are_dropped_with_a_reason_and_the_next_good_one_goes_through(perception):
+    camera, heightmaps, results, processes = perception
+    heightmap_process = processes[0]
+    frame = render_boxes(random_boxes(4, num_product=15, num_impurities=1))
+    small = render_boxes(random_boxes(4), width=320, height=240)
+    _, _, info = camera_messages(frame, 0)
+
+    def logged(text):
+        spin_until(camera.node, lambda: text in heightmap_process.output(), 30.0, f"log line '{text}'",
+                   processes)
+
+    color, depth, _ = camera_messages(frame, 2_000_000_000)
+    camera.show(color, depth, None)
+    logged("no camera_info")
+    color, depth, _ = camera_messages(frame, 2_100_000_000, color_encoding="mono8")
+    camera.show(color, depth, info)
+    logged("encoding 'mono8' not accepted")
+    color, depth, _ = camera_messages(frame, 2_200_000_000)
+    camera.show(color, numpy_to_image(frame.color, "rgb8", depth.header), info)
+    logged("encoding 'rgb8' not accepted")
+    color, _, _ = camera_messages(small, 2_300_000_000)
+    _, depth, _ = camera_messages(frame, 2_300_000_000)
+    camera.show(color, depth, info)
+    logged("differ")
+    nan_depth = frame.depth.copy()
+    nan_depth[:] = np.nan  # a blind camera: an empty heightmap and NONE, not an error
+    color, depth, _ = camera_messages(frame, 2_400_000_000)
+    camera.show(color, numpy_to_image(nan_depth, "32FC1", depth.header), info)
+    blind = results.wait_for(1, 30.0, with_stamp(2_400_000_000), processes)[0]
+    assert blind.mode == AttentionResult.MODE_NONE
+    camera.show(*camera_messages(frame, 2_500_000_000))
+    good = results.wait_for(1, 30.0, with_stamp(2_500_000_000), processes)[0]
+    assert good.mode == AttentionResult.MODE_TARGET
+    bad_stamps = {2_000_000_000, 2_100_000_000, 2_200_000_000, 2_300_000_000}
+    assert not bad_stamps & {time_to_ns(m.header.stamp) for m in heightmaps.messages}
+    assert all(process.alive for process in processes)
