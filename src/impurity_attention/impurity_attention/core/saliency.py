@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 
 CHANNELS = ("I", "RG", "BY")
+HALF_RES_SIGMA = 6.0  # px; surround blurs at least this wide are computed at half resolution
 
 
 @dataclass(frozen=True)
@@ -79,6 +80,17 @@ def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return cv2.GaussianBlur(image, (0, 0), sigmaX=sigma, sigmaY=sigma, borderType=cv2.BORDER_REPLICATE)
 
 
+def surround(centre: np.ndarray, sigma: float) -> np.ndarray:
+    """Surround layer: `centre` blurred by `sigma` px. Wide blurs (sigma >= HALF_RES_SIGMA) run at
+    half resolution and are upsampled: the error is far below the contrasts that matter (the
+    area-downsampling adds a blur of variance 1/3 px^2 to sigma^2 >= 36) and it saves ~3/4 of the time."""
+    height, width = centre.shape[:2]
+    if sigma < HALF_RES_SIGMA or min(height, width) < 16:
+        return _blur(centre, sigma)
+    small = cv2.resize(centre, (width // 2, height // 2), interpolation=cv2.INTER_AREA)
+    return cv2.resize(_blur(small, sigma / 2.0), (width, height), interpolation=cv2.INTER_LINEAR)
+
+
 def centre_pyramid(planes: np.ndarray, params: SaliencyParams) -> list:
     """Scale space of `planes` (H, W, C): a list over octaves of lists over scales, each layer blurred
     to sigma_c * 2^(s / n_scales) relative to its octave's resolution (Lowe 2004)."""
@@ -112,21 +124,24 @@ def vocus2(rgb: np.ndarray, params: SaliencyParams = CELL_SALIENCY, keep_feature
     if not pyramid:
         raise ValueError(f"image {rgb.shape[:2]} too small for a saliency pyramid")
     extra_sigma = math.sqrt(params.surround_sigma ** 2 - params.center_sigma ** 2)
-    base_h, base_w = pyramid[0][0].shape[:2]
-    on_off_sum = np.zeros((base_h, base_w, 3), dtype=np.float32)
-    off_on_sum = np.zeros((base_h, base_w, 3), dtype=np.float32)
+    # Mean fusion over all layers, accumulated from the coarsest octave up: resizing is linear, so
+    # upsampling the running sum once per octave equals resizing every layer to the finest size.
+    # channels 0-2: on-off of I, RG, BY; channels 3-5: minus off-on.
+    running = None
     count = 0
-    for octave in pyramid:
+    for octave in reversed(pyramid):
+        layer_h, layer_w = octave[0].shape[:2]
+        level = np.zeros((layer_h, layer_w, 6), dtype=np.float32)
         for s, centre in enumerate(octave):
-            surround = _blur(centre, extra_sigma * 2.0 ** (s / params.n_scales))
-            difference = centre - surround
-            on_off, off_on = np.maximum(difference, 0.0), np.maximum(-difference, 0.0)
-            if on_off.shape[:2] != (base_h, base_w):
-                on_off = cv2.resize(on_off, (base_w, base_h), interpolation=cv2.INTER_CUBIC)
-                off_on = cv2.resize(off_on, (base_w, base_h), interpolation=cv2.INTER_CUBIC)
-            on_off_sum += on_off
-            off_on_sum += off_on
+            difference = centre - surround(centre, extra_sigma * 2.0 ** (s / params.n_scales))
+            level[..., :3] += np.maximum(difference, 0.0)
+            level[..., 3:] += np.minimum(difference, 0.0)
             count += 1
+        if running is not None:
+            level += cv2.resize(running, (layer_w, layer_h), interpolation=cv2.INTER_CUBIC)
+        running = level
+    base_h, base_w = running.shape[:2]
+    on_off_sum, off_on_sum = running[..., :3], -running[..., 3:]
     # cubic upsampling overshoots a little below zero; contrasts are non-negative by definition
     on_off_feature = np.maximum(on_off_sum / count, 0.0)
     off_on_feature = np.maximum(off_on_sum / count, 0.0)

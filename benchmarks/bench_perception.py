@@ -1,0 +1,78 @@
+#!/usr/bin/env python3
+"""Latency of the perception cores on this machine: heightmap projection (640x480 RGB-D in) and the
+attention module (224x224 heightmaps in), p50/p95 over repeated calls. Printed, never asserted.
+
+Scenes are synthetic (impurity_attention.core.synthetic, seeded) so the figures do not depend on the
+simulator; pass --sim to also time frames rendered by the PyBullet cell. Aims (issue 4): heightmap
+<= 20 ms, attention <= 30 ms p50.
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from impurity_attention.core.attention import AttentionParams, attend
+from impurity_attention.core.heightmap import HeightmapProjector, depth_to_meters
+from impurity_attention.core.synthetic import random_boxes, render_boxes
+
+
+def timed(function, repeats: int, warmup: int = 3) -> np.ndarray:
+    for _ in range(warmup):
+        function()
+    times = []
+    for _ in range(repeats):
+        start = time.perf_counter()
+        function()
+        times.append((time.perf_counter() - start) * 1000.0)
+    return np.array(times)
+
+
+def report(name: str, times: np.ndarray, aim_ms: float) -> None:
+    p50, p95 = np.percentile(times, [50, 95])
+    verdict = "within aim" if p50 <= aim_ms else "OVER aim"
+    print(f"{name:<52s} p50 {p50:6.1f} ms  p95 {p95:6.1f} ms  (n={len(times)}, aim p50 <= {aim_ms:.0f} ms: "
+          f"{verdict})")
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=50)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--sim", action="store_true", help="also time frames rendered by the PyBullet cell")
+    args = parser.parse_args()
+
+    scenes = {
+        "visible impurity, 20 products": render_boxes(random_boxes(args.seed, 20, 1)),
+        "heap, hidden impurity (DBSCAN path)": render_boxes(random_boxes(args.seed + 1, 30, 0, heap=True)),
+        "no impurity, 25 scattered products (DBSCAN)": render_boxes(random_boxes(args.seed + 2, 25, 0)),
+    }
+    frame = next(iter(scenes.values()))
+    projector = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape)
+    depth_mm = np.round(frame.depth * 1000).astype(np.uint16)
+    report("heightmap 640x480 32FC1 -> 224x224",
+           timed(lambda: projector.project(frame.color, frame.depth), args.repeats), 20)
+    from_millimetres = lambda: projector.project(frame.color, depth_to_meters(depth_mm, "16UC1"))  # noqa: E731
+    report("heightmap 640x480 16UC1 (incl. mm -> m) -> 224x224", timed(from_millimetres, args.repeats), 20)
+    params = AttentionParams()
+    for name, scene in scenes.items():
+        maps = projector.project(scene.color, scene.depth)
+        mode = attend(maps.color, maps.height, params).mode.name
+        report(f"attention 224x224, {name} [{mode}]",
+               timed(lambda m=maps: attend(m.color, m.height, params), args.repeats), 30)
+
+    if args.sim:
+        from ur5_driver_sim.core.world import CellWorld
+        world = CellWorld(mode="floating")
+        world.reset_scene("random", seed=args.seed, num_targets=2, num_objects=20)
+        sim = world.render()
+        sim_projector = HeightmapProjector(sim.intrinsics, sim.camera_pose, sim.depth.shape)
+        report("heightmap, sim-rendered 640x480",
+               timed(lambda: sim_projector.project(sim.color, sim.depth), args.repeats), 20)
+        maps = sim_projector.project(sim.color, sim.depth)
+        report("attention, sim-rendered random scene",
+               timed(lambda: attend(maps.color, maps.height, params), args.repeats), 30)
+
+
+if __name__ == "__main__":
+    main()
