@@ -1,0 +1,66 @@
+"""Simulator constants in one place: physics, colours, block sizes, gripper geometry, motion speeds.
+
+Cell-wide geometry (workspace, camera, push length, gripper stroke) comes from impurity_common.cell;
+what only the simulator needs lives here.
+"""
+
+from impurity_common import cell
+
+# Physics. 1/240 s steps: 1/120 s halves grasp success (DESIGN.md, measured).
+TIME_STEP = 1.0 / 240.0
+SOLVER_ITERATIONS = 20
+GRAVITY = -9.81
+
+# Colours (RGB 0..1). The same palette as the perception team's synthetic frames: grey table, blue
+# product blocks with a small shade jitter, red impurities.
+TABLE_COLOR = (150 / 255, 150 / 255, 150 / 255)
+PRODUCT_COLOR = (40 / 255, 120 / 255, 200 / 255)
+TARGET_COLOR = (220 / 255, 60 / 255, 40 / 255)
+PRODUCT_SHADE_JITTER = 0.04  # +- per channel
+GRIPPER_COLOR = (0.25, 0.25, 0.28)
+ARM_COLOR = (0.75, 0.78, 0.80)
+
+# Table: a plain box whose top is cell.TABLE_Z, larger than the workspace so nothing falls at the edge.
+TABLE_HALF_EXTENTS = (0.45, 0.45, 0.02)
+TABLE_CENTER_XY = (0.5, 0.0)
+
+# Blocks: contact parameters chosen so scenes settle and do not roll away.
+BLOCK_DENSITY = 600.0  # kg/m^3, wood-like
+BLOCK_LATERAL_FRICTION = 0.6
+BLOCK_ROLLING_FRICTION = 1e-4
+BLOCK_SPINNING_FRICTION = 1e-3
+TABLE_LATERAL_FRICTION = 0.5
+
+# Scene settling.
+SETTLE_MAX_STEPS = 600
+SETTLE_SPEED = 0.01  # m/s: every block slower than this -> settled
+SETTLE_CHECK_EVERY = 20
+
+# Gripper (RG2-like), shared by the floating gripper and the arm's end effector. Gripper frame: origin
+# at the TCP (centre between the fingertips' lower ends), z up along the wrist, fingers close along x.
+FINGER_LENGTH = 0.05  # m, z extent of a finger pad
+FINGER_THICKNESS = 0.008  # m, x extent
+FINGER_WIDTH = 0.02  # m, y extent
+FINGER_MAX_TRAVEL = cell.GRIPPER_MAX_OPENING / 2.0  # inner face distance from the centre when open
+PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)
+PALM_MASS = 0.6
+FINGER_MASS = 0.05
+FINGER_FORCE = 30.0  # N per finger
+FINGER_SPEED = 0.25  # m/s per finger
+FINGER_LATERAL_FRICTION = 1.2
+FLANGE_TO_TCP = 0.20  # m, UR flange to TCP along the tool axis (coupling + RG2 length)
+CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between the fingers
+
+# Primitive motion.
+APPROACH_HEIGHT = 0.15  # m above the primitive's z where grasps and pushes start and end
+LIFT_HEIGHT = 0.15  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
+GRASP_LIFT_SUCCESS = 0.10  # m, issue 3
+MIN_TIP_HEIGHT = 0.005  # m: fingertips never go below table + this (z is clamped up)
+FREE_SPEED = 0.5  # m/s, moves in free space
+CONTACT_SPEED = 0.25  # m/s, descents, pushes and lifts
+CLOSE_SETTLE_STEPS = 60  # steps given to the fingers to close (0.25 s)
+GUARD_FORCE = 15.0  # N: a descent stops when the gripper presses down harder than this
+CARRIER_MAX_FORCE = 500.0  # N, the floating gripper's drive constraint
+
+# Ground truth.
+DISPLACEMENT_CLASSES = (0.01, 0.05)  # m: < 1 cm "still", < 5 cm "nudged", else "moved"

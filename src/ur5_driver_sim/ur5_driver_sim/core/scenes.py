@@ -1,0 +1,208 @@
+"""Scenario layouts (paper 6.1): where blocks start before physics settles them.
+
+Each generator is pure: (rng, counts, colours) -> list of BlockSpec. The world spawns them, lets them
+settle and checks the scenario's invariants (all in the workspace; invisible: no target pixel).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import pathlib
+
+import numpy as np
+
+from impurity_common import cell
+
+from . import config
+from .shapes import SHAPES, BlockSpec, product_color, random_dims, yaw_quaternion
+
+SCENARIOS = ("random", "challenging", "invisible", "file", "empty")
+DEFAULT_COUNTS = {  # (targets, non-target blocks)
+    "random": (2, 20), "challenging": (2, 20), "invisible": (2, 20), "empty": (0, 0), "file": (-1, -1)}
+MAX_BLOCKS = 60
+CENTER = ((cell.WORKSPACE_X[0] + cell.WORKSPACE_X[1]) / 2, (cell.WORKSPACE_Y[0] + cell.WORKSPACE_Y[1]) / 2)
+
+# random: blocks dropped in a square around the workspace centre (dense clutter, as in VPG).
+DROP_HALF_SIZE = 0.13
+# challenging: a packed grid of footprint-sized blocks.
+PACK_FOOTPRINT = (0.036, 0.043)  # m, block footprint edge / diameter
+PACK_GAP = (0.002, 0.006)  # m between neighbours
+# invisible: heaps of a row of small targets boxed in by two bars and two pillars under a cover slab.
+HEAP_TARGET_EDGE = 0.026
+HEAP_WALL_GAP = 0.004
+HEAP_MIN_SEPARATION = 0.14
+HEAP_CENTER_HALF_RANGE = (0.10, 0.11)  # x, y around the workspace centre
+HEAP_BLOCKS_PER_HEAP = 5  # 2 bars, 2 pillars, 1 cover slab
+HEAP_LOOSE_RADIUS = (0.065, 0.09)  # m from a heap centre where the other blocks are piled
+
+
+def random_quaternion(rng: np.random.Generator) -> tuple:
+    u1, u2, u3 = rng.uniform(0, 1, 3)
+    return (math.sqrt(1 - u1) * math.sin(2 * math.pi * u2), math.sqrt(1 - u1) * math.cos(2 * math.pi * u2),
+            math.sqrt(u1) * math.sin(2 * math.pi * u3), math.sqrt(u1) * math.cos(2 * math.pi * u3))
+
+
+def resolve_counts(scenario: str, num_targets: int, num_objects: int) -> tuple:
+    default_targets, default_objects = DEFAULT_COUNTS[scenario]
+    targets = default_targets if num_targets is None or num_targets < 0 else int(num_targets)
+    objects = default_objects if num_objects is None or num_objects < 0 else int(num_objects)
+    if targets + objects > MAX_BLOCKS:
+        raise ValueError(f"{targets + objects} blocks requested; at most {MAX_BLOCKS}")
+    return targets, objects
+
+
+def _block(rng, shape, is_target, target_color, dims=None) -> BlockSpec:
+    dims = dims or random_dims(shape, rng)
+    color = tuple(target_color) if is_target else product_color(rng)
+    return BlockSpec(shape=shape, dims=dims, color=color, is_target=is_target)
+
+
+def stack_without_overlap(specs, xy_points, rng, base_z=cell.TABLE_Z, random_orientation=True):
+    """Give each spec a start pose at its xy point, as low as possible without its bounding sphere
+    overlapping earlier ones: blocks then fall only a few cm and settle fast."""
+    placed = []  # (center, radius)
+    for spec, (x, y) in zip(specs, xy_points, strict=True):
+        radius = 0.5 * math.sqrt(sum(d * d for d in spec.dims))
+        z = base_z + radius + 0.002
+        while any(math.dist((x, y, z), c) < radius + r for c, r in placed):
+            z += 0.01
+        placed.append(((x, y, z), radius))
+        spec.position = (x, y, z)
+        spec.orientation = (random_quaternion(rng) if random_orientation
+                            else yaw_quaternion(rng.uniform(0, math.pi)))
+    return specs
+
+
+def random_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+    flags = [True] * num_targets + [False] * num_objects
+    rng.shuffle(flags)
+    specs = [_block(rng, SHAPES[rng.integers(len(SHAPES))], is_target, target_color) for is_target in flags]
+    points = [(CENTER[0] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE),
+               CENTER[1] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE)) for _ in specs]
+    return stack_without_overlap(specs, points, rng)
+
+
+def _rotate(dx, dy, yaw):
+    c, s = math.cos(yaw), math.sin(yaw)
+    return c * dx - s * dy, s * dx + c * dy
+
+
+def challenging_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+    """Blocks standing side by side on a grid with gaps of a few mm; targets in interior cells."""
+    total = num_targets + num_objects
+    if total == 0:
+        return []
+    cols = max(1, math.ceil(math.sqrt(total)))
+    rows = math.ceil(total / cols)
+    pitch = PACK_FOOTPRINT[1] + rng.uniform(*PACK_GAP)
+    cells = [(r, c) for r in range(rows) for c in range(cols)]
+    interior = [rc for rc in cells if 0 < rc[0] < rows - 1 and 0 < rc[1] < cols - 1]
+    border = [rc for rc in cells if rc not in interior]
+    rng.shuffle(interior)
+    rng.shuffle(border)
+    target_cells = (interior + border)[:num_targets]
+    rest = [rc for rc in interior + border if rc not in target_cells]
+    rest.sort(key=lambda rc: rc in border)  # leave empty cells on the border, never inside the packing
+    object_cells = rest[:num_objects]
+    yaw = rng.uniform(0, math.pi / 2)
+    margin = math.hypot(cols, rows) * pitch / 2
+    half_free = [max(0.0, (cell.WORKSPACE_X[1] - cell.WORKSPACE_X[0]) / 2 - margin - 0.01),
+                 max(0.0, (cell.WORKSPACE_Y[1] - cell.WORKSPACE_Y[0]) / 2 - margin - 0.01)]
+    cx = CENTER[0] + rng.uniform(-min(half_free[0], 0.04), min(half_free[0], 0.04))
+    cy = CENTER[1] + rng.uniform(-min(half_free[1], 0.04), min(half_free[1], 0.04))
+    specs = []
+    for cell_rc, is_target in [(rc, True) for rc in target_cells] + [(rc, False) for rc in object_cells]:
+        shape = ("cube", "cylinder", "prism", "half_cylinder")[rng.integers(4)]
+        edge = rng.uniform(*PACK_FOOTPRINT)
+        height = rng.uniform(0.03, 0.045)
+        dims = {"cube": (edge, edge, height), "cylinder": (edge, edge, height), "prism": (edge, edge, height),
+                "half_cylinder": (edge, edge, edge / 2)}[shape]
+        spec = _block(rng, shape, is_target, target_color, dims)
+        dx = (cell_rc[1] - (cols - 1) / 2) * pitch
+        dy = (cell_rc[0] - (rows - 1) / 2) * pitch
+        ox, oy = _rotate(dx, dy, yaw)
+        spec.position = (cx + ox, cy + oy, cell.TABLE_Z + dims[2] / 2 + 0.001)
+        spec.orientation = yaw_quaternion(yaw + (math.pi / 2) * rng.integers(4) * (shape != "prism"))
+        specs.append(spec)
+    return specs
+
+
+def _heap_centers(rng, count):
+    for _ in range(1000):
+        centers = [(CENTER[0] + rng.uniform(-HEAP_CENTER_HALF_RANGE[0], HEAP_CENTER_HALF_RANGE[0]),
+                    CENTER[1] + rng.uniform(-HEAP_CENTER_HALF_RANGE[1], HEAP_CENTER_HALF_RANGE[1]))
+                   for _ in range(count)]
+        pairs = [(a, b) for i, a in enumerate(centers) for b in centers[i + 1:]]
+        if all(math.dist(a, b) >= HEAP_MIN_SEPARATION for a, b in pairs):
+            return centers
+    raise RuntimeError("could not place the heaps apart")
+
+
+def invisible_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+    """Two or three heaps; each hides its targets in a box of two bars and two pillars under a slab,
+    and the remaining blocks are dropped onto the heaps."""
+    heaps = 2 if num_targets <= 2 else 3
+    if num_objects < heaps * HEAP_BLOCKS_PER_HEAP:
+        raise ValueError(f"invisible needs at least {heaps * HEAP_BLOCKS_PER_HEAP} non-target blocks "
+                         f"for {heaps} heaps, got {num_objects}")
+    per_heap = [num_targets // heaps + (1 if i < num_targets % heaps else 0) for i in range(heaps)]
+    if max(per_heap) > 2:
+        raise ValueError(f"invisible hides at most 2 targets per heap (6 in all), got {num_targets}")
+    centers = _heap_centers(rng, heaps)
+    specs = []
+    for (hx, hy), k in zip(centers, per_heap, strict=True):
+        yaw = rng.uniform(0, math.pi)
+        t = HEAP_TARGET_EDGE
+        row_half = max(k, 1) * t / 2 + (max(k, 1) - 1) * 0.001
+
+        def place(spec, dx, dy, z, extra_yaw=0.0, hx=hx, hy=hy, yaw=yaw):
+            ox, oy = _rotate(dx, dy, yaw)
+            spec.position = (hx + ox, hy + oy, z)
+            spec.orientation = yaw_quaternion(yaw + extra_yaw)
+            specs.append(spec)
+
+        for i in range(k):
+            target = _block(rng, "cube", True, target_color, (t, t, t))
+            place(target, -row_half + t / 2 + i * (t + 0.002), 0.0, cell.TABLE_Z + t / 2 + 0.001)
+        wall_h = rng.uniform(0.032, 0.036)
+        bar_len = 2 * row_half + 2 * HEAP_WALL_GAP + 0.07
+        for side in (-1, 1):
+            bar = _block(rng, "bar", False, target_color, (min(bar_len, 0.1), 0.028, wall_h))
+            place(bar, 0.0, side * (t / 2 + HEAP_WALL_GAP + 0.014), cell.TABLE_Z + wall_h / 2 + 0.001)
+        for side in (-1, 1):
+            pillar = _block(rng, "cube", False, target_color, (0.03, 0.03, wall_h))
+            place(pillar, side * (row_half + HEAP_WALL_GAP + 0.015), 0.0, cell.TABLE_Z + wall_h / 2 + 0.001)
+        slab_h = 0.02
+        cover = _block(rng, "slab", False, target_color, (0.1, 0.085, slab_h))
+        place(cover, 0.0, 0.0, cell.TABLE_Z + wall_h + slab_h / 2 + 0.003)
+    extra = num_objects - heaps * HEAP_BLOCKS_PER_HEAP
+    loose = [_block(rng, SHAPES[rng.integers(len(SHAPES))], False, target_color) for _ in range(extra)]
+    points = []
+    for i in range(extra):
+        hx, hy = centers[i % heaps]
+        angle = rng.uniform(0, 2 * math.pi)
+        radius = rng.uniform(*HEAP_LOOSE_RADIUS)
+        points.append((hx + radius * math.cos(angle), hy + radius * math.sin(angle)))
+    stack_without_overlap(loose, points, rng, random_orientation=False)
+    return specs + loose
+
+
+def load_scene_file(path) -> list:
+    """A JSON scene: a list of blocks, or {"blocks": [...]}; each block has shape, is_target and a pose
+    (position, and orientation quaternion or yaw), optionally dims and color."""
+    path = pathlib.Path(path)
+    try:
+        data = json.loads(path.read_text())
+    except OSError as exc:
+        raise ValueError(f"cannot read scene file {path}: {exc}") from exc
+    except json.JSONDecodeError as exc:
+        raise ValueError(f"scene file {path} is not valid JSON: {exc}") from exc
+    blocks = data.get("blocks") if isinstance(data, dict) else data
+    if not isinstance(blocks, list):
+        raise ValueError(f"scene file {path}: expected a list of blocks or {{'blocks': [...]}}")
+    return [BlockSpec.from_json(b) for b in blocks]
+
+
+def save_scene_file(path, specs) -> None:
+    pathlib.Path(path).write_text(json.dumps({"blocks": [s.to_json() for s in specs]}, indent=1))
