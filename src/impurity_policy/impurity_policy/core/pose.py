@@ -1,0 +1,101 @@
+"""Action pixel <-> gripper pose: crop pixel + rotation index -> heightmap pixel -> base_link (x, y, z, yaw).
+
+yaw = rotation_yaw(i) is the push direction or the grasp's finger-closing axis (Primitive.msg); the
+network rotates its input so that this direction is +column (network.rotation_grid), and since
+(col, row) maps to (x, y) without mirroring (cell.pixel_to_base), image and base yaw agree.
+
+Heights follow VPG's rules, adapted to our gripper frame (TCP = fingertips' lower ends,
+ur5_driver_sim config): a grasp puts the fingertips `grasp_depth` below the highest point near the
+pixel, never lower than `grasp_min_tip` above the table; a push starts with the closed fingertips
+`push_depth` below the local top, never lower than `push_min_tip` (the driver's guarded descent stops
+on anything in the way).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from impurity_common import cell
+
+from .network import GRASP, PUSH
+
+
+@dataclass(frozen=True)
+class PoseRules:
+    grasp_depth: float = 0.03  # m below the local top
+    grasp_min_tip: float = 0.01  # m above the table
+    push_depth: float = 0.02  # m below the local top at the start pixel
+    push_min_tip: float = 0.01  # m above the table
+    local_radius_px: int = 3  # window (2r+1)^2 for "local top"
+
+
+@dataclass(frozen=True)
+class ActionPose:
+    primitive: int
+    rotation: int
+    heightmap_pixel: tuple  # (row, col)
+    x: float
+    y: float
+    z: float
+    yaw: float
+
+
+def crop_to_heightmap(crop_pixel, crop_origin) -> tuple:
+    return int(crop_pixel[0]) + int(crop_origin[0]), int(crop_pixel[1]) + int(crop_origin[1])
+
+
+def heightmap_to_crop(heightmap_pixel, crop_origin) -> tuple:
+    return int(heightmap_pixel[0]) - int(crop_origin[0]), int(heightmap_pixel[1]) - int(crop_origin[1])
+
+
+def yaw_to_rotation(yaw: float, num_rotations: int = cell.NUM_ROTATIONS) -> int:
+    step = 2.0 * math.pi / num_rotations
+    return int(round(yaw / step)) % num_rotations
+
+
+def local_top(height: np.ndarray, row: int, col: int, radius: int) -> float:
+    """Highest point (m above the table) within `radius` px of (row, col); 0 off the map."""
+    r0, r1 = max(row - radius, 0), min(row + radius + 1, height.shape[0])
+    c0, c1 = max(col - radius, 0), min(col + radius + 1, height.shape[1])
+    if r1 <= r0 or c1 <= c0:
+        return 0.0
+    window = np.nan_to_num(height[r0:r1, c0:c1], nan=0.0)
+    return float(max(window.max(), 0.0))
+
+
+def action_z(primitive: int, height: np.ndarray, row: int, col: int, rules: PoseRules = PoseRules(),
+             table_z: float = cell.TABLE_Z) -> float:
+    top = local_top(height, row, col, rules.local_radius_px)
+    if primitive == GRASP:
+        return table_z + max(top - rules.grasp_depth, rules.grasp_min_tip)
+    if primitive == PUSH:
+        return table_z + max(top - rules.push_depth, rules.push_min_tip)
+    raise ValueError(f"unknown primitive {primitive}")
+
+
+def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: np.ndarray,
+                rules: PoseRules = PoseRules(), resolution: float = cell.HEIGHTMAP_RESOLUTION,
+                x_min: float = cell.WORKSPACE_X[0], y_min: float = cell.WORKSPACE_Y[0],
+                table_z: float = cell.TABLE_Z) -> ActionPose:
+    """Crop pixel + rotation index -> pose in base_link; `height` is the full heightmap (m)."""
+    row, col = crop_to_heightmap(crop_pixel, crop_origin)
+    if not (0 <= row < height.shape[0] and 0 <= col < height.shape[1]):
+        raise ValueError(f"action pixel {(row, col)} is outside the {height.shape} heightmap")
+    x, y = cell.pixel_to_base(row, col, resolution, x_min, y_min)
+    return ActionPose(primitive, int(rotation) % cell.NUM_ROTATIONS, (row, col), x, y,
+                      action_z(primitive, height, row, col, rules, table_z), cell.rotation_yaw(rotation))
+
+
+def pose_to_action(x: float, y: float, yaw: float, crop_origin, resolution: float = cell.HEIGHTMAP_RESOLUTION,
+                   x_min: float = cell.WORKSPACE_X[0], y_min: float = cell.WORKSPACE_Y[0]) -> tuple:
+    """Inverse of action_pose for (x, y, yaw): (rotation index, crop pixel)."""
+    heightmap_pixel = cell.base_to_pixel(x, y, resolution, x_min, y_min)
+    return yaw_to_rotation(yaw), heightmap_to_crop(heightmap_pixel, crop_origin)
+
+
+def push_end(pose: ActionPose, length: float = cell.PUSH_LENGTH) -> tuple:
+    """(x, y) where a push from `pose` ends."""
+    return pose.x + length * math.cos(pose.yaw), pose.y + length * math.sin(pose.yaw)

@@ -1,0 +1,276 @@
+"""Policy core: TCDD and rewards, rotations and poses, replay, one training step, checkpoints."""
+
+import math
+
+import numpy as np
+import pytest
+import torch
+
+from impurity_common import cell
+from impurity_policy.core import tcdd
+from impurity_policy.core.network import (
+    GRASP,
+    PUSH,
+    NetworkConfig,
+    QNetwork,
+    network_inputs,
+    rotation_grid,
+    rotation_yaws,
+    valid_action_mask,
+)
+from impurity_policy.core.policy import (
+    MODE_NONE,
+    MODE_OCCLUDED_REGION,
+    MODE_TARGET,
+    NoActionError,
+    Observation,
+    Policy,
+    q_maps_picture,
+)
+from impurity_policy.core.pose import action_pose, pose_to_action, push_end, yaw_to_rotation
+from impurity_policy.core.replay import RankedReplay, State, Transition
+from impurity_policy.core.trainer import (
+    CHECKPOINT_FORMAT_VERSION,
+    CheckpointError,
+    Trainer,
+    TrainerConfig,
+    load_network,
+)
+
+torch.set_num_threads(1)
+ETA = cell.GRIPPER_MAX_OPENING
+SMALL = NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=16)
+
+
+# ---- TCDD (eqs. 2-3) and rewards ------------------------------------------------------------------
+def test_isolated_target_has_tcdd_one():
+    assert tcdd.tcdd((0.5, 0.0), [(0.5 + ETA, 0.0), (0.5, 0.2), (0.2, -0.2)]) == pytest.approx(1.0)
+    assert tcdd.tcdd((0.5, 0.0), [(0.62, 0.0), (0.5, 0.2)]) == 1.0
+    assert tcdd.tcdd((0.5, 0.0), []) == 1.0  # K = 1: alone in the scene
+
+
+def test_touching_neighbours_lower_tcdd():
+    # Two 4 cm blocks touching the target, one far away: (0.04 + 0.04 + eta) / (3 eta)
+    alpha = tcdd.tcdd((0.5, 0.0), [(0.54, 0.0), (0.5, 0.04), (0.2, 0.2)])
+    assert alpha == pytest.approx((0.04 + 0.04 + ETA) / (3 * ETA))
+    assert alpha < 1.0
+
+
+def test_tcdd_clips_each_distance_at_eta():
+    assert tcdd.tcdd((0, 0), [(0.01, 0)], eta=0.1) == pytest.approx(0.1)
+    assert tcdd.tcdd((0, 0), [(0.05, 0), (5.0, 0)], eta=0.1) == pytest.approx((0.05 + 0.1) / 0.2)
+    with pytest.raises(ValueError):
+        tcdd.tcdd((0, 0), [(1, 0)], eta=0.0)
+
+
+def test_reward_rules():
+    assert tcdd.grasp_reward(True) == 1.0 and tcdd.grasp_reward(False) == 0.0
+    assert tcdd.push_reward_tcdd(0.50, 0.506) == 0.5  # increase > delta = 0.005
+    assert tcdd.push_reward_tcdd(0.50, 0.504) == 0.0  # within noise
+    assert tcdd.push_reward_tcdd(0.50, 0.40) == 0.0
+    before = np.zeros((224, 224), np.float32)
+    after = before.copy()
+    after[:10, :30] = 0.03  # 300 px changed: not more than tau
+    assert tcdd.push_reward_change(before, after) == 0.0
+    after[10, :2] = 0.03
+    assert tcdd.push_reward_change(before, after) == tcdd.NO_T_PUSH_REWARD
+
+
+def test_push_outcome_tracks_the_attended_target():
+    before = {1: (0.5, 0.0, 0.02), 2: (0.53, 0.0, 0.02), 3: (0.3, 0.2, 0.02)}
+    separated = {1: (0.5, 0.0, 0.02), 2: (0.65, 0.0, 0.02), 3: (0.3, 0.2, 0.02)}
+    outcome = tcdd.tcdd_push_outcome(1, before, separated, cell.in_workspace)
+    assert outcome.alpha_after > outcome.alpha_before and outcome.reward == 0.5
+    target_pushed_away = {1: (0.9, 0.0, 0.02), 2: (0.53, 0.0, 0.02), 3: (0.3, 0.2, 0.02)}
+    assert tcdd.tcdd_push_outcome(1, before, target_pushed_away, cell.in_workspace).reward == 0.0
+    assert tcdd.tcdd_push_outcome(None, before, separated, cell.in_workspace).reward == 0.0
+
+
+# ---- rotations and poses --------------------------------------------------------------------------
+@pytest.mark.parametrize("rotation", [0, 3, 4, 9])
+def test_rotated_input_puts_direction_yaw_on_plus_column(rotation):
+    size, radius = 112, 30
+    yaw = cell.rotation_yaw(rotation)
+    centre = (size - 1) / 2.0
+    image = torch.zeros(1, 1, size, size)
+    row, col = round(centre + radius * math.sin(yaw)), round(centre + radius * math.cos(yaw))
+    image[0, 0, row - 2:row + 3, col - 2:col + 3] = 1.0
+    grid = rotation_grid(rotation_yaws([rotation]), size, inverse=False)
+    rotated = torch.nn.functional.grid_sample(image, grid, align_corners=False)[0, 0].numpy()
+    peak_row, peak_col = np.unravel_index(np.argmax(rotated), rotated.shape)
+    assert abs(peak_row - centre) <= 3 and abs(peak_col - (centre + radius)) <= 3
+
+
+def test_rotation_there_and_back_is_identity_inside_the_disk():
+    size = 112
+    image = torch.rand(1, 1, size, size)
+    image = torch.nn.functional.avg_pool2d(image, 5, 1, 2)  # smooth: bilinear resampling is exact-ish
+    yaws = rotation_yaws([5])
+    there = torch.nn.functional.grid_sample(image, rotation_grid(yaws, size, False), align_corners=False)
+    back = torch.nn.functional.grid_sample(there, rotation_grid(yaws, size, True), align_corners=False)
+    disk = valid_action_mask(size, margin=4)
+    error = np.abs((back - image)[0, 0].numpy()[disk])
+    assert error.mean() < 0.02 and error.max() < 0.1  # two bilinear resamplings blur a little
+
+
+def test_pixel_rotation_pose_round_trip():
+    rng = np.random.default_rng(0)
+    height = rng.uniform(0, 0.05, (224, 224)).astype(np.float32)
+    for _ in range(200):
+        origin = (int(rng.integers(-56, 168)), int(rng.integers(-56, 168)))
+        pixel = (int(rng.integers(0, 112)), int(rng.integers(0, 112)))
+        rotation, primitive = int(rng.integers(0, 16)), int(rng.integers(0, 2))
+        hm = (pixel[0] + origin[0], pixel[1] + origin[1])
+        if not (0 <= hm[0] < 224 and 0 <= hm[1] < 224):
+            with pytest.raises(ValueError):
+                action_pose(primitive, rotation, pixel, origin, height)
+            continue
+        pose = action_pose(primitive, rotation, pixel, origin, height)
+        assert cell.in_workspace(pose.x, pose.y)
+        assert pose.yaw == pytest.approx(rotation * 2 * math.pi / 16)
+        assert pose_to_action(pose.x, pose.y, pose.yaw, origin) == (rotation, pixel)
+        assert cell.TABLE_Z < pose.z < cell.TABLE_Z + 0.06
+
+
+def test_yaw_directions_and_heights():
+    height = np.zeros((224, 224), np.float32)
+    height[100:120, 100:120] = 0.05
+    push0 = action_pose(PUSH, 0, (10, 10), (0, 0), height)
+    assert push_end(push0)[0] == pytest.approx(push0.x + cell.PUSH_LENGTH)  # rotation 0: +x
+    push4 = action_pose(PUSH, 4, (10, 10), (0, 0), height)
+    assert push_end(push4)[1] == pytest.approx(push4.y + cell.PUSH_LENGTH)  # rotation 4: +y (row down)
+    assert push0.z == pytest.approx(0.01)  # empty table: minimum tip height
+    grasp = action_pose(GRASP, 0, (110, 110), (0, 0), height)
+    assert grasp.z == pytest.approx(0.05 - 0.03)  # fingertips 3 cm below the block's top
+    assert yaw_to_rotation(-math.pi / 8) == 15 and yaw_to_rotation(2 * math.pi) == 0
+
+
+# ---- replay -------------------------------------------------------------------------------------
+def _state(seed=0, size=112):
+    rng = np.random.default_rng(seed)
+    height = np.zeros((size, size), np.float32)
+    height[40:70, 45:75] = 0.04
+    mask = np.zeros((size, size), np.uint8)
+    mask[50:62, 50:62] = 255
+    color = rng.integers(0, 255, (size, size, 3), dtype=np.uint8)
+    return State(color, height, mask)
+
+
+def test_replay_round_trip_and_rank_priority(tmp_path):
+    replay = RankedReplay(capacity=4)
+    for i in range(6):  # ring: keeps the last 4
+        replay.add(Transition(_state(i), PUSH if i % 2 else GRASP, i, (i, i), float(i % 2), None))
+    assert len(replay) == 4
+    t = replay.get(0)  # slot 0 now holds transition 4
+    assert t.rotation == 4 and t.primitive == GRASP and np.array_equal(t.state.color, _state(4).color)
+    assert np.allclose(t.state.height, _state(4).height, atol=1e-4)
+    for index in range(4):
+        replay.update_priority(index, 10.0 if index == 2 else 0.01)
+    rng = np.random.default_rng(0)
+    draws = [replay.sample(rng) for _ in range(400)]
+    assert draws.count(2) > max(draws.count(i) for i in (0, 1, 3))
+    assert all(replay.get(replay.sample(rng, primitive=PUSH)).primitive == PUSH for _ in range(20))
+    assert replay.sample(rng, primitive=PUSH, positive=False) is None
+    replay.save(tmp_path / "replay.pkl")
+    loaded = RankedReplay.load(tmp_path / "replay.pkl")
+    assert len(loaded) == 4 and loaded.get(2).rotation == replay.get(2).rotation
+
+
+# ---- network, training step, checkpoints ---------------------------------------------------------
+def test_network_gives_32_maps_of_crop_size():
+    net = QNetwork(SMALL).eval()
+    with torch.no_grad():
+        q = net.q_maps(*network_inputs(_state().color, _state().height, _state().mask))
+    assert q.shape == (16, 2, 112, 112)
+
+
+def test_one_training_step_lowers_the_loss_on_a_fixed_batch():
+    trainer = Trainer(SMALL, TrainerConfig(learning_rate=1e-3), seed=0)
+    batch = [Transition(_state(i), GRASP if i % 2 else PUSH, 3 * i, (55, 60), 1.0, None) for i in range(4)]
+
+    def batch_loss():
+        with torch.no_grad():
+            return sum(float(trainer.loss(t, t.reward)[0]) for t in batch)
+
+    before = batch_loss()
+    trainer.optimizer.zero_grad()
+    sum(trainer.loss(t, t.reward)[0] for t in batch).backward()
+    trainer.optimizer.step()
+    assert batch_loss() < before
+    loss, td, label = trainer.update(batch[0])
+    assert label == 1.0 and td >= 0 and loss >= 0
+
+
+def test_target_value_uses_gamma_and_allowed_primitives():
+    trainer = Trainer(SMALL, TrainerConfig(), seed=0)
+    state = _state()
+    assert trainer.target_value(0.5, None) == 0.5
+    q = trainer.q_maps(state, use_target=True)
+    expected_push = 0.5 + 0.5 * q[:, PUSH][:, valid_action_mask(112)].max()
+    assert trainer.target_value(0.5, state, (PUSH,)) == pytest.approx(expected_push, rel=1e-5)
+
+
+def test_checkpoint_round_trip_and_clear_rejections(tmp_path):
+    trainer = Trainer(SMALL, seed=1)
+    path = tmp_path / "policy.pt"
+    trainer.save(path, extra={"iteration": 7})
+    other = Trainer(SMALL, seed=2)
+    assert other.load(path) == {"iteration": 7}
+    for a, b in zip(trainer.online.parameters(), other.online.parameters(), strict=True):
+        assert torch.equal(a, b)
+    assert isinstance(load_network(path), QNetwork)
+
+    data = torch.load(path, weights_only=False)
+    data["format_version"] = CHECKPOINT_FORMAT_VERSION + 1
+    torch.save(data, tmp_path / "future.pt")
+    with pytest.raises(CheckpointError, match="format version"):
+        load_network(tmp_path / "future.pt")
+
+    data = torch.load(path, weights_only=False)
+    name = next(iter(data["online"]))
+    data["online"][name] = torch.zeros(3, 3)
+    torch.save(data, tmp_path / "bad_shape.pt")
+    with pytest.raises(CheckpointError, match="shape"):
+        load_network(tmp_path / "bad_shape.pt")
+
+    with pytest.raises(CheckpointError, match="made for network"):
+        Trainer(NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=32)).load(path)
+    with pytest.raises(CheckpointError, match="does not exist"):
+        load_network(tmp_path / "missing.pt")
+
+
+# ---- policy decisions ------------------------------------------------------------------------------
+def _observation(mode, origin=(50, 60)):
+    s = _state()
+    height = np.zeros((224, 224), np.float32)
+    return Observation(mode, s.color, s.height, s.mask, origin, height)
+
+
+def test_policy_decides_in_base_link_and_only_pushes_without_target():
+    policy = Policy(QNetwork(SMALL))
+    choice = policy.decide(_observation(MODE_TARGET))
+    assert choice.q_maps.shape == (16, 2, 112, 112)
+    assert cell.in_workspace(choice.pose.x, choice.pose.y)
+    assert choice.masks[choice.decision.primitive][choice.decision.pixel]
+    for _ in range(3):
+        assert policy.decide(_observation(MODE_OCCLUDED_REGION)).decision.primitive == PUSH
+    with pytest.raises(NoActionError):
+        policy.decide(_observation(MODE_NONE))
+    # crop hanging over the map's corner: the action stays on the map
+    corner = policy.decide(_observation(MODE_TARGET, origin=(-56, -56)))
+    assert min(corner.pose.heightmap_pixel) >= 0
+    picture = q_maps_picture(choice.q_maps, choice.masks, choice.decision)
+    assert picture.shape == (112, 16 * 56, 3) and picture.dtype == np.uint8
+
+
+def test_policy_rejects_malformed_crops():
+    policy = Policy(QNetwork(SMALL))
+    obs = _observation(MODE_TARGET)
+    obs.height_crop = obs.height_crop.copy()
+    obs.height_crop[0, 0] = np.nan
+    with pytest.raises(NoActionError, match="NaN"):
+        policy.decide(obs)
+    obs = _observation(MODE_TARGET)
+    obs.color_crop = obs.color_crop[:, :100]
+    with pytest.raises(NoActionError, match="colour crop"):
+        policy.decide(obs)
