@@ -45,20 +45,23 @@ FINGER_MAX_TRAVEL = cell.GRIPPER_MAX_OPENING / 2.0  # inner face distance from t
 PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)
 PALM_MASS = 0.6
 FINGER_MASS = 0.05
-FINGER_FORCE = 30.0  # N per finger
-FINGER_SPEED = 0.25  # m/s per finger
+FINGER_FORCE = 10.0  # N per finger (30 N squeezes light cylinders out through the solver)
+FINGER_SPEED = 0.35  # m/s per finger
 FINGER_LATERAL_FRICTION = 1.2
 FLANGE_TO_TCP = 0.20  # m, UR flange to TCP along the tool axis (coupling + RG2 length)
 CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between the fingers
 
 # Primitive motion.
-APPROACH_HEIGHT = 0.15  # m above the primitive's z where grasps and pushes start and end
-LIFT_HEIGHT = 0.15  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
+APPROACH_HEIGHT = 0.10  # m above the primitive's z where grasps and pushes start and end
+SLOW_ZONE = 0.04  # m above z where descents slow down to CONTACT_SPEED
+LIFT_HEIGHT = 0.12  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
 GRASP_LIFT_SUCCESS = 0.10  # m, issue 3
 MIN_TIP_HEIGHT = 0.005  # m: fingertips never go below table + this (z is clamped up)
 FREE_SPEED = 0.5  # m/s, moves in free space
-CONTACT_SPEED = 0.25  # m/s, descents, pushes and lifts
-CLOSE_SETTLE_STEPS = 60  # steps given to the fingers to close (0.25 s)
+CONTACT_SPEED = 0.25  # m/s, the last SLOW_ZONE of descents, and pushes
+LIFT_SPEED = 0.4  # m/s, lifting a grasped block
+CLOSE_SETTLE_STEPS = 45  # steps given to the fingers to close (0.19 s)
+RETREAT_SETTLE_STEPS = 60  # at most, after a primitive (ends early once every block rests)
 GUARD_FORCE = 15.0  # N: a descent stops when the gripper presses down harder than this
 CARRIER_MAX_FORCE = 500.0  # N, the floating gripper's drive constraint
 

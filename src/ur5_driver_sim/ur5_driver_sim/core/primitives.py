@@ -60,6 +60,13 @@ def clamp_to_workspace(x: float, y: float) -> tuple:
             min(max(y, cell.WORKSPACE_Y[0]), cell.WORKSPACE_Y[1]))
 
 
+def descend(carrier: Carrier, x, y, z, yaw) -> bool:
+    """Guarded descent: fast to SLOW_ZONE above z, then slow; False when stopped on contact."""
+    if not carrier.move_linear((x, y, z + config.SLOW_ZONE), yaw, config.FREE_SPEED, guarded=True):
+        return False
+    return carrier.move_linear((x, y, z), yaw, config.CONTACT_SPEED, guarded=True)
+
+
 def execute_grasp(carrier: Carrier, x, y, z, yaw, body_heights, phase=lambda name, progress: None):
     """Run the grasp motion. body_heights() -> {id: z}. Returns (lifted_id or -1, final opening, message)."""
     z = clamp_tip_height(z)
@@ -70,12 +77,12 @@ def execute_grasp(carrier: Carrier, x, y, z, yaw, body_heights, phase=lambda nam
     carrier.move_fingers(cell.GRIPPER_MAX_OPENING, steps=2)
     before = body_heights()
     phase("descend", 0.3)
-    reached = carrier.move_linear((x, y, z), yaw, config.CONTACT_SPEED, guarded=True)
+    reached = descend(carrier, x, y, z, yaw)
     phase("close", 0.5)
     opening = carrier.move_fingers(0.0)
     phase("lift", 0.7)
     tip = carrier.tcp_position()
-    carrier.move_linear((tip[0], tip[1], z + config.LIFT_HEIGHT), yaw, config.CONTACT_SPEED)
+    carrier.move_linear((tip[0], tip[1], z + config.LIFT_HEIGHT), yaw, config.LIFT_SPEED)
     opening = carrier.opening()
     after = body_heights()
     lifted = [b for b in before if b in after and after[b] - before[b] >= config.GRASP_LIFT_SUCCESS]
@@ -100,7 +107,7 @@ def execute_push(carrier: Carrier, x, y, z, yaw, phase=lambda name, progress: No
     phase("close", 0.2)
     carrier.move_fingers(0.0, steps=2)
     phase("descend", 0.3)
-    reached = carrier.move_linear((x, y, z), yaw, config.CONTACT_SPEED, guarded=True)
+    reached = descend(carrier, x, y, z, yaw)
     tip = carrier.tcp_position()
     phase("push", 0.5)
     carrier.move_linear((end_x, end_y, tip[2]), yaw, config.CONTACT_SPEED)

@@ -268,7 +268,7 @@ class CellWorld:
             self._remove_to_bin(lifted)
         phase("retreat", 0.95)
         self.carrier.go_home()
-        self._settle(120)
+        self._settle(config.RETREAT_SETTLE_STEPS)
         phase("done", 1.0)
         return PrimitiveOutcome(lifted != -1, target, lifted, message)
 
@@ -283,7 +283,7 @@ class CellWorld:
             return self._abort("push cancelled")
         phase("retreat", 0.95)
         self.carrier.go_home()
-        self._settle(120)
+        self._settle(config.RETREAT_SETTLE_STEPS)
         phase("done", 1.0)
         return PrimitiveOutcome(True, message=message or "pushed")
 
