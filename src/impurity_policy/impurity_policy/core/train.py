@@ -1,0 +1,387 @@
+"""Self-supervised training in the fast sim (paper 6.2): sim + heightmap + attention cores called
+directly, no ROS.
+
+One iteration: render -> heightmaps -> attention -> 32 Q maps -> epsilon-greedy action -> sim push or
+grasp -> reward (grasp: a target lifted; push: TCDD of the attended target rose by > delta) -> one DQN
+update on the new transition and `replay_per_step` rank-based replays.
+
+Scenes: random scenario only, each from a seeded scene index. A scene is replaced when every target
+is picked, when attention finds nothing to act on, when the same primitive failed 3 times in a row
+(paper 6.3), or after `max_scene_actions` (a guard against endless shuffling).
+
+Files in run_dir: checkpoint.pt (trainer + loop state, every `checkpoint_every` iterations and at the
+end), replay.pkl (the replay buffer; never committed), log.csv (one row per action), success.png (grasp
+and push success over the last 300 attempts, paper Fig. 9). Restarting with the same run_dir resumes
+from the checkpoint; the interrupted scene is replaced by the next seeded one.
+
+Methods (ablations and baselines; only "ours" is trained by default):
+  ours    attention crops; pushes only at the cluster crop when no target is visible; TCDD push reward
+  no_t    as ours, push reward from scene change (> 300 px changed -> 1, paper 6.3.2)
+  no_oi   no occluded-region inference: without a visible target, the crop centred on the saliency
+          peak, treated as a target crop (push and grasp)
+  no_tsd  no target saliency: the whole 224^2 heightmap is the state (all-one mask)
+  vpg     whole heightmap, change push reward 0.5, any lifted object rewards a grasp (target-agnostic)
+"""
+
+from __future__ import annotations
+
+import csv
+import math
+import pathlib
+import time
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import torch
+
+from impurity_common import cell
+
+from . import tcdd
+from .network import GRASP, PUSH, NetworkConfig
+from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy, allowed_primitives
+from .pose import PoseRules
+from .replay import RankedReplay, Transition
+from .trainer import Trainer, TrainerConfig
+
+TRAIN_FORMAT_VERSION = 1
+METHODS = ("ours", "no_t", "no_oi", "no_tsd", "vpg")
+SCENE_SEED_STRIDE = 1_000_003  # scene index i of run seed s uses sim seed s * stride + i
+CSV_FIELDS = ("iteration", "scene", "scene_step", "mode", "primitive", "rotation", "crop_row", "crop_col",
+              "x", "y", "z", "yaw", "q_value", "explored", "epsilon", "reward", "label", "loss", "td_error",
+              "replay_loss", "alpha_before", "alpha_after", "grasp_lifted", "target_grasped",
+              "targets_remaining", "scene_reset", "seconds", "t_decide", "t_act", "t_sense", "t_learn")
+
+
+@dataclass
+class TrainConfig:
+    run_dir: str = "runs/train"
+    method: str = "ours"
+    iterations: int = 10000  # total (a resumed run continues up to this)
+    seed: int = 0
+    scenario: str = "random"
+    num_targets: int = -1  # -1: the scenario's default
+    num_objects: int = -1
+    replay_per_step: int = 1
+    max_same_failures: int = 3  # paper 6.3: change the scene when the same action fails 3 times
+    max_scene_actions: int = 40
+    checkpoint_every: int = 100
+    plot_every: int = 100
+    plot_window: int = 300
+    replay_capacity: int = 20000
+    threads: int = 2
+    progress: bool = True
+    trainer: TrainerConfig = field(default_factory=TrainerConfig)
+
+    def __post_init__(self):
+        if self.method not in METHODS:
+            raise ValueError(f"unknown method '{self.method}' (expected one of {', '.join(METHODS)})")
+        if self.scenario != "random":
+            raise ValueError("training uses the random scenario only (paper 6.2)")
+
+
+def network_config_for(method: str) -> NetworkConfig:
+    """Full-heightmap methods run the same towers on 224^2 inputs."""
+    return NetworkConfig(crop_size=cell.HEIGHTMAP_SIZE) if method in ("no_tsd", "vpg") else NetworkConfig()
+
+
+# ---- observations per method -----------------------------------------------------------------------
+def observe(method: str, attention, height: np.ndarray, color: np.ndarray) -> Observation:
+    """Attention output -> the policy's input for `method` (see the module docstring)."""
+    if method in ("no_tsd", "vpg"):
+        mode = MODE_NONE if attention.mode == MODE_NONE and not np.any(height > 0.01) else MODE_TARGET
+        return Observation(mode, color, height.astype(np.float32),
+                           np.full(height.shape, 255, np.uint8), (0, 0), height)
+    obs = Observation.from_attention(attention, height)
+    if method == "no_oi" and attention.mode == MODE_OCCLUDED_REGION:
+        from impurity_attention.core.attention import crop_centered
+
+        size = attention.mask.shape[0]
+        peak = np.unravel_index(int(np.argmax(attention.saliency)), attention.saliency.shape)
+        color_crop, origin = crop_centered(color, peak[0], peak[1], size)
+        height_crop, _ = crop_centered(height, peak[0], peak[1], size)
+        obs = Observation(MODE_TARGET, color_crop, height_crop.astype(np.float32),
+                          np.full((size, size), 255, np.uint8), origin, height)
+    return obs
+
+
+def attended_target(obs: Observation, truth, resolution: float = cell.HEIGHTMAP_RESOLUTION) -> int | None:
+    """The target the crop is about: the one nearest the crop centre (sim ground truth)."""
+    targets = [t for t in truth.target_ids if t in truth.poses]
+    if not targets:
+        return None
+    size = obs.mask.shape[0]
+    centre = cell.pixel_to_base(obs.crop_origin[0] + size / 2.0 - 0.5, obs.crop_origin[1] + size / 2.0 - 0.5,
+                                resolution)
+    return min(targets, key=lambda t: math.dist(truth.poses[t][0][:2], centre))
+
+
+def positions(truth) -> dict:
+    return {body: pose[0] for body, pose in truth.poses.items()}
+
+
+# ---- the loop ----------------------------------------------------------------------------------------
+class TrainingRun:
+    """The training loop state; `run()` trains up to config.iterations, resuming when possible."""
+
+    def __init__(self, config: TrainConfig):
+        from impurity_attention.core.attention import AttentionParams
+        from impurity_attention.core.heightmap import HeightmapGrid
+        from ur5_driver_sim.core.world import CellWorld
+
+        torch.set_num_threads(config.threads)
+        self.config = config
+        self.dir = pathlib.Path(config.run_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.checkpoint_path = self.dir / "checkpoint.pt"
+        self.replay_path = self.dir / "replay.pkl"
+        self.log_path = self.dir / "log.csv"
+        self.plot_path = self.dir / "success.png"
+        self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed)
+        self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object)
+        self.replay = RankedReplay(config.replay_capacity)
+        self.rng = np.random.default_rng(config.seed)
+        self.iteration = 0
+        self.scene_index = -1
+        self.grid = HeightmapGrid()
+        self.attention_params = AttentionParams()
+        self.world = CellWorld(mode="floating")
+        self._projector = None
+        self.resumed = self._resume()
+
+    # -- persistence
+    def _resume(self) -> bool:
+        if not self.checkpoint_path.is_file():
+            return False
+        extra = self.trainer.load(self.checkpoint_path)
+        setup = (extra.get("method"), extra.get("train_format_version"))
+        if setup != (self.config.method, TRAIN_FORMAT_VERSION):
+            raise RuntimeError(f"{self.checkpoint_path} is from another training setup (method, format) = "
+                               f"{setup}; use a new --run-dir")
+        self.iteration = int(extra["iteration"])
+        self.scene_index = int(extra["scene_index"])
+        self.rng.bit_generator.state = extra["rng_state"]
+        torch.set_rng_state(extra["torch_rng_state"])
+        if self.replay_path.is_file():
+            self.replay = RankedReplay.load(self.replay_path)
+        return True
+
+    def save(self) -> None:
+        self.replay.save(self.replay_path)  # first: a checkpoint never points at a missing replay
+        self.trainer.save(self.checkpoint_path, extra={
+            "train_format_version": TRAIN_FORMAT_VERSION, "method": self.config.method,
+            "iteration": self.iteration, "scene_index": self.scene_index,
+            "rng_state": self.rng.bit_generator.state, "torch_rng_state": torch.get_rng_state(),
+            "config": {k: v for k, v in asdict(self.config).items() if k != "trainer"}})
+
+    # -- sensing
+    def sense(self):
+        from impurity_attention.core.attention import attend
+        from impurity_attention.core.heightmap import HeightmapProjector
+
+        frame = self.world.render()
+        if self._projector is None:
+            self._projector = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape,
+                                                 self.grid)
+        maps = self._projector.project(frame.color, frame.depth)
+        attention = attend(maps.color, maps.height, self.attention_params, self.grid)
+        obs = observe(self.config.method, attention, maps.height, maps.color)
+        return obs, self.world.ground_truth(frame), maps
+
+    def new_scene(self):
+        self.scene_index += 1
+        seed = self.config.seed * SCENE_SEED_STRIDE + self.scene_index
+        self.world.reset_scene(self.config.scenario, seed=seed, num_targets=self.config.num_targets,
+                               num_objects=self.config.num_objects)
+        self.scene_step, self.failures = 0, {PUSH: 0, GRASP: 0}
+        return self.sense()
+
+    # -- one action
+    def push_reward(self, obs, truth_before, truth_after, maps_before, maps_after) -> tuple:
+        method = self.config.method
+        if method in ("no_t", "vpg"):
+            reward = tcdd.push_reward_change(maps_before.height, maps_after.height)
+            reward = 0.5 if method == "vpg" and reward > 0 else reward
+            return reward, float("nan"), float("nan")
+        outcome = tcdd.tcdd_push_outcome(attended_target(obs, truth_before), positions(truth_before),
+                                         positions(truth_after), cell.in_workspace)
+        return outcome.reward, outcome.alpha_before, outcome.alpha_after
+
+    def run(self) -> dict:
+        config = self.config
+        write_header = not self.log_path.is_file() or self.log_path.stat().st_size == 0
+        log_file = open(self.log_path, "a", newline="")
+        writer = csv.DictWriter(log_file, CSV_FIELDS)
+        if write_header:
+            writer.writeheader()
+        bar = None
+        if config.progress:
+            from tqdm import tqdm
+
+            bar = tqdm(total=config.iterations, initial=self.iteration, desc=f"train {config.method}",
+                       unit="it", dynamic_ncols=True)
+        started, first_iteration = time.perf_counter(), self.iteration
+        obs, truth, maps = self.new_scene()
+        try:
+            while self.iteration < config.iterations:
+                if obs.mode == MODE_NONE or truth.targets_remaining == 0:
+                    obs, truth, maps = self.new_scene()
+                    if obs.mode == MODE_NONE:
+                        continue
+                row, obs, truth, maps = self.step(obs, truth, maps)
+                writer.writerow(row)
+                self.iteration += 1
+                if bar is not None:
+                    bar.update(1)
+                    bar.set_postfix_str(recent_rates(row, self._recent))
+                if self.iteration % config.checkpoint_every == 0:
+                    log_file.flush()
+                    self.save()
+                if self.iteration % config.plot_every == 0:
+                    log_file.flush()
+                    plot_success(self.log_path, self.plot_path, config.plot_window)
+        finally:
+            log_file.close()
+            if bar is not None:
+                bar.close()
+        self.save()
+        plot_success(self.log_path, self.plot_path, config.plot_window)
+        elapsed = time.perf_counter() - started
+        done = self.iteration - first_iteration
+        return {"iterations": self.iteration, "this_run": done, "seconds": elapsed,
+                "iterations_per_second": done / elapsed if elapsed > 0 else 0.0,
+                **summary(self.log_path, config.plot_window)}
+
+    _recent: list = []
+
+    def step(self, obs, truth, maps) -> tuple:
+        config, trainer = self.config, self.trainer
+        t0 = time.perf_counter()
+        epsilon = config.trainer.epsilon(self.iteration)
+        q = trainer.q_maps(obs.state)
+        choice = self.policy.decide(obs, q=q, epsilon=epsilon, rng=self.rng)
+        decision, pose = choice.decision, choice.pose
+        kind = "grasp" if decision.primitive == GRASP else "push"
+        t1 = time.perf_counter()
+        outcome = self.world.execute(kind, pose.x, pose.y, pose.z, pose.yaw)
+        t2 = time.perf_counter()
+        next_obs, next_truth, next_maps = self.sense()
+        t3 = time.perf_counter()
+        alpha_before = alpha_after = float("nan")
+        if decision.primitive == GRASP:
+            lifted = bool(outcome.success)
+            reward = tcdd.grasp_reward(lifted if config.method == "vpg" else bool(outcome.target_grasped))
+        else:
+            lifted = False
+            reward, alpha_before, alpha_after = self.push_reward(obs, truth, next_truth, maps, next_maps)
+        self.scene_step += 1
+        failed = reward <= 0.0
+        self.failures[decision.primitive] = self.failures[decision.primitive] + 1 if failed else 0
+        terminal = next_truth.targets_remaining == 0 or next_obs.mode == MODE_NONE
+        transition = Transition(obs.state, decision.primitive, decision.rotation, decision.pixel, reward,
+                                None if terminal else next_obs.state,
+                                () if terminal else allowed_primitives(next_obs.mode))
+        loss, td_error, label = trainer.update(transition)
+        index = self.replay.add(transition)
+        self.replay.update_priority(index, td_error)
+        replay_loss = self.replay_updates(index, decision.primitive, reward > 0)
+        scene_reset = (terminal or max(self.failures.values()) >= config.max_same_failures
+                       or self.scene_step >= config.max_scene_actions)
+        row = {"iteration": self.iteration + 1, "scene": self.scene_index, "scene_step": self.scene_step,
+               "mode": {MODE_TARGET: "TARGET", MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}.get(obs.mode, "NONE"),
+               "primitive": kind, "rotation": decision.rotation, "crop_row": decision.pixel[0],
+               "crop_col": decision.pixel[1], "x": round(pose.x, 4), "y": round(pose.y, 4),
+               "z": round(pose.z, 4), "yaw": round(pose.yaw, 4), "q_value": round(decision.q_value, 5),
+               "explored": int(decision.explored), "epsilon": round(epsilon, 4), "reward": reward,
+               "label": round(label, 5), "loss": round(loss, 6), "td_error": round(td_error, 5),
+               "replay_loss": "" if replay_loss is None else round(replay_loss, 6),
+               "alpha_before": _round(alpha_before), "alpha_after": _round(alpha_after),
+               "grasp_lifted": int(lifted), "target_grasped": int(bool(outcome.target_grasped)),
+               "targets_remaining": next_truth.targets_remaining, "scene_reset": int(scene_reset),
+               "seconds": round(time.perf_counter() - t0, 3), "t_decide": round(t1 - t0, 3),
+               "t_act": round(t2 - t1, 3), "t_sense": round(t3 - t2, 3),
+               "t_learn": round(time.perf_counter() - t3, 3)}
+        if scene_reset:
+            next_obs, next_truth, next_maps = self.new_scene()
+        return row, next_obs, next_truth, next_maps
+
+    def replay_updates(self, newest: int, primitive: int, positive: bool):
+        """VPG-style: replay the same primitive with the opposite outcome when there is one (else any
+        of that primitive), drawn by rank; the label is recomputed with the current target network."""
+        losses = []
+        for _ in range(self.config.replay_per_step):
+            index = self.replay.sample(self.rng, primitive=primitive, positive=not positive, exclude=newest)
+            if index is None:
+                index = self.replay.sample(self.rng, primitive=primitive, exclude=newest)
+            if index is None:
+                break
+            loss, td_error, _ = self.trainer.update(self.replay.get(index))
+            self.replay.update_priority(index, td_error)
+            losses.append(loss)
+        return float(np.mean(losses)) if losses else None
+
+
+def _round(value: float):
+    return "" if not math.isfinite(value) else round(value, 5)
+
+
+def recent_rates(row: dict, recent: list, window: int = 300) -> str:
+    recent.append((row["primitive"], float(row["reward"]) > 0))
+    del recent[:-window]
+    grasps = [ok for kind, ok in recent if kind == "grasp"]
+    pushes = [ok for kind, ok in recent if kind == "push"]
+    g = f"{100 * np.mean(grasps):.0f}%" if grasps else "-"
+    p = f"{100 * np.mean(pushes):.0f}%" if pushes else "-"
+    return f"grasp {g} push {p} (last {len(recent)})"
+
+
+# ---- log analysis --------------------------------------------------------------------------------------
+def read_log(path) -> list:
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def rolling_success(rows: list, primitive: str, window: int) -> tuple:
+    """(iterations, success rate over the last `window` attempts of `primitive`) after each attempt."""
+    outcomes, its, rates = [], [], []
+    for row in rows:
+        if row["primitive"] != primitive:
+            continue
+        outcomes.append(float(row["reward"]) > 0)
+        its.append(int(row["iteration"]))
+        rates.append(float(np.mean(outcomes[-window:])))
+    return its, rates
+
+
+def summary(path, window: int = 300) -> dict:
+    rows = read_log(path) if pathlib.Path(path).is_file() else []
+    out = {}
+    for primitive in ("grasp", "push"):
+        its, rates = rolling_success(rows, primitive, window)
+        out[f"{primitive}_attempts"] = len(its)
+        out[f"{primitive}_success_last_{window}"] = rates[-1] if rates else float("nan")
+    return out
+
+
+def plot_success(log_path, png_path, window: int = 300) -> None:
+    """Paper Fig. 9: grasp (blue) and push (pink) success over the last `window` attempts."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    rows = read_log(log_path)
+    fig, ax = plt.subplots(figsize=(7, 4))
+    for primitive, colour in (("grasp", "tab:blue"), ("push", "hotpink")):
+        its, rates = rolling_success(rows, primitive, window)
+        if its:
+            ax.plot(its, rates, color=colour, label=f"{primitive} success")
+    ax.set_xlabel("training iteration")
+    ax.set_ylabel(f"success rate (last {window} attempts)")
+    ax.set_ylim(0, 1)
+    ax.grid(alpha=0.3)
+    ax.legend(loc="lower right")
+    fig.tight_layout()
+    tmp = pathlib.Path(png_path).with_suffix(".tmp.png")
+    fig.savefig(tmp, dpi=100)
+    plt.close(fig)
+    tmp.replace(png_path)

@@ -1,0 +1,73 @@
+"""`make train` (python -m impurity_policy.core.train_cli [options]): train the push-grasp policy in the
+fast sim, resumable (same --run-dir), with a progress bar, CSV log and success plot. Then
+`--export PATH` copies the trained network to the shipped checkpoint location."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+from .train import METHODS, TrainConfig, TrainingRun
+from .trainer import Trainer, TrainerConfig, read_checkpoint
+
+SHIPPED_CHECKPOINT = pathlib.Path(__file__).resolve().parents[2] / "checkpoints" / "policy.pt"
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--run-dir", default="runs/train", help="checkpoint, replay, log.csv, success.png")
+    p.add_argument("--method", default="ours", choices=METHODS)
+    p.add_argument("--iterations", type=int, default=10000, help="total iterations (resumed runs continue)")
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--num-targets", type=int, default=-1, help="-1: the random scenario's default")
+    p.add_argument("--num-objects", type=int, default=-1)
+    p.add_argument("--lr", type=float, default=TrainerConfig.learning_rate)
+    p.add_argument("--replay-per-step", type=int, default=1)
+    p.add_argument("--checkpoint-every", type=int, default=100)
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--no-progress", action="store_true")
+    p.add_argument("--export", metavar="PATH", nargs="?", const=str(SHIPPED_CHECKPOINT),
+                   help=f"after training, write the network-only checkpoint (default {SHIPPED_CHECKPOINT})")
+    return p.parse_args(argv)
+
+
+def export_network(checkpoint, path) -> pathlib.Path:
+    """Network-only copy (no optimizer, no loop state): what the policy node loads; small."""
+    data = read_checkpoint(checkpoint)
+    from .network import NetworkConfig
+
+    trainer = Trainer(NetworkConfig.from_dict(data["network_config"]))
+    trainer.online.load_state_dict(data["online"])
+    trainer.target.load_state_dict(data["online"])
+    extra = {k: v for k, v in data.get("extra", {}).items() if k in ("method", "iteration", "config")}
+    state = trainer.state_dict(extra)
+    del state["optimizer"], state["target"]
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    import torch
+
+    torch.save(state, path)
+    return path
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    config = TrainConfig(run_dir=args.run_dir, method=args.method, iterations=args.iterations, seed=args.seed,
+                         num_targets=args.num_targets, num_objects=args.num_objects,
+                         replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
+                         threads=args.threads, progress=not args.no_progress,
+                         trainer=TrainerConfig(learning_rate=args.lr))
+    run = TrainingRun(config)
+    if run.resumed:
+        print(f"resuming {config.run_dir} at iteration {run.iteration}", file=sys.stderr)
+    result = run.run()
+    print(json.dumps(result, indent=2))
+    if args.export:
+        print(f"exported {export_network(run.checkpoint_path, args.export)}", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,59 @@
+"""Training loop end to end in the fast sim: a few iterations, a checkpoint, a resume, the log and plot."""
+
+import csv
+
+import pytest
+import torch
+
+from impurity_policy.core.network import NetworkConfig
+from impurity_policy.core.train import TrainConfig, TrainingRun, network_config_for
+from impurity_policy.core.train_cli import export_network
+from impurity_policy.core.trainer import load_network
+
+pytest.importorskip("ur5_driver_sim.core.world")
+torch.set_num_threads(1)
+
+
+def _rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_training_runs_checkpoints_and_resumes(tmp_path):
+    config = TrainConfig(run_dir=str(tmp_path / "run"), iterations=4, checkpoint_every=2, plot_every=2,
+                         threads=1, progress=False, seed=3)
+    first = TrainingRun(config)
+    assert not first.resumed
+    result = first.run()
+    first.world.close()
+    assert result["iterations"] == 4
+    rows = _rows(tmp_path / "run" / "log.csv")
+    assert [int(r["iteration"]) for r in rows] == [1, 2, 3, 4]
+    assert all(r["primitive"] in ("push", "grasp") and float(r["reward"]) in (0.0, 0.5, 1.0) for r in rows)
+    assert all(r["primitive"] == "push" for r in rows if r["mode"] == "OCCLUDED_REGION")
+    assert (tmp_path / "run" / "success.png").stat().st_size > 0
+
+    config.iterations = 6
+    second = TrainingRun(config)
+    assert second.resumed and second.iteration == 4 and len(second.replay) == 4
+    assert second.run()["this_run"] == 2
+    second.world.close()
+    assert [int(r["iteration"]) for r in _rows(tmp_path / "run" / "log.csv")] == list(range(1, 7))
+
+    shipped = export_network(tmp_path / "run" / "checkpoint.pt", tmp_path / "policy.pt")
+    assert load_network(shipped).config == NetworkConfig()
+    assert shipped.stat().st_size < (tmp_path / "run" / "checkpoint.pt").stat().st_size
+
+
+def test_resume_refuses_another_method(tmp_path):
+    run = TrainingRun(TrainConfig(run_dir=str(tmp_path), iterations=1, threads=1, progress=False))
+    run.save()
+    run.world.close()
+    with pytest.raises(RuntimeError, match="another training setup"):
+        TrainingRun(TrainConfig(run_dir=str(tmp_path), method="no_t", iterations=1, progress=False))
+
+
+def test_full_heightmap_methods_use_224_inputs():
+    assert network_config_for("vpg").crop_size == 224 and network_config_for("ours").crop_size == 112
+    with pytest.raises(ValueError, match="random scenario only"):
+        TrainConfig(scenario="challenging")
