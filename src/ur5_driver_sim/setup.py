@@ -16,5 +16,5 @@ setup(
     maintainer_email="robotics@impurity-cell.dev",
     description="PyBullet UR5 + gripper cell: scenes, primitives, camera, driver node.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": ["sim_cell = ur5_driver_sim.sim_cell:main"]},
 )

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from . import config
+from . import config, ur5_model
 
 
 class MotionCancelled(Exception):
@@ -173,3 +173,7 @@ class FloatingCarrier(Carrier):
 
     def go_home(self):
         self._teleport(self.PARK_POSITION, 0.0, 0.0)
+
+    def joint_positions(self) -> dict:
+        """No arm: report the UR5 parked at home, so /joint_states stays well-formed."""
+        return dict(zip(ur5_model.JOINT_NAMES, ur5_model.HOME_JOINTS, strict=True))

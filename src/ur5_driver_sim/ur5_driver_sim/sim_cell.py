@@ -1,0 +1,285 @@
+"""sim_cell: one process owning the PyBullet cell, standing in for the RealSense camera, the UR driver
+and the gripper driver.
+
+    camera  -> /camera/camera/color/image_raw (rgb8), /camera/camera/aligned_depth_to_color/image_raw
+               (16UC1 mm or 32FC1 m), /camera/camera/color/camera_info   [wall-clock stamps]
+    driver  <- action /ur5/execute_primitive, -> /joint_states (UR joint names)
+    sim     <- /cell/reset_scene, /cell/ground_truth
+
+Thin shell around ur5_driver_sim.core.world.CellWorld. PyBullet is not thread-safe, so one lock
+guards the world: the camera skips a frame while a primitive runs (a real camera would show the arm
+anyway) and resumes as soon as the motion is over, so the first frame after a result is fresh.
+"""
+
+from __future__ import annotations
+
+import threading
+
+import numpy as np
+from geometry_msgs.msg import Pose
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image, JointState
+from std_msgs.msg import Header
+
+from impurity_common import cell
+from impurity_common.conversions import numpy_to_image
+from impurity_common.node_main import spin_node
+from impurity_interfaces.action import ExecutePrimitive
+from impurity_interfaces.msg import Primitive
+from impurity_interfaces.srv import GetGroundTruth, ResetScene
+from ur5_driver_sim.core.camera import CameraModel
+from ur5_driver_sim.core.ur5_model import JOINT_NAMES
+from ur5_driver_sim.core.world import MODES, CellWorld
+
+COLOR_TOPIC = "/camera/camera/color/image_raw"
+DEPTH_TOPIC = "/camera/camera/aligned_depth_to_color/image_raw"
+INFO_TOPIC = "/camera/camera/color/camera_info"
+JOINT_STATES_TOPIC = "/joint_states"
+ACTION_NAME = "/ur5/execute_primitive"
+RESET_SERVICE = "/cell/reset_scene"
+GROUND_TRUTH_SERVICE = "/cell/ground_truth"
+DEPTH_ENCODINGS = ("16UC1", "32FC1")
+MAX_CAMERA_RATE = 30.0
+SERVICE_LOCK_TIMEOUT = 30.0  # s a reset or ground-truth query waits for a running primitive
+KIND_NAMES = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
+
+
+# (name, default, description): every parameter of the node, for bringup/config/cell.yaml.
+PARAMETERS = (
+    ("mode", "arm", "arm: the UR5 (DH model, IK + joint motion) carries the gripper; floating: gripper only"),
+    ("camera_rate", 5.0, f"Camera frames per second, (0, {MAX_CAMERA_RATE}]; a 640x480 render costs ~60 ms"),
+    ("depth_encoding", "16UC1", "Aligned depth encoding: 16UC1 (mm, realsense default) or 32FC1 (m)"),
+    ("depth_noise_std", 0.0, "Gaussian depth noise (m); 0 = none"),
+    ("camera_position", list(cell.CAMERA_POSITION), "Camera optical frame origin in base_link (m)"),
+    ("camera_orientation", list(cell.CAMERA_ORIENTATION),
+     "Camera optical frame orientation in base_link, quaternion [x, y, z, w]"),
+    ("initial_scenario", "random", "Scene built at start: random | challenging | invisible | empty | file"),
+    ("initial_seed", 0, "Seed of the initial scene"),
+    ("initial_scene_file", "", "JSON scene when initial_scenario is file"),
+    ("num_targets", -1, "Targets in the initial scene (-1: scenario default)"),
+    ("num_objects", -1, "Basic blocks in the initial scene (-1: scenario default)"),
+    ("joint_state_rate", 50.0, "/joint_states messages per second"),
+    ("solver_iterations", 20, "PyBullet solver iterations per physics step"),
+)
+
+
+def depth_image(depth_m: np.ndarray, encoding: str) -> np.ndarray:
+    """Metric depth -> the array for the chosen encoding (16UC1: mm, 0 where invalid or too far)."""
+    if encoding == "32FC1":
+        return depth_m.astype(np.float32)
+    mm = np.nan_to_num(depth_m * 1000.0, nan=0.0, posinf=0.0, neginf=0.0)
+    return np.clip(np.rint(mm), 0, 65535).astype(np.uint16)
+
+
+def camera_info_msg(camera: CameraModel, header: Header) -> CameraInfo:
+    info = CameraInfo(header=header, width=camera.width, height=camera.height, distortion_model="plumb_bob")
+    info.d = [0.0] * 5
+    info.k = [float(v) for v in camera.intrinsics.reshape(-1)]
+    info.r = [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0]
+    info.p = [camera.fx, 0.0, camera.cx, 0.0, 0.0, camera.fy, camera.cy, 0.0, 0.0, 0.0, 1.0, 0.0]
+    return info
+
+
+class SimCellNode(Node):
+    def __init__(self):
+        super().__init__("sim_cell")
+        for name, default, description in PARAMETERS:
+            self.declare_parameter(name, default, ParameterDescriptor(description=description))
+
+        mode = self._param("mode")
+        if mode not in MODES:
+            raise ValueError(f"parameter mode must be one of {MODES}, got {mode!r}")
+        self._depth_encoding = self._param("depth_encoding")
+        if self._depth_encoding not in DEPTH_ENCODINGS:
+            raise ValueError(f"parameter depth_encoding must be one of {DEPTH_ENCODINGS}")
+        rate = float(self._param("camera_rate"))
+        if not 0.0 < rate <= MAX_CAMERA_RATE:
+            raise ValueError(f"parameter camera_rate must be in (0, {MAX_CAMERA_RATE}], got {rate}")
+        camera = CameraModel(position=tuple(self._param("camera_position")),
+                             orientation=tuple(self._param("camera_orientation")))
+
+        self._world_lock = threading.Lock()
+        self._busy_lock = threading.Lock()  # guards _busy: one primitive at a time
+        self._busy = False
+        self._world = CellWorld(mode=mode, camera=camera, depth_noise_std=self._param("depth_noise_std"),
+                                solver_iterations=self._param("solver_iterations"))
+        self._joint_snapshot = self._world.joint_positions()
+        self._world.step_hook = self._on_physics_step
+        scenario = self._param("initial_scenario")
+        info = self._world.reset_scene(scenario, seed=self._param("initial_seed"),
+                                       num_targets=self._param("num_targets"),
+                                       num_objects=self._param("num_objects"),
+                                       scene_file=self._param("initial_scene_file") or None)
+        self._joint_snapshot = self._world.joint_positions()
+
+        reliable = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
+        self._color_pub = self.create_publisher(Image, COLOR_TOPIC, reliable)
+        self._depth_pub = self.create_publisher(Image, DEPTH_TOPIC, reliable)
+        self._info_pub = self.create_publisher(CameraInfo, INFO_TOPIC, reliable)
+        self._joint_pub = self.create_publisher(JointState, JOINT_STATES_TOPIC, 10)
+
+        timers = MutuallyExclusiveCallbackGroup()
+        self.create_timer(1.0 / rate, self._publish_frame, callback_group=timers)
+        self.create_timer(1.0 / float(self._param("joint_state_rate")), self._publish_joints,
+                          callback_group=MutuallyExclusiveCallbackGroup())
+        services = MutuallyExclusiveCallbackGroup()
+        self.create_service(ResetScene, RESET_SERVICE, self._on_reset, callback_group=services)
+        self.create_service(GetGroundTruth, GROUND_TRUTH_SERVICE, self._on_ground_truth,
+                            callback_group=services)
+        self._action = ActionServer(
+            self, ExecutePrimitive, ACTION_NAME, execute_callback=self._execute,
+            goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
+            callback_group=ReentrantCallbackGroup())
+        self.get_logger().info(
+            f"ready: mode {mode}, {scenario} scene seed {info.seed} ({info.num_targets} targets, "
+            f"{info.num_objects} blocks), camera {rate:g} Hz {self._depth_encoding}")
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    def destroy_node(self):
+        with self._world_lock:
+            self._world.close()
+        return super().destroy_node()
+
+    # ------------------------------------------------------------------------------------ publishing
+    def _on_physics_step(self, world) -> None:
+        """Runs inside the world (lock held): keep a snapshot for the joint-state timer, cheaply."""
+        if world.steps % 8 == 0:
+            self._joint_snapshot = world.joint_positions()
+
+    def _publish_joints(self) -> None:
+        positions = self._joint_snapshot
+        msg = JointState()
+        msg.header.stamp = self.get_clock().now().to_msg()
+        msg.name = list(JOINT_NAMES)
+        msg.position = [float(positions.get(name, 0.0)) for name in JOINT_NAMES]
+        self._joint_pub.publish(msg)
+
+    def _publish_frame(self) -> None:
+        if not self._world_lock.acquire(blocking=False):
+            return  # a primitive or a reset is running; the next tick after it publishes
+        try:
+            stamp = self.get_clock().now().to_msg()
+            frame = self._world.render()
+        finally:
+            self._world_lock.release()
+        header = Header(stamp=stamp, frame_id=cell.CAMERA_OPTICAL_FRAME)
+        self._color_pub.publish(numpy_to_image(frame.color, "rgb8", header))
+        self._depth_pub.publish(numpy_to_image(depth_image(frame.depth, self._depth_encoding),
+                                               self._depth_encoding, header))
+        self._info_pub.publish(camera_info_msg(self._world.camera, header))
+
+    # ------------------------------------------------------------------------------------ driver
+    def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:
+        primitive = goal.primitive
+        kind = KIND_NAMES.get(primitive.kind, f"kind {primitive.kind}")
+        p = primitive.position
+        reason = self._world.validate_primitive(kind, p.x, p.y, p.z, primitive.yaw)
+        if primitive.header.frame_id not in ("", cell.BASE_FRAME):
+            reason = f"position must be in {cell.BASE_FRAME}, got frame '{primitive.header.frame_id}'"
+        if reason is None:
+            with self._busy_lock:
+                if self._busy:
+                    reason = "busy: another primitive is running"
+                else:
+                    self._busy = True
+        if reason is not None:
+            self.get_logger().warning(f"goal rejected: {reason}")
+            return GoalResponse.REJECT
+        return GoalResponse.ACCEPT
+
+    def _execute(self, goal_handle) -> ExecutePrimitive.Result:
+        primitive = goal_handle.request.primitive
+        kind = KIND_NAMES[primitive.kind]
+        p = primitive.position
+        feedback = ExecutePrimitive.Feedback()
+
+        def phase(name: str, progress: float) -> None:
+            feedback.phase, feedback.progress = name, float(progress)
+            goal_handle.publish_feedback(feedback)
+
+        try:
+            with self._world_lock:
+                self._world.cancel_check = lambda: goal_handle.is_cancel_requested
+                try:
+                    outcome = self._world.execute(kind, p.x, p.y, p.z, float(primitive.yaw), phase)
+                finally:
+                    self._world.cancel_check = None
+                    self._joint_snapshot = self._world.joint_positions()
+        except Exception as error:  # a physics failure must not kill the driver
+            self.get_logger().error(f"{kind} failed: {error!r}")
+            goal_handle.abort()
+            return ExecutePrimitive.Result(success=False, grasped_object_id=-1, message=f"error: {error}",
+                                           finished=self.get_clock().now().to_msg())
+        finally:
+            with self._busy_lock:
+                self._busy = False
+        result = ExecutePrimitive.Result(
+            success=bool(outcome.success), target_grasped=bool(outcome.target_grasped),
+            grasped_object_id=int(outcome.object_id), message=outcome.message,
+            finished=self.get_clock().now().to_msg())
+        if goal_handle.is_cancel_requested:
+            goal_handle.canceled()
+        else:
+            goal_handle.succeed()
+        self.get_logger().info(f"{kind} at ({p.x:.3f}, {p.y:.3f}, {p.z:.3f}) yaw {primitive.yaw:.2f}: "
+                               f"{'ok' if outcome.success else 'failed'} ({outcome.message})")
+        return result
+
+    # ------------------------------------------------------------------------------------ sim services
+    def _on_reset(self, request: ResetScene.Request, response: ResetScene.Response) -> ResetScene.Response:
+        if not self._world_lock.acquire(timeout=SERVICE_LOCK_TIMEOUT):
+            response.success, response.message = False, "busy: a primitive is still running"
+            return response
+        try:
+            info = self._world.reset_scene(request.scenario, seed=int(request.seed),
+                                           num_targets=request.num_targets, num_objects=request.num_objects,
+                                           scene_file=request.scene_file or None)
+            self._joint_snapshot = self._world.joint_positions()
+        except (ValueError, RuntimeError) as error:
+            response.success, response.message = False, str(error)
+            self.get_logger().warning(f"reset refused: {error}")
+            return response
+        finally:
+            self._world_lock.release()
+        response.success = True
+        response.num_targets, response.num_objects = info.num_targets, info.num_objects
+        response.message = (f"{info.scenario} seed {info.seed}: {info.num_targets} targets, "
+                            f"{info.num_objects} blocks in {info.generation_seconds:.2f} s")
+        return response
+
+    def _on_ground_truth(self, _request, response: GetGroundTruth.Response) -> GetGroundTruth.Response:
+        if not self._world_lock.acquire(timeout=SERVICE_LOCK_TIMEOUT):
+            self.get_logger().warning("ground truth: world busy, answering with an empty response")
+            return response
+        try:
+            gt = self._world.ground_truth()
+        finally:
+            self._world_lock.release()
+        response.targets_remaining, response.objects_remaining = gt.targets_remaining, gt.objects_remaining
+        response.targets_removed, response.non_targets_removed = gt.targets_removed, gt.non_targets_removed
+        response.visible_target_pixels = gt.visible_target_pixels
+        response.target_poses = [_pose(*gt.poses[b]) for b in gt.target_ids if b in gt.poses]
+        return response
+
+
+def _pose(position, orientation) -> Pose:
+    pose = Pose()
+    pose.position.x, pose.position.y, pose.position.z = (float(v) for v in position)
+    (pose.orientation.x, pose.orientation.y, pose.orientation.z,
+     pose.orientation.w) = (float(v) for v in orientation)
+    return pose
+
+
+def main(args=None):
+    spin_node(SimCellNode, args=args, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
+
+
+if __name__ == "__main__":
+    main()
