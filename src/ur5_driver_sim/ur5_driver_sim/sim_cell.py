@@ -154,6 +154,8 @@ class SimCellNode(Node):
             self._joint_snapshot = world.joint_positions()
 
     def _publish_joints(self) -> None:
+        if not self.context.ok():
+            return
         positions = self._joint_snapshot
         msg = JointState()
         msg.header.stamp = self.get_clock().now().to_msg()
@@ -162,6 +164,8 @@ class SimCellNode(Node):
         self._joint_pub.publish(msg)
 
     def _publish_frame(self) -> None:
+        if not self.context.ok():
+            return
         if not self._world_lock.acquire(blocking=False):
             return  # a primitive or a reset is running; the next tick after it publishes
         try:
@@ -202,7 +206,8 @@ class SimCellNode(Node):
 
         def phase(name: str, progress: float) -> None:
             feedback.phase, feedback.progress = name, float(progress)
-            goal_handle.publish_feedback(feedback)
+            if self.context.ok():  # not during shutdown
+                goal_handle.publish_feedback(feedback)
 
         try:
             with self._world_lock:
