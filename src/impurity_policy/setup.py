@@ -1,3 +1,5 @@
+import glob
+
 from setuptools import find_packages, setup
 
 package_name = "impurity_policy"
@@ -9,6 +11,8 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
+        # the shipped network (when trained): found by policy_node in a ROS install
+        ("share/" + package_name + "/checkpoints", glob.glob("checkpoints/*.pt")),
     ],
     install_requires=["setuptools"],
     zip_safe=True,
@@ -18,5 +22,6 @@ setup(
     license="Apache-2.0",
     entry_points={"console_scripts": [
         "episode_node = impurity_policy.episode_node:main",
+        "policy_node = impurity_policy.policy_node:main",
     ]},
 )

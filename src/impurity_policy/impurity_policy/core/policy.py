@@ -98,7 +98,9 @@ class Policy:
                             self.grasp_needs_object)
 
     def decide(self, obs: Observation, q: np.ndarray | None = None, epsilon: float = 0.0,
-               rng: np.random.Generator | None = None) -> Choice:
+               rng: np.random.Generator | None = None, grid: dict | None = None) -> Choice:
+        """Best (or epsilon-greedy) action for `obs`; `grid` overrides the heightmap geometry passed
+        to pose.action_pose (resolution, x_min, y_min, table_z) when a message carries its own."""
         validate_observation(obs)
         allowed = allowed_primitives(obs.mode)
         size = obs.mask.shape[0]
@@ -111,7 +113,7 @@ class Policy:
         else:
             decision = best_action(q, masks, allowed)
         pose = action_pose(decision.primitive, decision.rotation, decision.pixel, obs.crop_origin,
-                           obs.height, self.rules)
+                           obs.height, self.rules, **(grid or {}))
         return Choice(decision, pose, q, masks)
 
 
