@@ -1,0 +1,322 @@
+"""Bag core without ROS: typestore, split writer, checked reader (rosbags and mcap readers), replay timing."""
+
+import json
+import pathlib
+
+import pytest
+import yaml
+from mcap.reader import make_reader
+from rosbags.rosbag2 import Writer
+from rosbags.rosbag2.enums import StoragePlugin
+from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+
+from impurity_common.bags import (
+    BagError,
+    BagMessage,
+    BagReader,
+    BagWriter,
+    ReplayTiming,
+    cell_typestore,
+    interface_msg_dir,
+    replay_plan,
+    run_replay,
+)
+
+STRING = "std_msgs/msg/String"
+PRIMITIVE = "impurity_interfaces/msg/Primitive"
+
+
+@pytest.fixture(scope="module")
+def typestore():
+    return cell_typestore()
+
+
+def string_cdr(typestore, text: str) -> bytes:
+    cls = typestore.types[STRING]
+    return bytes(typestore.serialize_cdr(cls(data=text), STRING))
+
+
+def primitive_cdr(typestore, index: int) -> bytes:
+    types = typestore.types
+    header = types["std_msgs/msg/Header"](stamp=types["builtin_interfaces/msg/Time"](sec=index, nanosec=7),
+                                          frame_id="base_link")
+    point = types["geometry_msgs/msg/Point"](x=0.5, y=0.01 * index, z=0.02)
+    msg = types[PRIMITIVE](header=header, kind=1, position=point, yaw=0.39, q_value=0.8,
+                           rotation_index=index % 16, pixel_row=100, pixel_col=110 + index)
+    return bytes(typestore.serialize_cdr(msg, PRIMITIVE))
+
+
+def write_sample_bag(path, typestore, count=30, split_duration_ns=None) -> list[BagMessage]:
+    """Two topics interleaved, 10 ms apart; returns what was written."""
+    written = []
+    with BagWriter(path, typestore, split_duration_ns=split_duration_ns) as writer:
+        writer.add_topic("/chatter", STRING)
+        writer.add_topic("/policy/primitive", PRIMITIVE)
+        for i in range(count):
+            topic, msgtype = ("/chatter", STRING) if i % 2 == 0 else ("/policy/primitive", PRIMITIVE)
+            data = string_cdr(typestore, f"hello {i}") if i % 2 == 0 else primitive_cdr(typestore, i)
+            message = BagMessage(topic, msgtype, 1_700_000_000_000_000_000 + i * 10_000_000, data)
+            writer.write(message.topic, message.timestamp_ns, message.data)
+            written.append(message)
+    return written
+
+
+def read_with_mcap_library(bag: pathlib.Path) -> list[BagMessage]:
+    """Independent of rosbags: the mcap package's own reader over the files metadata.yaml lists."""
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    messages = []
+    for name in metadata["relative_file_paths"]:
+        with open(bag / name, "rb") as stream:
+            reader = make_reader(stream, validate_crcs=True)
+            assert reader.get_header().profile == "ros2"
+            for schema, channel, message in reader.iter_messages(log_time_order=True):
+                assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
+                messages.append(BagMessage(channel.topic, schema.name, message.log_time, bytes(message.data)))
+    return messages
+
+
+# ---------------------------------------------------------------------------------------- types
+def test_our_types_are_registered_with_the_hashes_rosidl_generated(typestore):
+    """Same RIHS01 as the installed .json type descriptions: `ros2 bag` on a ROS install accepts them."""
+    msg_dir = interface_msg_dir()
+    names = sorted(p.stem for p in msg_dir.glob("*.msg"))
+    assert {"Heightmap", "AttentionResult", "Primitive", "EpisodeStep"} <= set(names)
+    for name in names:
+        description = json.loads((msg_dir / f"{name}.json").read_text())
+        expected = description["type_hashes"][0]["hash_string"]
+        assert typestore.hash_rihs01(f"impurity_interfaces/msg/{name}") == expected, name
+    assert "sensor_msgs/msg/Image" in typestore.fielddefs
+
+
+# ---------------------------------------------------------------------------------- round trips
+def test_written_bag_reads_back_with_rosbags_and_the_mcap_library(tmp_path, typestore):
+    bag = tmp_path / "sample"
+    written = write_sample_bag(bag, typestore, count=30, split_duration_ns=100_000_000)
+
+    with BagReader(bag, typestore) as reader:
+        assert reader.message_count == 30
+        assert reader.ros_distro == "jazzy"
+        assert reader.topics["/chatter"].message_count == 15
+        assert reader.topics["/policy/primitive"].msgtype == PRIMITIVE
+        assert (reader.start_ns, reader.end_ns) == (written[0].timestamp_ns, written[-1].timestamp_ns)
+        assert list(reader.messages()) == written
+        assert [m.data for m in reader.messages(["/chatter"])] == [m.data for m in written[::2]]
+
+    assert read_with_mcap_library(bag) == written
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert metadata["version"] == 9 and metadata["storage_identifier"] == "mcap"
+    assert len(metadata["relative_file_paths"]) == 3  # 300 ms of messages in 100 ms splits
+    assert metadata["relative_file_paths"][0] == "sample_0.mcap"
+
+
+def test_messages_deserialize_to_what_was_written(tmp_path, typestore):
+    bag = tmp_path / "sample"
+    write_sample_bag(bag, typestore, count=4)
+    with BagReader(bag, typestore) as reader:
+        decoded = [typestore.deserialize_cdr(m.data, m.msgtype) for m in reader.messages()]
+    assert decoded[0].data == "hello 0"
+    assert decoded[1].pixel_col == 111 and decoded[1].header.frame_id == "base_link"
+
+
+def test_a_writer_that_is_never_closed_leaves_a_valid_bag_of_its_closed_splits(tmp_path, typestore):
+    """What a SIGKILL leaves: the open split is lost, everything before it reads back."""
+    bag = tmp_path / "killed"
+    writer = BagWriter(bag, typestore, split_duration_ns=50)
+    writer.add_topic("/chatter", STRING)
+    for i in range(10):
+        writer.write("/chatter", 1000 + 20 * i, string_cdr(typestore, str(i)))
+    # no close(): 10 messages over 180 ns in 50 ns splits -> splits [0..2], [3..5], [6..8] closed, [9] open
+    with BagReader(bag, typestore) as reader:
+        assert [typestore.deserialize_cdr(m.data, STRING).data for m in reader.messages()] == \
+            [str(i) for i in range(9)]
+    assert len(read_with_mcap_library(bag)) == 9
+
+
+def test_an_empty_recording_is_a_valid_empty_bag(tmp_path, typestore):
+    with BagWriter(tmp_path / "empty", typestore) as writer:
+        writer.add_topic("/chatter", STRING)
+    with BagReader(tmp_path / "empty", typestore) as reader:
+        assert reader.message_count == 0 and list(reader.messages()) == []
+
+
+def test_writer_refusals(tmp_path, typestore):
+    existing = tmp_path / "existing"
+    existing.mkdir()
+    with pytest.raises(BagError, match="already exists"):
+        BagWriter(existing, typestore)
+    with BagWriter(tmp_path / "new", typestore) as writer:
+        with pytest.raises(BagError, match="unknown message type 'my_pkg/msg/Thing'"):
+            writer.add_topic("/thing", "my_pkg/msg/Thing")
+        with pytest.raises(BagError, match="was not added"):
+            writer.write("/chatter", 1, string_cdr(typestore, "x"))
+
+
+# ---------------------------------------------------------------------------------- broken bags
+@pytest.fixture
+def sample_bag(tmp_path, typestore) -> pathlib.Path:
+    bag = tmp_path / "sample"
+    write_sample_bag(bag, typestore, count=20)
+    return bag
+
+
+def drop_checksums(bag: pathlib.Path) -> None:
+    """As if the bag came from another recorder: no SHA-256 to compare with."""
+    path = bag / "metadata.yaml"
+    metadata = yaml.safe_load(path.read_text())
+    metadata["rosbag2_bagfile_information"]["custom_data"] = None
+    path.write_text(yaml.safe_dump(metadata))
+
+
+def test_missing_bag_and_not_a_directory(tmp_path, sample_bag):
+    with pytest.raises(BagError, match="does not exist"):
+        BagReader(tmp_path / "nowhere")
+    with pytest.raises(BagError, match="is a file"):
+        BagReader(sample_bag / "sample_0.mcap")
+
+
+def test_missing_and_invalid_metadata(sample_bag):
+    metadata = sample_bag / "metadata.yaml"
+    good = metadata.read_text()
+    metadata.write_text("rosbag2_bagfile_information: [unclosed")
+    with pytest.raises(BagError, match="cannot be opened.*YAML"):
+        BagReader(sample_bag)
+    metadata.write_text(good.replace("relative_file_paths", "relative_paths"))
+    with pytest.raises(BagError, match="cannot be opened.*relative_file_paths"):
+        BagReader(sample_bag)
+    metadata.unlink()
+    with pytest.raises(BagError, match="has no metadata.yaml"):
+        BagReader(sample_bag)
+
+
+def test_missing_storage_file(sample_bag):
+    (sample_bag / "sample_0.mcap").unlink()
+    with pytest.raises(BagError, match="missing"):
+        BagReader(sample_bag)
+
+
+@pytest.mark.parametrize("keep_checksums", [True, False])
+def test_truncated_mcap_file(sample_bag, keep_checksums):
+    if not keep_checksums:
+        drop_checksums(sample_bag)
+    storage = sample_bag / "sample_0.mcap"
+    data = storage.read_bytes()
+    storage.write_bytes(data[: len(data) // 2])
+    with pytest.raises(BagError, match="cannot be opened.*end magic"):
+        BagReader(sample_bag)
+
+
+def test_corrupted_bytes_are_caught_by_the_checksum(sample_bag):
+    storage = sample_bag / "sample_0.mcap"
+    data = bytearray(storage.read_bytes())
+    data[len(data) // 3] ^= 0xFF  # one flipped byte inside a message: invisible to MCAP's structure
+    storage.write_bytes(bytes(data))
+    with pytest.raises(BagError, match="sample_0.mcap is corrupted"):
+        BagReader(sample_bag)
+
+
+def test_corrupted_structure_without_checksums(sample_bag):
+    drop_checksums(sample_bag)
+    storage = sample_bag / "sample_0.mcap"
+    data = bytearray(storage.read_bytes())
+    data[:8] = b"NOTMCAP!"
+    storage.write_bytes(bytes(data))
+    with pytest.raises(BagError, match="cannot be opened.*magic"):
+        BagReader(sample_bag)
+
+
+def test_unknown_message_type_in_a_bag(tmp_path, typestore):
+    foreign = get_typestore(Stores.ROS2_JAZZY)
+    foreign.register(get_types_from_msg("int32 value", "other_pkg/msg/Gadget"))
+    bag = tmp_path / "foreign"
+    with Writer(bag, version=9, storage_plugin=StoragePlugin.MCAP) as writer:
+        connection = writer.add_connection("/gadget", "other_pkg/msg/Gadget", typestore=foreign)
+        writer.write(connection, 5, b"\x00\x01\x00\x00\x07\x00\x00\x00")
+    with pytest.raises(BagError, match="unknown message type 'other_pkg/msg/Gadget' on topic /gadget"):
+        BagReader(bag, typestore)
+    with BagReader(bag) as reader:  # without a typestore, only the structure is checked
+        assert reader.message_count == 1
+
+
+# ---------------------------------------------------------------------------------------- replay
+def stamped(*times_ms) -> list[BagMessage]:
+    return [BagMessage("/t", STRING, 1_000_000_000 + int(t * 1e6), b"") for t in times_ms]
+
+
+def reader_of(messages):
+    return lambda start_ns: [m for m in messages if m.timestamp_ns >= start_ns]
+
+
+def dues(plan, limit=100):
+    out = []
+    for due, _ in plan:
+        out.append(round(due, 6))
+        if len(out) >= limit:
+            break
+    return out
+
+
+def test_original_timing_scaled_by_rate():
+    messages = stamped(0, 100, 300)
+    bag_start = messages[0].timestamp_ns
+    assert dues(replay_plan(reader_of(messages), bag_start, ReplayTiming())) == [0.0, 0.1, 0.3]
+    assert dues(replay_plan(reader_of(messages), bag_start, ReplayTiming(rate=2.0))) == [0.0, 0.05, 0.15]
+
+
+def test_start_offset_skips_the_beginning_and_loop_repeats_from_the_offset():
+    messages = stamped(0, 100, 300)
+    plan = replay_plan(reader_of(messages), messages[0].timestamp_ns,
+                       ReplayTiming(start_offset=0.1, loop=True))
+    assert dues(plan, limit=6) == [0.0, 0.2, 0.2, 0.4, 0.4, 0.6]
+
+
+def test_as_fast_as_possible_is_all_due_at_once():
+    messages = stamped(0, 100, 300)
+    plan = replay_plan(reader_of(messages), messages[0].timestamp_ns, ReplayTiming(as_fast_as_possible=True))
+    assert dues(plan) == [0.0, 0.0, 0.0]
+
+
+def test_looping_an_empty_selection_ends():
+    messages = stamped(0, 100)
+    timing = ReplayTiming(start_offset=5.0, loop=True)
+    plan = replay_plan(reader_of(messages), messages[0].timestamp_ns, timing)
+    assert dues(plan) == []
+
+
+@pytest.mark.parametrize("bad", [dict(rate=0.0), dict(rate=-1.0), dict(rate=float("nan")),
+                                 dict(start_offset=-1.0)])
+def test_bad_timing_is_refused(bad):
+    with pytest.raises(ValueError):
+        ReplayTiming(**bad)
+
+
+class FakeClock:
+    def __init__(self):
+        self.now = 100.0
+
+    def __call__(self):
+        return self.now
+
+    def sleep(self, seconds):
+        assert seconds > 0
+        self.now += seconds
+
+
+def test_run_replay_publishes_each_message_when_due():
+    clock = FakeClock()
+    published = []
+    messages = stamped(0, 100, 300)
+    plan = replay_plan(reader_of(messages), messages[0].timestamp_ns, ReplayTiming(rate=0.5))
+    count = run_replay(plan, lambda m: published.append((round(clock.now - 100.0, 6), m)),
+                       clock=clock, sleep=clock.sleep)
+    assert count == 3
+    assert published == [(0.0, messages[0]), (0.2, messages[1]), (0.6, messages[2])]
+
+
+def test_run_replay_stops_promptly_when_asked():
+    clock = FakeClock()
+    published = []
+    messages = stamped(0, 100, 10_000)
+    plan = replay_plan(reader_of(messages), messages[0].timestamp_ns, ReplayTiming(loop=True))
+    count = run_replay(plan, published.append, should_stop=lambda: clock.now > 100.5,
+                       clock=clock, sleep=clock.sleep, max_sleep=0.05)
+    assert count == 2 and clock.now < 100.6
