@@ -53,8 +53,36 @@ def scene_list(split: str) -> list:
     return scenes
 
 
-def collect(split: str, limit: int | None = None) -> list:
-    path = CACHE / f"{split}.npz"
+def patch_prism_winding() -> bool:
+    """Workaround for a simulator defect (reported, not fixed here): ur5_driver_sim's prism mesh has
+    its triangles wound inward, so the renderer culls the outside and the camera sees the prism's
+    inside - table-level depth and a darkened colour. When (and only when) the mesh is inward, reverse
+    its winding in this process. Returns whether it patched."""
+    from ur5_driver_sim.core import shapes
+
+    vertices, indices = shapes._prism_mesh((0.045, 0.05, 0.035))
+    points = np.array(vertices)
+    centre = points.mean(axis=0)
+    outward = 0.0
+    for t in range(0, len(indices), 3):
+        a, b, c = points[indices[t]], points[indices[t + 1]], points[indices[t + 2]]
+        outward += np.sign(np.cross(b - a, c - a) @ ((a + b + c) / 3 - centre))
+    if outward >= 0:
+        return False
+    original = shapes._prism_mesh
+
+    def outward_prism(dims):
+        mesh_vertices, mesh_indices = original(dims)
+        flipped = [i for t in range(0, len(mesh_indices), 3)
+                   for i in (mesh_indices[t], mesh_indices[t + 2], mesh_indices[t + 1])]
+        return mesh_vertices, flipped
+
+    shapes._prism_mesh = outward_prism
+    return True
+
+
+def collect(split: str, limit: int | None = None, cache_suffix: str = "") -> list:
+    path = CACHE / f"{split}{cache_suffix}.npz"
     wanted = scene_list(split)[:limit] if limit else scene_list(split)
     cached = {}
     if path.exists():
@@ -237,13 +265,20 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
     parser.add_argument("--verbose", action="store_true", help="list every miss")
+    parser.add_argument("--patch-prism-winding", action="store_true",
+                        help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
     params = AttentionParams()
+    suffix = ""
+    if args.patch_prism_winding:
+        patched = patch_prism_winding()
+        suffix = "_prismfix" if patched else ""
+        print("prism mesh winding patched in this process" if patched else "prism mesh already outward")
 
     if args.action == "gallery":
         gallery(params)
         return
-    records = collect(args.split if args.action != "sweep" else "tuning", args.limit)
+    records = collect(args.split if args.action != "sweep" else "tuning", args.limit, suffix)
     print(f"{len(records)} {args.split if args.action != 'sweep' else 'tuning'} scenes")
     if args.action == "sweep":
         sweep(records)
