@@ -18,7 +18,7 @@ def world():
     w.close()
 
 
-def _write_single_block(tmp_path, seed):
+def write_single_block(tmp_path, seed):
     """One block of a seed-chosen shape at a seeded pose; returns (scene file, shape, dims)."""
     rng = np.random.default_rng(seed)
     shape = SHAPES[seed % len(SHAPES)]
@@ -99,7 +99,7 @@ def test_render_contract(world):
 def test_oracle_grasp_on_isolated_block_floating(world, tmp_path):
     successes = 0
     for seed in range(20):
-        path, shape, dims = _write_single_block(tmp_path, seed)
+        path, shape, dims = write_single_block(tmp_path, seed)
         world.reset_scene("file", scene_file=str(path))
         out = oracle_grasp(world, shape, dims)
         successes += out.success and out.target_grasped

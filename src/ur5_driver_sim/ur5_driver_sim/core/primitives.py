@@ -17,7 +17,7 @@ from .gripper import Carrier, MotionCancelled
 GRASP = "grasp"
 PUSH = "push"
 KINDS = (GRASP, PUSH)
-MAX_Z = 0.30  # m: primitives higher than this above the table make no sense in the paper's action space
+MAX_Z = 0.15  # m above the table: blocks are < 0.1 m; higher starts would leave the arm's reach
 Z_BELOW_TABLE_TOLERANCE = 0.002  # m: heightmap noise may put z a hair under the table
 
 

@@ -13,8 +13,8 @@ import numpy as np
 from . import config, ur5_model
 from .gripper import Carrier
 
-SAFE_HEIGHT = 0.30  # m: joint-space moves only above this TCP height
-TRACKING_TOLERANCE = 0.01  # rad: a joint-space move ends when every joint is this close
+SAFE_HEIGHT = 0.25  # m: joint-space moves only above this TCP height (reachable over all the workspace)
+TRACKING_TOLERANCE = 0.0005  # rad: a move ends when every joint is this close (0.3 mm at the TCP)
 MAX_SETTLE_STEPS = 120  # after a trajectory, steps allowed for the joints to catch up
 POSITION_GAIN = 0.4
 VELOCITY_GAIN = 1.0
@@ -115,16 +115,9 @@ class ArmCarrier(Carrier):
         current = ur5_model.tcp_pose(self.q)[:3, 3]
         if current[2] < SAFE_HEIGHT - 0.01:  # never sweep in joint space through the clutter
             self.move_linear((current[0], current[1], SAFE_HEIGHT), self.yaw, config.FREE_SPEED)
-        self.move_joints(ur5_model.ik(high, yaw, self._ik_seed_above(high)))
+        self.move_joints(ur5_model.ik(high, yaw, ur5_model.seed_towards(high)))
         self.yaw = yaw
         self.move_linear(position, yaw, config.FREE_SPEED)
-
-    def _ik_seed_above(self, position) -> np.ndarray:
-        """Seed for the pose above an action: home turned towards it (keeps the elbow up)."""
-        seed = np.array(ur5_model.HOME_JOINTS)
-        home_azimuth = math.atan2(ur5_model.HOME_TCP[1], ur5_model.HOME_TCP[0])
-        seed[0] += math.atan2(position[1], position[0]) - home_azimuth
-        return seed
 
     def go_home(self):
         current = ur5_model.tcp_pose(self.q)[:3, 3]

@@ -104,6 +104,14 @@ def ik(position, yaw: float, seed, max_iterations: int = 100, tolerance: float =
                   f"(residual {np.linalg.norm(error):.4f})")
 
 
+def seed_towards(position) -> np.ndarray:
+    """IK seed for a pose over the table: the home configuration turned towards the position (keeps
+    the elbow up and the wrist on the same branch)."""
+    seed = np.array(HOME_JOINTS)
+    seed[0] += math.atan2(position[1], position[0]) - math.atan2(HOME_TCP[1], HOME_TCP[0])
+    return seed
+
+
 def nearest_equivalent_yaw(yaw: float, current_yaw: float) -> float:
     """A parallel gripper looks the same turned by pi: pick the yaw closest to the current one so the
     wrist never spins more than a quarter turn."""

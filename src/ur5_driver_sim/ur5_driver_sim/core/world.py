@@ -26,10 +26,12 @@ from .camera import CameraFrame, CameraModel
 from .gripper import FloatingCarrier, MotionCancelled
 from .primitives import GRASP, PUSH, PrimitiveOutcome, execute_grasp, execute_push, validate_primitive
 from .shapes import BlockSpec, spawn_block
+from .ur5_model import IKError
 
 MODES = ("floating", "arm")
 MAX_SCENE_ATTEMPTS = 12
 FALLEN_Z = cell.TABLE_Z - 0.05  # below this a block has left the table
+ABORT_RETREAT_MAX_Z = 0.25  # m: an aborted primitive lifts the gripper at most this high (arm reach)
 
 
 @dataclass
@@ -262,6 +264,8 @@ class CellWorld:
             lifted, _, message = execute_grasp(self.carrier, x, y, z, yaw, self._body_heights, phase)
         except MotionCancelled:
             return self._abort("grasp cancelled")
+        except IKError as error:
+            return self._abort(f"grasp unreachable: {error}")
         target = lifted != -1 and self.specs[lifted].is_target
         if lifted != -1:
             phase("bin", 0.9)
@@ -281,6 +285,8 @@ class CellWorld:
             message = execute_push(self.carrier, x, y, z, yaw, phase)
         except MotionCancelled:
             return self._abort("push cancelled")
+        except IKError as error:
+            return self._abort(f"push unreachable: {error}")
         phase("retreat", 0.95)
         self.carrier.go_home()
         self._settle(config.RETREAT_SETTLE_STEPS)
@@ -288,13 +294,14 @@ class CellWorld:
         return PrimitiveOutcome(True, message=message or "pushed")
 
     def _abort(self, message: str) -> PrimitiveOutcome:
-        """After a cancel: open the fingers and leave upwards, without further cancel checks."""
+        """After a cancel or an unreachable pose: open the fingers, leave upwards and park, without further
+        cancel checks (a second cancel must not leave the gripper in the clutter)."""
         check, self.cancel_check = self.cancel_check, None
         try:
             self.carrier.move_fingers(cell.GRIPPER_MAX_OPENING, steps=30)
             tip = self.carrier.tcp_position()
-            self.carrier.move_linear((tip[0], tip[1], tip[2] + config.APPROACH_HEIGHT), self.carrier.yaw,
-                                     config.CONTACT_SPEED)
+            up = max(tip[2], min(tip[2] + config.APPROACH_HEIGHT, ABORT_RETREAT_MAX_Z))
+            self.carrier.move_linear((tip[0], tip[1], up), self.carrier.yaw, config.CONTACT_SPEED)
             self.carrier.go_home()
         finally:
             self.cancel_check = check
