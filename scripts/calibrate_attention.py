@@ -129,6 +129,9 @@ def print_summary(verdicts, times=None) -> dict:
         what, aim = aims[category]
         print(f"{category:12s} {entry['scenes']:4d} scenes  {what}: {entry['successes']}/{entry['scenes']} = "
               f"{100 * entry['rate']:.1f} %  (aim {aim})  modes {entry['modes']}")
+        if "mask_precision_mean" in entry:
+            print(f"{'':12s} target mask on targets: mean {100 * entry['mask_precision_mean']:.1f} %, "
+                  f"worst {100 * entry['mask_precision_min']:.1f} %")
     groups = {}
     for v in verdicts:
         groups.setdefault((v.scenario, v.category), []).append(v.success)
@@ -215,6 +218,12 @@ def gallery(params: AttentionParams) -> None:
         cv2.putText(image, label, (4, 218), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
         return image
 
+    def crop_tile(output):
+        canvas = np.zeros((224, 224, 3), np.uint8)
+        canvas[:112, 56:168] = output.color_crop
+        canvas[112:, 56:168] = output.mask[..., None]
+        return canvas
+
     def heat(values):
         colored = cv2.applyColorMap((normalised(values) * 255).astype(np.uint8), cv2.COLORMAP_JET)
         return cv2.cvtColor(colored, cv2.COLOR_BGR2RGB)
@@ -225,34 +234,35 @@ def gallery(params: AttentionParams) -> None:
                                                      keep_frame=True)
         output = attend(record.color, record.height, params)
         camera = cv2.resize(frame.color, (298, 224), interpolation=cv2.INTER_AREA)[:, 37:261]
-        mask_rgb = np.repeat(output.mask[..., None], 3, axis=2)
-        crops = np.concatenate([output.color_crop, mask_rgb], axis=0)
         rows.append(np.concatenate([
             tile(camera, f"camera ({scenario}, {targets} targets)"), tile(record.color, "colour heightmap"),
             tile(heat(output.saliency), "VOCUS2 saliency"), tile(debug_image(record.color, output),
                                                                  f"{output.mode.name} {output.score:.3f}"),
-            tile(crops, "crop + mask (112 px)")], axis=1))
+            tile(crop_tile(output), "crop + mask (112 px)")], axis=1))
     picture = np.concatenate(rows, axis=0)
     cv2.imwrite(str(IMAGES / "attention_saliency.png"), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
 
-    record, frame = evaluation.record_from_world(world, "invisible", 1501, 2, NUM_OBJECTS, keep_frame=True)
+    record, frame = evaluation.record_from_world(world, "invisible", 1513, 2, NUM_OBJECTS, keep_frame=True)
     output = attend(record.color, record.height, params)
     clusters = find_clusters(record.height, 0.002, params.density)
     palette = np.random.default_rng(0).integers(60, 255, (len(clusters) + 1, 3)).astype(np.uint8)
     labels = np.zeros_like(record.color)
-    for i, cluster in enumerate(clusters):
-        labels[cluster.mask] = palette[i]
+    for i, cluster in enumerate(clusters):  # clusters too low or small to hide anything: grey
+        labels[cluster.mask] = palette[i] if cluster.passes else (90, 90, 90)
+    if output.cluster is not None:
+        contours, _ = cv2.findContours(output.cluster.mask.astype(np.uint8), cv2.RETR_EXTERNAL,
+                                       cv2.CHAIN_APPROX_SIMPLE)
+        cv2.drawContours(labels, contours, -1, (255, 255, 255), 2)
     for r, c in record.target_cells:
         cv2.drawMarker(labels, (int(c), int(r)), (255, 0, 0), cv2.MARKER_CROSS, 12, 2)
     height_grey = (np.clip(record.height / 0.1, 0, 1) * 255).astype(np.uint8)
     height_image = cv2.cvtColor(height_grey, cv2.COLOR_GRAY2RGB)
     camera = cv2.resize(frame.color, (298, 224), interpolation=cv2.INTER_AREA)[:, 37:261]
-    crops = np.concatenate([output.color_crop, np.repeat(output.mask[..., None], 3, axis=2)], axis=0)
     picture = np.concatenate([
         tile(camera, "camera (invisible)"), tile(height_image, "height 0-10 cm"),
-        tile(labels, "DBSCAN clusters (x = hidden target)"),
+        tile(labels, "clusters; + hidden target"),
         tile(debug_image(record.color, output), output.mode.name),
-        tile(crops, "crop + all-one mask")], axis=1)
+        tile(crop_tile(output), "crop + all-one mask")], axis=1)
     cv2.imwrite(str(IMAGES / "attention_dbscan.png"), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
     world.close()
     print(f"wrote {IMAGES / 'attention_saliency.png'} and {IMAGES / 'attention_dbscan.png'}")

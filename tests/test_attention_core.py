@@ -118,6 +118,10 @@ def test_visible_impurity_is_the_target(seed):
     assert out.color_crop.shape == (112, 112, 3) and out.height_crop.shape == (112, 112)
     assert out.mask.dtype == np.uint8 and out.mask.max() == 255 and out.mask[56, 56] == 255
     assert out.center_xy == pytest.approx(att.HeightmapGrid().pixel_to_base(*out.center))
+    impurity = maps.labels == IMPURITY_LABEL_OFFSET + 1
+    covered = np.count_nonzero(out.target_mask & impurity) / np.count_nonzero(impurity)
+    precise = np.count_nonzero(out.target_mask & impurity) / np.count_nonzero(out.target_mask)
+    assert covered > 0.9 and precise > 0.95  # the whole impurity, not just its most salient part
 
 
 @pytest.mark.parametrize("seed", range(4))

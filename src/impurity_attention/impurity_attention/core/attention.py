@@ -1,7 +1,8 @@
 """The attention module (paper Algorithm 1) on one colour + height map pair.
 
     salient regions m_0..m_k <- VOCUS2 saliency of the colour heightmap
-    if the best region m_t is contrasted enough:  TARGET, 112 x 112 crops centred on m_t, mask = m_t
+    if the best region m_t is contrasted enough:  TARGET, 112 x 112 crops centred on the target, mask =
+                                                  m_t grown to the whole target object
     elif DBSCAN finds a cluster c_t that can hide something:  OCCLUDED_REGION, crops centred on c_t,
                                                               all-one mask
     else:  NONE (no visible impurity and nowhere one could hide)
@@ -59,6 +60,9 @@ class AttentionParams:
     # mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99): targets >= 0.053,
     # scenes without impurity <= 0.018; 0.03 is about their geometric mean (1.7x margin either side).
     min_target_contrast: float = 0.03
+    # The target mask: object cells connected to m_t whose shading-free chroma (RG, BY divided by
+    # intensity) lies within this distance of m_t's. 0 = the salient region itself.
+    mask_chroma_tolerance: float = 0.5
 
     def __post_init__(self):
         if self.crop_size < 2 or self.crop_size % 2:
@@ -91,7 +95,8 @@ class AttentionOutput:
     saliency: np.ndarray  # (rows, cols) float32, the full saliency map
     regions: list = field(default_factory=list)  # SalientRegion, best first
     clusters: list = field(default_factory=list)  # Cluster, best first (empty when not computed)
-    target_region: SalientRegion | None = None
+    target_region: SalientRegion | None = None  # m_t, the salient region
+    target_mask: np.ndarray | None = None  # (rows, cols) bool: m_t grown to the whole target object(s)
     cluster: Cluster | None = None
     reason: str = ""  # one line: why this mode
 
@@ -151,6 +156,28 @@ def salient_regions(saliency: np.ndarray, objects: np.ndarray, params: Attention
     return regions
 
 
+def chroma(color: np.ndarray) -> np.ndarray:
+    """(H, W, 2): opponent RG and BY divided by intensity - the same for a lit and a shaded face of
+    one object, different for objects of different colour."""
+    planes = opponent_colour(color)
+    return planes[..., 1:] / np.maximum(planes[..., :1], 0.05)
+
+
+def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
+                     tolerance: float) -> np.ndarray:
+    """The whole object(s) behind a salient region: object cells of the region's chroma, connected
+    to the region. The salient region alone is often just the most contrasted part of a target."""
+    if tolerance <= 0:
+        return region.mask
+    values = chroma(color)
+    reference = np.median(values[region.mask], axis=0)
+    similar = objects & (np.linalg.norm(values - reference, axis=2) <= tolerance)
+    similar |= region.mask
+    count, labels = cv2.connectedComponents(similar.astype(np.uint8), connectivity=8)
+    touched = np.unique(labels[region.mask])
+    return np.isin(labels, touched[touched > 0])
+
+
 def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
            grid: HeightmapGrid = HeightmapGrid()) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
@@ -160,8 +187,10 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
     if best is not None and best.score >= params.min_target_contrast:
-        return _output(AttentionMode.TARGET, best.score, best.centroid, color, height, saliency, params,
-                       grid, regions=regions, target_region=best, mask_cells=best.mask,
+        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance)
+        rows, cols = np.nonzero(target_cells)
+        return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
+                       params, grid, regions=regions, target_region=best, mask_cells=target_cells,
                        reason=f"salient region of {best.area} px, contrast {best.score:.4f}")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
@@ -196,7 +225,8 @@ def _output(mode, score, centroid, color, height, saliency, params, grid, region
         mode=mode, score=float(score), center=(center_row, center_col),
         center_xy=grid.pixel_to_base(center_row, center_col), crop_origin=origin,
         color_crop=color_crop, height_crop=height_crop.astype(np.float32), mask=mask, saliency=saliency,
-        regions=list(regions), clusters=list(clusters), target_region=target_region, cluster=cluster,
+        regions=list(regions), clusters=list(clusters), target_region=target_region,
+        target_mask=mask_cells if mode == AttentionMode.TARGET else None, cluster=cluster,
         reason=reason)
 
 
@@ -211,8 +241,8 @@ def debug_image(color: np.ndarray, output: AttentionOutput, alpha: float = 0.5) 
     heat = cv2.cvtColor(heat, cv2.COLOR_BGR2RGB)
     picture = cv2.addWeighted(color, 1.0 - alpha, heat, alpha, 0.0)
     outline = None
-    if output.target_region is not None:
-        outline = output.target_region.mask
+    if output.target_mask is not None:
+        outline = output.target_mask
     elif output.cluster is not None:
         outline = output.cluster.mask
     if outline is not None:

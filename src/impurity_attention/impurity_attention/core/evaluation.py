@@ -6,8 +6,9 @@ heightmap coordinates: the segmentation image goes through the same projection a
 poses give the cells of targets that no camera pixel sees.
 
 Verdicts, per scene category:
-- visible: some target shows at least MIN_VISIBLE_CELLS cells; success = mode TARGET and the chosen
-  salient region m_t overlaps a target's cells.
+- visible: some target shows at least MIN_VISIBLE_CELLS cells; success = mode TARGET and the target
+  mask (m_t grown to its object) overlaps a target's cells; the detail says which share of the mask
+  lies on targets (its precision).
 - no_impurity: no target in the scene; a false alarm = mode TARGET.
 - invisible: no target cell visible; success = mode OCCLUDED_REGION and the chosen cluster contains a
   hidden target's centre cell (a TARGET that lands on a target also finds it, counted apart).
@@ -68,6 +69,7 @@ class Verdict:
     score: float
     success: bool
     detail: str
+    mask_precision: float | None = None  # visible scenes in TARGET mode: share of the mask on targets
 
     def as_dict(self) -> dict:
         return asdict(self)
@@ -81,8 +83,8 @@ def judge(record: SceneRecord, output: AttentionOutput) -> Verdict:
     elif category == "visible":
         hit = 0
         if mode == AttentionMode.TARGET:
-            hit = int(np.count_nonzero(output.target_region.mask & record.visible_target_cells))
-        success, detail = hit > 0, f"{hit} region cells on a target"
+            hit = int(np.count_nonzero(output.target_mask & record.visible_target_cells))
+        success, detail = hit > 0, f"{hit} mask cells on a target"
     elif category == "no_impurity":
         false_alarm = mode == AttentionMode.TARGET
         success, detail = not false_alarm, "false alarm" if false_alarm else "ok"
@@ -93,13 +95,17 @@ def judge(record: SceneRecord, output: AttentionOutput) -> Verdict:
             mask = output.cluster.mask
             inside = [bool(mask[r, c]) for r, c in record.target_cells if 0 <= r < rows and 0 <= c < cols]
         found_by_target = (mode == AttentionMode.TARGET
-                           and np.any(output.target_region.mask & record.visible_target_cells))
+                           and np.any(output.target_mask & record.visible_target_cells))
         success = any(inside)
         detail = (f"cluster holds {sum(inside)}/{len(record.target_cells)} hidden targets"
                   if mode == AttentionMode.OCCLUDED_REGION else
                   ("TARGET on a barely visible target" if found_by_target else "no cluster on a target"))
+    precision = None
+    if category == "visible" and mode == AttentionMode.TARGET:
+        precision = float(np.count_nonzero(output.target_mask & record.visible_target_cells)
+                          / max(1, np.count_nonzero(output.target_mask)))
     return Verdict(record.scenario, record.seed, category, mode.name, float(output.score), bool(success),
-                   detail)
+                   detail, precision)
 
 
 def summarize(verdicts) -> dict:
@@ -112,6 +118,10 @@ def summarize(verdicts) -> dict:
         successes = sum(v.success for v in chosen)
         entry = {"scenes": len(chosen), "successes": successes, "rate": successes / len(chosen),
                  "modes": {m: sum(v.mode == m for v in chosen) for m in MODE_NAMES}}
+        precisions = [v.mask_precision for v in chosen if v.mask_precision is not None]
+        if precisions:
+            entry["mask_precision_mean"] = float(np.mean(precisions))
+            entry["mask_precision_min"] = float(np.min(precisions))
         if category == "no_impurity":
             entry["target_rate"] = entry["modes"]["TARGET"] / len(chosen)
         summary[category] = entry
