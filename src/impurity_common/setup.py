@@ -14,7 +14,10 @@ setup(
     zip_safe=True,
     maintainer="Impurity cell team",
     maintainer_email="robotics@impurity-cell.dev",
-    description="Cell geometry constants, message conversions and the node main idiom.",
+    description="Cell geometry constants, message conversions, the node main idiom, bag tools.",
     license="Apache-2.0",
-    entry_points={"console_scripts": []},
+    entry_points={"console_scripts": [
+        "bag_recorder = impurity_common.bag_recorder_node:main",
+        "bag_replay = impurity_common.bag_replay_node:main",
+    ]},
 )

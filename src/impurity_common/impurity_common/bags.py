@@ -18,6 +18,7 @@ and replay nodes (it never imports rclpy):
 from __future__ import annotations
 
 import hashlib
+import importlib
 import os
 import pathlib
 import shutil
@@ -89,6 +90,16 @@ def check_known_type(typestore: Typestore, msgtype: str, topic: str) -> None:
     if msgtype not in typestore.fielddefs:
         raise BagError(f"unknown message type '{msgtype}' on topic {topic}: neither a ROS 2 Jazzy "
                        f"standard type nor one of {INTERFACES_PACKAGE}'s messages")
+
+
+def ros_message_class(msgtype: str, topic: str):
+    """The generated Python class of 'pkg/msg/Type' (rclpy needs it even for raw CDR publishing)."""
+    package, _, name = msgtype.partition("/msg/")
+    try:
+        return getattr(importlib.import_module(f"{package}.msg"), name)
+    except (ImportError, AttributeError, ValueError) as error:
+        raise BagError(f"message type '{msgtype}' on topic {topic} is not available in this ROS "
+                       f"environment ({error})") from error
 
 
 # --------------------------------------------------------------------------------------- writing

@@ -1,0 +1,177 @@
+"""Bag replay: publishes a rosbag2 bag's messages as raw CDR, bytes exactly as recorded.
+
+Thin shell around impurity_common.bags (BagReader, replay_plan, run_replay). Timing: the original
+one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. Topics
+are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
+
+Pacing for offline tests: with `ack_topic` set, a message on `ack_before` is only published once
+`ack_topic` has answered every earlier `ack_before` message (or `ack_timeout` passed, with a
+warning): e.g. the next colour frame waits for the previous frame's /attention/result, so a slow
+pipeline never drops frames however fast the replay is.
+
+Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
+bag, an unknown message type or missing subscribers; every wait is bounded.
+
+  bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
+"""
+
+import sys
+import time
+
+import rclpy
+from rcl_interfaces.msg import ParameterDescriptor
+from rclpy.duration import Duration
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from rosbags.interfaces import QosDurability
+
+from impurity_common.bags import (
+    BagError,
+    BagMessage,
+    BagReader,
+    ReplayTiming,
+    cell_typestore,
+    replay_plan,
+    ros_message_class,
+    run_replay,
+)
+
+
+def _describe(text: str) -> ParameterDescriptor:
+    return ParameterDescriptor(description=text, read_only=True)
+
+
+class BagReplayNode(Node):
+    def __init__(self):
+        super().__init__("bag_replay")
+        self.declare_parameter("bag", "", _describe("rosbag2 directory to play"))
+        self.declare_parameter("topics", [""], _describe("Topics to play (default: all in the bag)"))
+        self.declare_parameter("rate", 1.0, _describe(
+            "Speed factor of the original timing (2.0: twice as fast)"))
+        self.declare_parameter("start_offset", 0.0, _describe("s after the bag's first message to start at"))
+        self.declare_parameter("loop", False, _describe("Play the bag again and again (until Ctrl-C)"))
+        self.declare_parameter("as_fast_as_possible", False, _describe(
+            "Ignore the original timing (use ack_topic to let subscribers set the pace)"))
+        self.declare_parameter("wait_for_subscribers", 0, _describe(
+            "Before playing, wait until every played topic has this many subscribers"))
+        self.declare_parameter("wait_timeout", 10.0, _describe("s to wait for subscribers or ack_topic"))
+        self.declare_parameter("ack_topic", "", _describe(
+            "Topic whose messages acknowledge ack_before messages ('' = no pacing)"))
+        self.declare_parameter("ack_before", "", _describe(
+            "Played topic whose messages wait until ack_topic answered the previous ones"))
+        self.declare_parameter("ack_timeout", 10.0, _describe("s to wait for one acknowledgement"))
+        self.declare_parameter("qos_depth", 100, _describe("Publisher queue depth"))
+
+        path = self._param("bag")
+        if not path:
+            raise BagError("parameter bag is empty: give the bag directory (-p bag:=<dir>)")
+        self.timing = ReplayTiming(rate=float(self._param("rate")),
+                                   start_offset=float(self._param("start_offset")),
+                                   loop=bool(self._param("loop")),
+                                   as_fast_as_possible=bool(self._param("as_fast_as_possible")))
+        self.reader = BagReader(path, cell_typestore())
+        wanted = [t for t in self._param("topics") if t] or list(self.reader.topics)
+        missing = sorted(set(wanted) - set(self.reader.topics))
+        if missing:
+            raise BagError(f"bag {path} has no topic(s) {missing}; it has {sorted(self.reader.topics)}")
+        self.topics = wanted
+        self._topic_publishers = {topic: self._publisher(topic) for topic in wanted}
+        self._acks = 0
+        self._ack_requests = 0
+        self._ack_before = self._param("ack_before")
+        if self._param("ack_topic"):
+            self._subscribe_acks(self._param("ack_topic"))
+
+    def _param(self, name):
+        return self.get_parameter(name).value
+
+    def _publisher(self, topic: str):
+        info = self.reader.topics[topic]
+        latched = bool(info.qos) and all(q.durability == QosDurability.TRANSIENT_LOCAL for q in info.qos)
+        durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
+        qos = QoSProfile(depth=int(self._param("qos_depth")), reliability=ReliabilityPolicy.RELIABLE,
+                         durability=durability)
+        return self.create_publisher(ros_message_class(info.msgtype, topic), topic, qos)
+
+    def _subscribe_acks(self, topic: str) -> None:
+        """The acknowledging topic's type comes from the graph (its publisher must be up)."""
+        if self._ack_before not in self.topics:
+            raise BagError(f"ack_before '{self._ack_before}' is not one of the played topics {self.topics}")
+        resolved = self.resolve_topic_name(topic)
+        deadline = time.monotonic() + float(self._param("wait_timeout"))
+        while not (types := dict(self.get_topic_names_and_types()).get(resolved)):
+            if time.monotonic() > deadline:
+                raise BagError(f"ack_topic {resolved} has no publisher after {self._param('wait_timeout')} s")
+            time.sleep(0.05)  # graph queries need no spinning; nothing else runs yet
+        self.create_subscription(ros_message_class(types[0], resolved), resolved, self._on_ack,
+                                 QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE), raw=True)
+
+    def _on_ack(self, _data: bytes) -> None:
+        self._acks += 1
+
+    def play(self, spin_once, should_stop) -> int:
+        """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
+        self._spin_once = spin_once
+        self._wait_for_subscribers(should_stop)
+        plan = replay_plan(lambda start_ns: self.reader.messages(self.topics, start_ns), self.reader.start_ns,
+                           self.timing)
+        count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once)
+        for publisher in self._topic_publishers.values():  # reliable subscribers get the last messages too
+            publisher.wait_for_all_acked(Duration(seconds=float(self._param("wait_timeout"))))
+        return count
+
+    def _wait_for_subscribers(self, should_stop) -> None:
+        wanted = int(self._param("wait_for_subscribers"))
+        deadline = time.monotonic() + float(self._param("wait_timeout"))
+        for publisher in self._topic_publishers.values():
+            while publisher.get_subscription_count() < wanted and not should_stop():
+                if time.monotonic() > deadline:
+                    raise BagError(f"{publisher.topic_name} has {publisher.get_subscription_count()} "
+                                   f"subscriber(s) after {self._param('wait_timeout')} s, wanted {wanted}")
+                self._spin_once(0.02)
+
+    def _publish(self, message: BagMessage) -> None:
+        if message.topic == self._ack_before and self._param("ack_topic"):
+            self._wait_for_acks()
+            self._ack_requests += 1
+        self._topic_publishers[message.topic].publish(message.data)
+
+    def _wait_for_acks(self) -> None:
+        timeout = float(self._param("ack_timeout"))
+        deadline = time.monotonic() + timeout
+        while self._acks < self._ack_requests and rclpy.ok():
+            if time.monotonic() > deadline:
+                self.get_logger().warn(f"no answer on {self._param('ack_topic')} within {timeout} s for "
+                                       f"{self._ack_before} message {self._ack_requests}; going on")
+                self._acks = self._ack_requests  # one missing answer must not delay every later message
+                return
+            self._spin_once(0.02)
+
+
+def main(args=None) -> int:
+    rclpy.init(args=args)
+    node = None
+    code = 0
+    try:
+        node = BagReplayNode()
+        executor = SingleThreadedExecutor()
+        executor.add_node(node)
+        count = node.play(lambda timeout: executor.spin_once(timeout_sec=timeout),
+                          should_stop=lambda: not rclpy.ok())
+        node.get_logger().info(f"played {count} message(s) from {node.reader.path}")
+    except (BagError, ValueError) as error:
+        print(f"bag_replay: error: {error}", file=sys.stderr, flush=True)
+        code = 1
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        if node is not None:
+            node.reader.close()
+            node.destroy_node()
+        rclpy.try_shutdown()
+    return code
+
+
+if __name__ == "__main__":
+    sys.exit(main())
