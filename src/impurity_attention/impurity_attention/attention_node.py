@@ -49,6 +49,8 @@ ATTENTION_PARAMETERS = {
     "min_region_area": (DEFAULTS.min_region_area, "Smallest salient region (cells)"),
     "min_target_contrast": (DEFAULTS.min_target_contrast,
                             "Mean saliency of the best region below this: no visible target"),
+    "mask_chroma_tolerance": (DEFAULTS.mask_chroma_tolerance,
+                              "Target mask: object cells within this chroma distance of m_t (0 = m_t only)"),
     "crop_size": (DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)"),
 }
 
