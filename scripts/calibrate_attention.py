@@ -5,6 +5,7 @@
     python scripts/calibrate_attention.py sweep                       # saliency / DBSCAN choices on them
     python scripts/calibrate_attention.py evaluate --split acceptance # the acceptance table (new seeds)
     python scripts/calibrate_attention.py gallery                     # docs/images/attention_*.png
+    python scripts/calibrate_attention.py lab-reference               # colour-adaptation reference
 
 Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Rendered scenes are cached as .npz
 under runs/perception/ (rendering and settling is the slow part); `evaluate` collects what is missing.
@@ -270,7 +271,7 @@ def gallery(params: AttentionParams) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery"))
+    parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
@@ -292,6 +293,12 @@ def main() -> None:
     print(f"{len(records)} {args.split if args.action != 'sweep' else 'tuning'} scenes")
     if args.action == "sweep":
         sweep(records)
+    elif args.action == "lab-reference":
+        from impurity_attention.core.colour_adaptation import lab_statistics
+        seen = [r.labels != -1 for r in records]  # unseen cells are black, not scene colour
+        stats = lab_statistics([r.color for r in records], seen)
+        print("reference Lab statistics of sim heightmaps (heightmap_node colour_reference_mean/std):")
+        print(f"  mean {[round(v, 2) for v in stats.mean]}  std {[round(v, 2) for v in stats.std]}")
     elif args.action == "evaluate":
         verdicts, times = evaluate(records, params, args.verbose)
         summary = print_summary(verdicts, times)
