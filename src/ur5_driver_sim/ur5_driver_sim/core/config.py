@@ -27,8 +27,8 @@ TABLE_CENTER_XY = (0.5, 0.0)
 # Blocks: contact parameters chosen so scenes settle and do not roll away.
 BLOCK_DENSITY = 600.0  # kg/m^3, wood-like
 BLOCK_LATERAL_FRICTION = 0.6
-BLOCK_ROLLING_FRICTION = 1e-4
-BLOCK_SPINNING_FRICTION = 1e-3
+BLOCK_ROLLING_FRICTION = 0.003  # 1e-4 lets cylinders roll off the table and scenes never settle
+BLOCK_SPINNING_FRICTION = 0.003
 TABLE_LATERAL_FRICTION = 0.5
 
 # Scene settling.

@@ -17,7 +17,8 @@ from .gripper import Carrier, MotionCancelled
 GRASP = "grasp"
 PUSH = "push"
 KINDS = (GRASP, PUSH)
-MAX_Z = 0.15  # m above the table: blocks are < 0.1 m; higher starts would leave the arm's reach
+MAX_Z = 0.15  # m above the table: blocks are < 0.1 m; higher z is clamped to this (arm reach)
+ABSURD_Z = 1.0  # m above the table: a request this high is an error, not something to clamp
 Z_BELOW_TABLE_TOLERANCE = 0.002  # m: heightmap noise may put z a hair under the table
 
 
@@ -46,13 +47,13 @@ def validate_primitive(kind: str, x: float, y: float, z: float, yaw: float) -> s
                 f"{cell.WORKSPACE_X[1]}], y in [{cell.WORKSPACE_Y[0]}, {cell.WORKSPACE_Y[1]}]")
     if z < cell.TABLE_Z - Z_BELOW_TABLE_TOLERANCE:
         return f"z = {z:.3f} m is below the table (z = {cell.TABLE_Z})"
-    if z > cell.TABLE_Z + MAX_Z:
-        return f"z = {z:.3f} m is more than {MAX_Z} m above the table"
+    if z > cell.TABLE_Z + ABSURD_Z:
+        return f"z = {z:.3f} m is more than {ABSURD_Z} m above the table"
     return None
 
 
 def clamp_tip_height(z: float) -> float:
-    return max(z, cell.TABLE_Z + config.MIN_TIP_HEIGHT)
+    return min(max(z, cell.TABLE_Z + config.MIN_TIP_HEIGHT), cell.TABLE_Z + MAX_Z)
 
 
 def clamp_to_workspace(x: float, y: float) -> tuple:
