@@ -166,6 +166,9 @@ class SimCellNode(Node):
     def _publish_frame(self) -> None:
         if not self.context.ok():
             return
+        camera_pubs = (self._color_pub, self._depth_pub, self._info_pub)
+        if not any(pub.get_subscription_count() for pub in camera_pubs):
+            return  # nobody looks: save the ~60 ms render (the CPU is shared with training)
         if not self._world_lock.acquire(blocking=False):
             return  # a primitive or a reset is running; the next tick after it publishes
         try:
