@@ -133,3 +133,53 @@ def test_bad_frames_are_dropped_with_a_reason_and_the_next_good_one_goes_through
     bad_stamps = {2_000_000_000, 2_100_000_000, 2_200_000_000, 2_300_000_000}
     assert not bad_stamps & {time_to_ns(m.header.stamp) for m in heightmaps.messages}
     assert all(process.alive for process in processes)
+
+
+def heightmap_message(stamp_ns, color, height, height_encoding="32FC1"):
+    msg = Heightmap()
+    msg.header.stamp = ns_to_time(stamp_ns)
+    msg.header.frame_id = "base_link"
+    msg.resolution = 0.002
+    msg.origin.x, msg.origin.y = 0.276, -0.224
+    msg.color = numpy_to_image(color, "rgb8", msg.header)
+    if height_encoding == "32FC1":
+        msg.height = numpy_to_image(height, "32FC1", msg.header)
+    else:
+        msg.height = numpy_to_image((height * 1000).astype(np.uint16), height_encoding, msg.header)
+    return msg
+
+
+def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ros_node, launch):
+    from impurity_attention.core.heightmap import rgbd_to_heightmaps
+
+    adapted = launch("impurity_attention", "heightmap_node", ros_args({"colour_adaptation": True}))
+    attention = launch("impurity_attention", "attention_node", ros_args({"log_throttle": 0.1}))
+    processes = (adapted, attention)
+    frame = render_boxes(random_boxes(5, num_product=20, num_impurities=1))
+    maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
+    publisher = ros_node.create_publisher(Heightmap, "/heightmap", RELIABLE)
+    results = TopicRecorder(ros_node, AttentionResult, "/attention/result", RELIABLE)
+    camera = FakeCamera(ros_node)
+    heightmaps = TopicRecorder(ros_node, Heightmap, "/heightmap", RELIABLE)
+    try:
+        wait_for_subscribers(ros_node, publisher, 2, 30.0, processes)  # the attention node and our recorder
+        bad = heightmap_message(3_000_000_000, maps.color, maps.height, "16UC1")
+        publisher.publish(bad)  # reliable, and the subscription is matched: it arrives
+        spin_until(ros_node, lambda: "heightmap dropped" in attention.output(), 30.0,
+                   "the attention node's drop message", processes)
+        good = heightmap_message(3_100_000_000, maps.color, maps.height)
+        publisher.publish(good)
+        result = results.wait_for(1, 30.0, with_stamp(3_100_000_000), processes)[0]
+        assert result.mode == AttentionResult.MODE_TARGET
+        assert not [m for m in results.messages if time_to_ns(m.header.stamp) == 3_000_000_000]
+
+        # the adapting heightmap node still turns frames into (recoloured) heightmaps
+        camera.show(*camera_messages(frame, 3_200_000_000))
+        recoloured = heightmaps.wait_for(1, 30.0, with_stamp(3_200_000_000), processes)[0]
+        assert image_to_numpy(recoloured.color, ("rgb8",)).shape == (224, 224, 3)
+        assert all(process.alive for process in processes)
+    finally:
+        camera.destroy()
+        heightmaps.destroy()
+        results.destroy()
+        ros_node.destroy_publisher(publisher)
