@@ -82,7 +82,7 @@ def patch_prism_winding() -> bool:
     return True
 
 
-def collect(split: str, limit: int | None = None, cache_suffix: str = "") -> list:
+def collect(split: str, limit: int | None = None, cache_suffix: str = "", depth_noise: float = 0.0) -> list:
     path = CACHE / f"{split}{cache_suffix}.npz"
     wanted = scene_list(split)[:limit] if limit else scene_list(split)
     cached = {}
@@ -91,7 +91,7 @@ def collect(split: str, limit: int | None = None, cache_suffix: str = "") -> lis
     missing = [s for s in wanted if (s[0], s[1], s[2]) not in cached]
     if missing:
         from ur5_driver_sim.core.world import CellWorld
-        world = CellWorld(mode="floating")
+        world = CellWorld(mode="floating", depth_noise_std=depth_noise)
         started = time.perf_counter()
         for i, (scenario, seed, targets, objects) in enumerate(missing):
             try:
@@ -276,6 +276,8 @@ def main() -> None:
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
     parser.add_argument("--verbose", action="store_true", help="list every miss")
+    parser.add_argument("--depth-noise", type=float, default=0.0,
+                        help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
     parser.add_argument("--patch-prism-winding", action="store_true",
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
@@ -289,8 +291,11 @@ def main() -> None:
     if args.action == "gallery":
         gallery(params)
         return
-    records = collect(args.split if args.action != "sweep" else "tuning", args.limit, suffix)
-    print(f"{len(records)} {args.split if args.action != 'sweep' else 'tuning'} scenes")
+    if args.depth_noise > 0:
+        suffix += f"_noise{args.depth_noise * 1000:g}mm"
+    split = args.split if args.action != "sweep" else "tuning"
+    records = collect(split, args.limit, suffix, args.depth_noise)
+    print(f"{len(records)} {split} scenes")
     if args.action == "sweep":
         sweep(records)
     elif args.action == "lab-reference":
