@@ -152,7 +152,7 @@ def best_region_scores(records, params: AttentionParams) -> list:
     tried without recomputing saliency."""
     rows = []
     for record in records:
-        objects = record.height > params.occupied_height
+        objects = record.height > params.density.occupied_height
         image = saliency_input(record.color, objects, params.background)
         regions = salient_regions(vocus2(image, params.saliency).saliency, objects, params)
         best = regions[0] if regions else None

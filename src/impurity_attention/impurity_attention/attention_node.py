@@ -31,7 +31,8 @@ SALIENCY_PARAMETERS = {
     "stop_layer": (DEFAULTS.saliency.stop_layer, "VOCUS2 last pyramid octave"),
 }
 DENSITY_PARAMETERS = {
-    "occupied_height": (DEFAULTS.density.occupied_height, "Cells higher than this are objects (m)"),
+    "occupied_height": (DEFAULTS.density.occupied_height,
+                        "Cells higher than this are objects, for DBSCAN and saliency (m)"),
     "stride": (DEFAULTS.density.stride, "Sub-grid step of the DBSCAN points (cells)"),
     "eps": (DEFAULTS.density.eps, "DBSCAN neighbourhood radius (m)"),
     "min_samples": (DEFAULTS.density.min_samples, "DBSCAN points within eps that make a core point"),
@@ -42,7 +43,6 @@ DENSITY_PARAMETERS = {
     "score": (DEFAULTS.density.score, "What makes a cluster the largest: area or volume"),
 }
 ATTENTION_PARAMETERS = {
-    "occupied_height": (DEFAULTS.occupied_height, "Cells higher than this are objects (m)"),
     "background": (DEFAULTS.background, "objects: paint table cells with the objects' median colour "
                                         "before saliency; table: the plain heightmap (paper)"),
     "region_fraction": (DEFAULTS.region_fraction, "Salient region: object cells >= this x peak saliency"),

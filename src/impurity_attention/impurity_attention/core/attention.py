@@ -11,7 +11,7 @@ Saliency runs on the orthographic colour heightmap (224 x 224), not on the camer
 are cut from the heightmaps anyway, the map is 6x smaller, and 1 px = 2 mm everywhere.
 
 Two cell-specific choices on top of the paper, both parameters (see AttentionParams):
-- `background`: before saliency, cells that are table (lower than `occupied_height`) or unseen are
+- `background`: before saliency, cells that are table (lower than `density.occupied_height`) or unseen are
   painted with the median colour of the objects. The saliency of an object then measures its
   contrast against the other objects - the product - and not against the table, so an isolated
   product block is not mistaken for an impurity. "table" keeps the table as it is (the paper).
@@ -53,7 +53,6 @@ class AttentionParams:
     saliency: SaliencyParams = CELL_SALIENCY
     density: DensityParams = DensityParams()
     crop_size: int = cell.CROP_SIZE
-    occupied_height: float = 0.008  # m; cells higher than this are objects
     background: str = "objects"  # "objects": paint table/unseen cells with the objects' median colour
     region_fraction: float = 0.5  # a salient region: connected object cells >= this x the peak saliency
     min_region_area: int = 30  # px (2 mm cells): smaller regions are specks, not objects
@@ -182,7 +181,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
            grid: HeightmapGrid = HeightmapGrid()) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
     color, height = sanitize(color, height)
-    objects = height > params.occupied_height
+    objects = height > params.density.occupied_height
     saliency = vocus2(saliency_input(color, objects, params.background), params.saliency).saliency
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
