@@ -10,12 +10,15 @@
 Saliency runs on the orthographic colour heightmap (224 x 224), not on the camera image: the crops
 are cut from the heightmaps anyway, the map is 6x smaller, and 1 px = 2 mm everywhere.
 
-Two cell-specific choices on top of the paper, both parameters (see AttentionParams):
-- `background`: before saliency, cells that are table (lower than `density.occupied_height`) or unseen are
-  painted with the median colour of the objects. The saliency of an object then measures its
-  contrast against the other objects - the product - and not against the table, so an isolated
-  product block is not mistaken for an impurity. "table" keeps the table as it is (the paper).
+Cell-specific choices on top of the paper, all parameters (see AttentionParams):
+- `background`: before saliency, cells that are table (lower than `density.occupied_height`) or
+  unseen are painted with the median colour of the objects. The saliency of an object then measures
+  its contrast against the other objects - the product - and not against the table, so an isolated
+  product block is not mistaken for an impurity ("table" keeps the plain heightmap, as the paper;
+  on the tuning scenes it halves the margin between targets and clean scenes).
 - salient regions are restricted to object cells, and a region must cover `min_region_area`.
+- the target mask is m_t grown to the whole object (`mask_chroma_tolerance`): m_t alone is often
+  only the most contrasted part of the target, and the policy uses the mask as "where the target is".
 The decision threshold `min_target_contrast` is a mean saliency (opponent-colour contrast units)
 calibrated on rendered scenes by scripts/calibrate_attention.py.
 
@@ -163,14 +166,17 @@ def chroma(color: np.ndarray) -> np.ndarray:
 
 
 def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
-                     tolerance: float) -> np.ndarray:
+                     tolerance: float, reach: int) -> np.ndarray:
     """The whole object(s) behind a salient region: object cells of the region's chroma, connected
-    to the region. The salient region alone is often just the most contrasted part of a target."""
+    to the region and at most `reach` cells from its centroid (so a look-alike pile cannot drag the
+    crop away). The salient region alone is often just the most contrasted part of a target."""
     if tolerance <= 0:
         return region.mask
     values = chroma(color)
     reference = np.median(values[region.mask], axis=0)
     similar = objects & (np.linalg.norm(values - reference, axis=2) <= tolerance)
+    rows, cols = np.ogrid[:color.shape[0], :color.shape[1]]
+    similar &= (np.abs(rows - region.centroid[0]) <= reach) & (np.abs(cols - region.centroid[1]) <= reach)
     similar |= region.mask
     count, labels = cv2.connectedComponents(similar.astype(np.uint8), connectivity=8)
     touched = np.unique(labels[region.mask])
@@ -186,7 +192,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
     if best is not None and best.score >= params.min_target_contrast:
-        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance)
+        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
+                                        reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
         return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
                        params, grid, regions=regions, target_region=best, mask_cells=target_cells,
