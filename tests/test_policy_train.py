@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from impurity_policy.core.network import NetworkConfig
-from impurity_policy.core.train import TrainConfig, TrainingRun, network_config_for
+from impurity_policy.core.train import CSV_FIELDS, TrainConfig, TrainingRun, migrate_log, network_config_for
 from impurity_policy.core.train_cli import export_network
 from impurity_policy.core.trainer import load_network
 
@@ -43,6 +43,14 @@ def test_training_runs_checkpoints_and_resumes(tmp_path):
     shipped = export_network(tmp_path / "run" / "checkpoint.pt", tmp_path / "policy.pt")
     assert load_network(shipped).config == NetworkConfig()
     assert shipped.stat().st_size < (tmp_path / "run" / "checkpoint.pt").stat().st_size
+
+
+def test_old_log_columns_are_migrated_before_appending(tmp_path):
+    log = tmp_path / "log.csv"
+    log.write_text("iteration,primitive,reward\n1,push,0.5\n2,grasp,1.0\n")
+    migrate_log(log)
+    rows = _rows(log)
+    assert list(rows[0]) == list(CSV_FIELDS) and rows[1]["primitive"] == "grasp" and rows[1]["message"] == ""
 
 
 def test_resume_refuses_another_method(tmp_path):

@@ -49,7 +49,8 @@ SCENE_SEED_STRIDE = 1_000_003  # scene index i of run seed s uses sim seed s * s
 CSV_FIELDS = ("iteration", "scene", "scene_step", "mode", "primitive", "rotation", "crop_row", "crop_col",
               "x", "y", "z", "yaw", "q_value", "explored", "epsilon", "reward", "label", "loss", "td_error",
               "replay_loss", "alpha_before", "alpha_after", "grasp_lifted", "target_grasped",
-              "targets_remaining", "scene_reset", "seconds", "t_decide", "t_act", "t_sense", "t_learn")
+              "targets_remaining", "scene_reset", "seconds", "t_decide", "t_act", "t_sense", "t_learn",
+              "message")
 
 
 @dataclass
@@ -208,6 +209,7 @@ class TrainingRun:
 
     def run(self) -> dict:
         config = self.config
+        migrate_log(self.log_path)
         write_header = not self.log_path.is_file() or self.log_path.stat().st_size == 0
         log_file = open(self.log_path, "a", newline="")
         writer = csv.DictWriter(log_file, CSV_FIELDS)
@@ -299,7 +301,7 @@ class TrainingRun:
                "targets_remaining": next_truth.targets_remaining, "scene_reset": int(scene_reset),
                "seconds": round(time.perf_counter() - t0, 3), "t_decide": round(t1 - t0, 3),
                "t_act": round(t2 - t1, 3), "t_sense": round(t3 - t2, 3),
-               "t_learn": round(time.perf_counter() - t3, 3)}
+               "t_learn": round(time.perf_counter() - t3, 3), "message": outcome.message}
         if scene_reset:
             next_obs, next_truth, next_maps = self.new_scene()
         return row, next_obs, next_truth, next_maps
@@ -335,6 +337,25 @@ def recent_rates(row: dict, recent: list, window: int = 300) -> str:
 
 
 # ---- log analysis --------------------------------------------------------------------------------------
+def migrate_log(path) -> None:
+    """A log written with other columns (an older version of this file) is rewritten with today's
+    columns before a resumed run appends to it; missing values stay empty."""
+    path = pathlib.Path(path)
+    if not path.is_file() or path.stat().st_size == 0:
+        return
+    with open(path, newline="") as f:
+        header = next(csv.reader(f), [])
+    if tuple(header) == CSV_FIELDS:
+        return
+    rows = read_log(path)
+    tmp = path.with_suffix(".csv.tmp")
+    with open(tmp, "w", newline="") as f:
+        writer = csv.DictWriter(f, CSV_FIELDS, extrasaction="ignore")
+        writer.writeheader()
+        writer.writerows(rows)
+    tmp.replace(path)
+
+
 def read_log(path) -> list:
     with open(path, newline="") as f:
         return list(csv.DictReader(f))
