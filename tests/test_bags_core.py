@@ -5,7 +5,7 @@ import pathlib
 
 import pytest
 import yaml
-from bag_helpers import PRIMITIVE, STRING, read_with_mcap_library, string_cdr, write_sample_bag
+from bag_helpers import PRIMITIVE, STRING, primitive_cdr, read_with_mcap_library, string_cdr, write_sample_bag
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -17,6 +17,7 @@ from impurity_common.bags import (
     BagWriter,
     ReplayTiming,
     cell_typestore,
+    header_stamp_ns,
     interface_msg_dir,
     replay_plan,
     run_replay,
@@ -273,3 +274,18 @@ def test_run_replay_stops_promptly_when_asked():
     count = run_replay(plan, published.append, should_stop=lambda: clock.now > 100.5,
                        clock=clock, sleep=clock.sleep, max_sleep=0.05)
     assert count == 2 and clock.now < 100.6
+
+
+def test_header_stamp_is_read_from_the_cdr_bytes(typestore):
+    assert header_stamp_ns(primitive_cdr(typestore, 3)) == 3_000_000_007  # sec 3, nanosec 7
+    assert header_stamp_ns(b"\x00\x01\x00") is None
+    assert header_stamp_ns(b"\x07" * 16) is None
+
+
+def test_custom_data_is_kept_beside_the_checksums(tmp_path, typestore):
+    with BagWriter(tmp_path / "noted", typestore, custom_data={"impurity.policy": "untrained"}) as writer:
+        writer.add_topic("/chatter", STRING)
+        writer.write("/chatter", 1, string_cdr(typestore, "x"))
+    with BagReader(tmp_path / "noted") as reader:
+        assert reader.custom_data["impurity.policy"] == "untrained"
+        assert "sha256:noted_0.mcap" in reader.custom_data

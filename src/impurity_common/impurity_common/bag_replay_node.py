@@ -4,10 +4,11 @@ Thin shell around impurity_common.bags (BagReader, replay_plan, run_replay). Tim
 one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. Topics
 are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
 
-Pacing for offline tests: with `ack_topic` set, a message on `ack_before` is only published once
-`ack_topic` has answered every earlier `ack_before` message (or `ack_timeout` passed, with a
-warning): e.g. the next colour frame waits for the previous frame's /attention/result, so a slow
-pipeline never drops frames however fast the replay is.
+Pacing for offline tests: with `ack_topic` set, each message on `ack_before` opens a group (it and
+the messages after it); before the next group, the replay waits until a message with the same
+header stamp arrives on `ack_topic`, and re-publishes the group (up to `ack_retries` times) if none
+came within `ack_timeout`. E.g. each colour frame waits for the previous frame's /attention/result:
+a slow pipeline, or a best-effort subscriber that lost a fragmented image, never loses a frame.
 
 Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
 bag, an unknown message type or missing subscribers; every wait is bounded.
@@ -32,6 +33,7 @@ from impurity_common.bags import (
     BagReader,
     ReplayTiming,
     cell_typestore,
+    header_stamp_ns,
     replay_plan,
     ros_message_class,
     run_replay,
@@ -60,7 +62,8 @@ class BagReplayNode(Node):
             "Topic whose messages acknowledge ack_before messages ('' = no pacing)"))
         self.declare_parameter("ack_before", "", _describe(
             "Played topic whose messages wait until ack_topic answered the previous ones"))
-        self.declare_parameter("ack_timeout", 10.0, _describe("s to wait for one acknowledgement"))
+        self.declare_parameter("ack_timeout", 5.0, _describe("s to wait for one acknowledgement"))
+        self.declare_parameter("ack_retries", 3, _describe("Re-publications of a group that got no answer"))
         self.declare_parameter("qos_depth", 100, _describe("Publisher queue depth"))
 
         path = self._param("bag")
@@ -77,10 +80,11 @@ class BagReplayNode(Node):
             raise BagError(f"bag {path} has no topic(s) {missing}; it has {sorted(self.reader.topics)}")
         self.topics = wanted
         self._topic_publishers = {topic: self._publisher(topic) for topic in wanted}
-        self._acks = 0
-        self._ack_requests = 0
+        self._acked_stamps: set[int] = set()
+        self._group: list[BagMessage] = []  # the last ack_before message and those after it
         self._ack_before = self._param("ack_before")
-        if self._param("ack_topic"):
+        self._pacing = bool(self._param("ack_topic"))
+        if self._pacing:
             self._subscribe_acks(self._param("ack_topic"))
 
     def _param(self, name):
@@ -107,8 +111,10 @@ class BagReplayNode(Node):
         self.create_subscription(ros_message_class(types[0], resolved), resolved, self._on_ack,
                                  QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE), raw=True)
 
-    def _on_ack(self, _data: bytes) -> None:
-        self._acks += 1
+    def _on_ack(self, data: bytes) -> None:
+        stamp = header_stamp_ns(data)
+        if stamp is not None:
+            self._acked_stamps.add(stamp)
 
     def play(self, spin_once, should_stop) -> int:
         """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
@@ -117,6 +123,8 @@ class BagReplayNode(Node):
         plan = replay_plan(lambda start_ns: self.reader.messages(self.topics, start_ns), self.reader.start_ns,
                            self.timing)
         count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once)
+        if self._pacing and not should_stop():
+            self._settle_group()
         for publisher in self._topic_publishers.values():  # reliable subscribers get the last messages too
             publisher.wait_for_all_acked(Duration(seconds=float(self._param("wait_timeout"))))
         return count
@@ -132,21 +140,36 @@ class BagReplayNode(Node):
                 self._spin_once(0.02)
 
     def _publish(self, message: BagMessage) -> None:
-        if message.topic == self._ack_before and self._param("ack_topic"):
-            self._wait_for_acks()
-            self._ack_requests += 1
+        if self._pacing and message.topic == self._ack_before:
+            self._settle_group()
+            if header_stamp_ns(message.data) is None:
+                raise BagError(f"ack_before {message.topic}: its messages carry no header stamp to match")
+            self._group = [message]
+        elif self._group:
+            self._group.append(message)
         self._topic_publishers[message.topic].publish(message.data)
 
-    def _wait_for_acks(self) -> None:
+    def _settle_group(self) -> None:
+        """Wait for the answer to the open group, re-publishing it when none comes."""
+        if not self._group:
+            return
+        stamp = header_stamp_ns(self._group[0].data)
         timeout = float(self._param("ack_timeout"))
-        deadline = time.monotonic() + timeout
-        while self._acks < self._ack_requests and rclpy.ok():
-            if time.monotonic() > deadline:
-                self.get_logger().warn(f"no answer on {self._param('ack_topic')} within {timeout} s for "
-                                       f"{self._ack_before} message {self._ack_requests}; going on")
-                self._acks = self._ack_requests  # one missing answer must not delay every later message
-                return
-            self._spin_once(0.02)
+        retries = int(self._param("ack_retries"))
+        for attempt in range(retries + 1):
+            deadline = time.monotonic() + timeout
+            while stamp not in self._acked_stamps and rclpy.ok() and time.monotonic() < deadline:
+                self._spin_once(0.02)
+            if stamp in self._acked_stamps or not rclpy.ok():
+                break
+            if attempt < retries:
+                self.get_logger().warn(f"no answer on {self._param('ack_topic')} for stamp {stamp} within "
+                                       f"{timeout} s: publishing its {len(self._group)} message(s) again")
+                for message in self._group:
+                    self._topic_publishers[message.topic].publish(message.data)
+        else:
+            self.get_logger().warn(f"stamp {stamp} got no answer after {retries} retries; going on")
+        self._group = []
 
 
 def main(args=None) -> int:

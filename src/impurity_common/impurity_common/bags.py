@@ -22,6 +22,7 @@ import importlib
 import os
 import pathlib
 import shutil
+import struct
 import time
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -112,7 +113,8 @@ class BagWriter:
     current one began (None: one file, closed by close()). Use as a context manager or call close().
     """
 
-    def __init__(self, path: str | os.PathLike, typestore: Typestore, split_duration_ns: int | None = None):
+    def __init__(self, path: str | os.PathLike, typestore: Typestore, split_duration_ns: int | None = None,
+                 custom_data: dict[str, str] | None = None):
         self.path = pathlib.Path(path)
         if self.path.exists():
             raise BagError(f"bag {self.path} already exists: not overwriting it")
@@ -120,6 +122,7 @@ class BagWriter:
             raise BagError(f"split duration must be positive, got {split_duration_ns} ns")
         self.typestore = typestore
         self.split_duration_ns = split_duration_ns
+        self.custom_data = {str(k): str(v) for k, v in (custom_data or {}).items()}  # provenance notes
         self._topics: dict[str, tuple[str, tuple[Qos, ...]]] = {}
         self._counts: dict[str, int] = {}
         self._files: list[dict] = []  # closed splits: path, starting_time, duration, message_count
@@ -233,7 +236,8 @@ class BagWriter:
             "compression_mode": "",
             "relative_file_paths": [f["path"] for f in self._files],
             "files": self._files,
-            "custom_data": {CHECKSUM_PREFIX + name: digest for name, digest in self._checksums.items()},
+            "custom_data": {**self.custom_data,
+                            **{CHECKSUM_PREFIX + name: digest for name, digest in self._checksums.items()}},
             "ros_distro": ROS_DISTRO,
         }
         text = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False)
@@ -317,6 +321,10 @@ class BagReader:
     def ros_distro(self) -> str | None:
         return self._reader.ros_distro
 
+    @property
+    def custom_data(self) -> dict[str, str]:
+        return dict(self._reader.storage.metadata.custom or {})
+
     def messages(self, topics: Iterable[str] | None = None,
                  start_ns: int | None = None) -> Iterator[BagMessage]:
         """Messages in time order, optionally only some topics and only from `start_ns` on."""
@@ -342,7 +350,7 @@ class BagReader:
         self.close()
 
     def _check_checksums(self) -> None:
-        for key, expected in (self._reader.storage.metadata.custom or {}).items():
+        for key, expected in self.custom_data.items():
             if not key.startswith(CHECKSUM_PREFIX):
                 continue
             name = key[len(CHECKSUM_PREFIX):]
@@ -353,6 +361,15 @@ class BagReader:
 
 
 # ---------------------------------------------------------------------------------------- replay
+def header_stamp_ns(data: bytes) -> int | None:
+    """Header stamp of a message whose first field is a std_msgs/Header (images, our results), read
+    straight from its CDR bytes; None if the bytes are too short or not plain CDR."""
+    if len(data) < 12 or data[0] != 0 or data[1] not in (0, 1):
+        return None
+    sec, nanosec = struct.unpack("<iI" if data[1] == 1 else ">iI", data[4:12])
+    return sec * 1_000_000_000 + nanosec
+
+
 @dataclass(frozen=True)
 class ReplayTiming:
     """How a bag is replayed: original timing scaled by `rate` (2.0 = twice as fast), from
