@@ -14,7 +14,7 @@ from impurity_common.conversions import image_to_numpy, time_to_ns
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
-from ros_harness import ActionHelper, TopicRecorder, call_service, ros_args
+from ros_harness import ActionHelper, TopicRecorder, call_service, ros_args, spin_until
 
 UR_JOINTS = ["shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint", "wrist_1_joint", "wrist_2_joint",
              "wrist_3_joint"]
@@ -28,7 +28,8 @@ def primitive(kind, x, y, z, yaw):
 
 def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
     sim = launch("ur5_driver_sim", "sim_cell", ros_args({
-        "mode": "arm", "camera_rate": 10.0, "initial_scenario": "empty", "depth_encoding": "16UC1"}))
+        "mode": "arm", "camera_rate": 10.0, "initial_scenario": "empty", "depth_encoding": "16UC1",
+        "real_time_factor": 1.0}))  # real arm speed: a goal sent during a motion surely meets a busy driver
     procs = [sim]
     color = TopicRecorder(ros_node, Image, "/camera/camera/color/image_raw", 5)
     depth = TopicRecorder(ros_node, Image, "/camera/camera/aligned_depth_to_color/image_raw", 5)
@@ -67,9 +68,17 @@ def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
 
     # Invalid and busy goals are rejected; a valid grasp lifts the target.
     action = ActionHelper(ros_node, ExecutePrimitive, "/ur5/execute_primitive", processes=procs)
+    # server_is_ready() covers the action's services, not the feedback topic, which each side discovers
+    # on its own: warm up with pushes far from the block until feedback flows.
+    for _ in range(5):
+        action.run(primitive(Primitive.PUSH, 0.30, -0.20, 0.01, 0.0), timeout=120.0)
+        if action.feedback:
+            break
+    assert action.feedback, "no feedback from the driver after 5 primitives"
     assert not action.send_goal(primitive(Primitive.GRASP, 1.5, 0.0, 0.01, 0.0)).accepted
     assert not action.send_goal(primitive(Primitive.GRASP, 0.5, 0.0, float("nan"), 0.0)).accepted
     joints.messages.clear()
+    action.feedback.clear()
     handle = action.send_goal(primitive(Primitive.GRASP, 0.52, 0.05, 0.006, 0.0))
     assert handle.accepted
     assert not action.send_goal(primitive(Primitive.PUSH, 0.5, 0.0, 0.01, 0.0)).accepted  # busy
@@ -78,6 +87,9 @@ def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
     result = wrapped.result
     assert result.success and result.target_grasped and result.grasped_object_id >= 0, result.message
     assert time_to_ns(result.finished) > time_to_ns(first_color.header.stamp)
+    # Feedback and result travel on different topics: wait for the last phase rather than assume order.
+    spin_until(ros_node, lambda: any(f.phase == "done" for f in action.feedback), 30.0, "feedback 'done'",
+               procs)
     phases = [f.phase for f in action.feedback]
     assert phases[0] == "approach" and "close" in phases and phases[-1] == "done"
     # The arm really moved (joint states during the motion differ from home) and came back.

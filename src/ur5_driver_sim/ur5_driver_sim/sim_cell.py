@@ -13,7 +13,9 @@ anyway) and resumes as soon as the motion is over, so the first frame after a re
 
 from __future__ import annotations
 
+import sys
 import threading
+import time
 
 import numpy as np
 from geometry_msgs.msg import Pose
@@ -33,6 +35,7 @@ from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from ur5_driver_sim.core.camera import CameraModel
+from ur5_driver_sim.core.config import TIME_STEP
 from ur5_driver_sim.core.ur5_model import JOINT_NAMES
 from ur5_driver_sim.core.world import MODES, CellWorld
 
@@ -46,6 +49,8 @@ GROUND_TRUTH_SERVICE = "/cell/ground_truth"
 DEPTH_ENCODINGS = ("16UC1", "32FC1")
 MAX_CAMERA_RATE = 30.0
 SERVICE_LOCK_TIMEOUT = 30.0  # s a reset or ground-truth query waits for a running primitive
+GIL_YIELD_EVERY = 2  # physics steps between explicit GIL hand-overs
+GIL_SWITCH_INTERVAL = 0.001  # s (Python's default 0.005 starves the executor threads during motions)
 KIND_NAMES = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
 
 
@@ -65,6 +70,7 @@ PARAMETERS = (
     ("num_objects", -1, "Basic blocks in the initial scene (-1: scenario default)"),
     ("joint_state_rate", 50.0, "/joint_states messages per second"),
     ("solver_iterations", 20, "PyBullet solver iterations per physics step"),
+    ("real_time_factor", 0.0, "Pace motions: 1.0 = as fast as a real arm, 0 = as fast as the CPU allows"),
 )
 
 
@@ -103,6 +109,8 @@ class SimCellNode(Node):
         camera = CameraModel(position=tuple(self._param("camera_position")),
                              orientation=tuple(self._param("camera_orientation")))
 
+        self._real_time_factor = float(self._param("real_time_factor"))
+        self._pace_start, self._pace_steps = time.monotonic(), 0
         self._world_lock = threading.Lock()
         self._busy_lock = threading.Lock()  # guards _busy: one primitive at a time
         self._busy = False
@@ -149,9 +157,21 @@ class SimCellNode(Node):
 
     # ------------------------------------------------------------------------------------ publishing
     def _on_physics_step(self, world) -> None:
-        """Runs inside the world (lock held): keep a snapshot for the joint-state timer, cheaply."""
+        """Runs inside the world (lock held): keep a snapshot for the joint-state timer, cheaply, and
+        hand the GIL over (PyBullet keeps it during a step) so cancels, feedback and joint states flow
+        while a primitive runs."""
+        self._pace_steps += 1
+        if world.steps % GIL_YIELD_EVERY == 0:
+            time.sleep(self._seconds_ahead_of_wall_clock())
         if world.steps % 8 == 0:
             self._joint_snapshot = world.joint_positions()
+
+    def _seconds_ahead_of_wall_clock(self) -> float:
+        """How far the motion's sim time runs ahead of real_time_factor x wall time (0 when unpaced)."""
+        if self._real_time_factor <= 0:
+            return 0.0
+        sim_elapsed = self._pace_steps * TIME_STEP / self._real_time_factor
+        return max(0.0, sim_elapsed - (time.monotonic() - self._pace_start))
 
     def _publish_joints(self) -> None:
         if not self.context.ok():
@@ -214,6 +234,7 @@ class SimCellNode(Node):
 
         try:
             with self._world_lock:
+                self._pace_start, self._pace_steps = time.monotonic(), 0
                 self._world.cancel_check = lambda: goal_handle.is_cancel_requested
                 try:
                     outcome = self._world.execute(kind, p.x, p.y, p.z, float(primitive.yaw), phase)
@@ -286,6 +307,7 @@ def _pose(position, orientation) -> Pose:
 
 
 def main(args=None):
+    sys.setswitchinterval(GIL_SWITCH_INTERVAL)
     spin_node(SimCellNode, args=args, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
 
 
