@@ -126,23 +126,27 @@ def vocus2(rgb: np.ndarray, params: SaliencyParams = CELL_SALIENCY, keep_feature
         raise ValueError(f"image {rgb.shape[:2]} too small for a saliency pyramid")
     extra_sigma = math.sqrt(params.surround_sigma ** 2 - params.center_sigma ** 2)
     # Mean fusion over all layers, accumulated from the coarsest octave up: resizing is linear, so
-    # upsampling the running sum once per octave equals resizing every layer to the finest size.
-    # channels 0-2: on-off of I, RG, BY; channels 3-5: minus off-on.
-    running = None
+    # upsampling the running sums once per octave equals resizing every layer to the finest size.
+    # off-on = max(-d, 0) = max(d, 0) - d, which keeps every operation on contiguous arrays.
+    on_running = off_running = None
     count = 0
     for octave in reversed(pyramid):
         layer_h, layer_w = octave[0].shape[:2]
-        level = np.zeros((layer_h, layer_w, 6), dtype=np.float32)
+        on_level = np.zeros((layer_h, layer_w, 3), dtype=np.float32)
+        off_level = np.zeros((layer_h, layer_w, 3), dtype=np.float32)
         for s, centre in enumerate(octave):
             difference = centre - surround(centre, extra_sigma * 2.0 ** (s / params.n_scales))
-            level[..., :3] += np.maximum(difference, 0.0)
-            level[..., 3:] += np.minimum(difference, 0.0)
+            positive = np.maximum(difference, 0.0)
+            on_level += positive
+            off_level += positive
+            off_level -= difference
             count += 1
-        if running is not None:
-            level += cv2.resize(running, (layer_w, layer_h), interpolation=cv2.INTER_CUBIC)
-        running = level
-    base_h, base_w = running.shape[:2]
-    on_off_sum, off_on_sum = running[..., :3], -running[..., 3:]
+        if on_running is not None:
+            on_level += cv2.resize(on_running, (layer_w, layer_h), interpolation=cv2.INTER_CUBIC)
+            off_level += cv2.resize(off_running, (layer_w, layer_h), interpolation=cv2.INTER_CUBIC)
+        on_running, off_running = on_level, off_level
+    base_h, base_w = on_running.shape[:2]
+    on_off_sum, off_on_sum = on_running, off_running
     # cubic upsampling overshoots a little below zero; contrasts are non-negative by definition
     on_off_feature = np.maximum(on_off_sum / count, 0.0)
     off_on_feature = np.maximum(off_on_sum / count, 0.0)
