@@ -189,17 +189,21 @@ class HeightmapProjector:
 
         top = np.full(rows * cols, -np.inf, dtype=np.float32)
         np.maximum.at(top, cell_index, z)
-        # the pixel(s) that set a cell's maximum give its colour (and label); ties: any of them
+        # one pixel that set a cell's maximum gives the cell its colour (and label); among ties the
+        # last written wins. A 1-D integer scatter, then one gather per seen cell: fancy-indexing the
+        # colour rows of every tied pixel (flat tops tie a lot) took 3x longer.
         winners = z >= top[cell_index]
-        win_cells, win_pixels = cell_index[winners], pixel_index[winners]
+        source_pixel = np.full(rows * cols, -1, dtype=np.int64)
+        source_pixel[cell_index[winners]] = pixel_index[winners]
         seen = np.isfinite(top)
+        seen_cells = np.flatnonzero(seen)
         height_map = np.where(seen, top, np.float32(0.0)).astype(np.float32)
         color_map = np.zeros((rows * cols, 3), dtype=np.uint8)
-        color_map[win_cells] = color.reshape(-1, 3)[win_pixels]
+        color_map[seen_cells] = color.reshape(-1, 3)[source_pixel[seen_cells]]
         label_map = None
         if labels is not None:
             label_map = np.full(rows * cols, UNSEEN_LABEL, dtype=np.int32)
-            label_map[win_cells] = labels.reshape(-1)[win_pixels]
+            label_map[seen_cells] = labels.reshape(-1)[source_pixel[seen_cells]]
             label_map = label_map.reshape(rows, cols)
         return Heightmaps(color=color_map.reshape(rows, cols, 3), height=height_map.reshape(rows, cols),
                           seen=seen.reshape(rows, cols), labels=label_map)
