@@ -49,6 +49,7 @@ GROUND_TRUTH_SERVICE = "/cell/ground_truth"
 DEPTH_ENCODINGS = ("16UC1", "32FC1")
 MAX_CAMERA_RATE = 30.0
 SERVICE_LOCK_TIMEOUT = 30.0  # s a reset or ground-truth query waits for a running primitive
+SHUTDOWN_LOCK_TIMEOUT = 5.0  # s shutdown waits for a running primitive before leaving anyway
 GIL_YIELD_EVERY = 2  # physics steps between explicit GIL hand-overs
 GIL_SWITCH_INTERVAL = 0.001  # s (Python's default 0.005 starves the executor threads during motions)
 KIND_NAMES = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
@@ -151,8 +152,11 @@ class SimCellNode(Node):
         return self.get_parameter(name).value
 
     def destroy_node(self):
-        with self._world_lock:
-            self._world.close()
+        if self._world_lock.acquire(timeout=SHUTDOWN_LOCK_TIMEOUT):  # let a running motion finish
+            try:
+                self._world.close()
+            finally:
+                self._world_lock.release()
         return super().destroy_node()
 
     # ------------------------------------------------------------------------------------ publishing

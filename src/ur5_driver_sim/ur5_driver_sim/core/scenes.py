@@ -34,7 +34,8 @@ HEAP_WALL_GAP = 0.004
 HEAP_MIN_SEPARATION = 0.14
 HEAP_CENTER_HALF_RANGE = (0.10, 0.11)  # x, y around the workspace centre
 HEAP_BLOCKS_PER_HEAP = 5  # 2 bars, 2 pillars, 1 cover slab
-HEAP_LOOSE_RADIUS = (0.065, 0.09)  # m from a heap centre where the other blocks are piled
+HEAP_LOOSE_RADIUS = (0.065, 0.09)  # m from a heap centre where half of the other blocks lean
+HEAP_TOP_Z = 0.058  # m: top of a heap's cover slab, where the other half is piled
 
 
 def random_quaternion(rng: np.random.Generator) -> tuple:
@@ -178,13 +179,19 @@ def invisible_layout(rng, num_targets, num_objects, target_color=config.TARGET_C
         place(cover, 0.0, 0.0, cell.TABLE_Z + wall_h + slab_h / 2 + 0.003)
     extra = num_objects - heaps * HEAP_BLOCKS_PER_HEAP
     loose = [_block(rng, SHAPES[rng.integers(len(SHAPES))], False, target_color) for _ in range(extra)]
-    points = []
-    for i in range(extra):
+    on_top = loose[: extra // 2]  # piled on the cover slabs: the heaps
+    around = loose[extra // 2:]  # leaning on the heaps' sides
+    top_points, side_points = [], []
+    for i in range(len(on_top)):
+        hx, hy = centers[i % heaps]
+        top_points.append((hx + rng.uniform(-0.02, 0.02), hy + rng.uniform(-0.02, 0.02)))
+    for i in range(len(around)):
         hx, hy = centers[i % heaps]
         angle = rng.uniform(0, 2 * math.pi)
         radius = rng.uniform(*HEAP_LOOSE_RADIUS)
-        points.append((hx + radius * math.cos(angle), hy + radius * math.sin(angle)))
-    stack_without_overlap(loose, points, rng, random_orientation=False)
+        side_points.append((hx + radius * math.cos(angle), hy + radius * math.sin(angle)))
+    stack_without_overlap(on_top, top_points, rng, base_z=cell.TABLE_Z + HEAP_TOP_Z, random_orientation=False)
+    stack_without_overlap(around, side_points, rng, random_orientation=False)
     return specs + loose
 
 
