@@ -5,6 +5,7 @@ agreement and one camera picture per scenario. Printed, never asserted.
 
     python benchmarks/bench_sim.py                    # timings
     python benchmarks/bench_sim.py --agreement 40     # + arm vs floating outcome agreement over 40 seeds
+    python benchmarks/bench_sim.py --oracle 50        # + oracle grasp rate on isolated blocks, both modes
     python benchmarks/bench_sim.py --images docs/images --only-images
 """
 
@@ -104,6 +105,36 @@ def agreement(seeds: int) -> None:
           f"(grasped or not / displacement class); {100 * strict / seeds:.1f} % also the same block")
 
 
+def oracle_grasps(mode: str, seeds: int) -> None:
+    """Issue 3's oracle: one block alone, true centre, closing across its short horizontal axis (a prism
+    across its flat ends), the same cases as tests/test_sim_*.py."""
+    import json
+    import tempfile
+
+    from ur5_driver_sim.core.shapes import SHAPES, random_dims
+
+    world = CellWorld(mode=mode)
+    successes = 0
+    with tempfile.TemporaryDirectory() as directory:
+        for seed in range(seeds):
+            rng = np.random.default_rng(seed)
+            shape = SHAPES[seed % len(SHAPES)]
+            dims = random_dims(shape, rng)
+            x, y, yaw = rng.uniform(0.38, 0.62), rng.uniform(-0.12, 0.12), rng.uniform(0, math.pi)
+            path = pathlib.Path(directory) / "block.json"
+            path.write_text(json.dumps([dict(shape=shape, dims=dims, position=[x, y, dims[2] / 2 + 0.001],
+                                             yaw=yaw, is_target=True)]))
+            world.reset_scene("file", scene_file=str(path))
+            (_, (pos, quat)), = world.poses().items()
+            across_y = dims[1] < dims[0] or shape == "prism"
+            grasp_yaw = yaw_of_quaternion(quat) + (math.pi / 2 if across_y else 0.0)
+            outcome = world.grasp(pos[0], pos[1], max(pos[2] - 0.015, 0.0), grasp_yaw)
+            successes += outcome.success and outcome.target_grasped
+    world.close()
+    rate = 100 * successes / seeds
+    print(f"oracle grasp, isolated block, mode {mode:<9s}: {successes}/{seeds} = {rate:.0f} %")
+
+
 def save_images(world: CellWorld, directory: pathlib.Path, seed: int) -> None:
     import cv2
 
@@ -124,6 +155,7 @@ def main() -> None:
     parser.add_argument("--arm-actions", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--agreement", type=int, default=0, metavar="N", help="also measure mode agreement")
+    parser.add_argument("--oracle", type=int, default=0, metavar="N", help="also oracle grasps over N seeds")
     parser.add_argument("--images", type=pathlib.Path, help="write one camera picture per scenario here")
     parser.add_argument("--only-images", action="store_true")
     args = parser.parse_args()
@@ -139,6 +171,9 @@ def main() -> None:
     world.close()
     actions_per_second("floating", args.floating_actions, args.seed)
     actions_per_second("arm", args.arm_actions, args.seed)
+    if args.oracle:
+        for mode in ("floating", "arm"):
+            oracle_grasps(mode, args.oracle)
     if args.agreement:
         agreement(args.agreement)
 
