@@ -121,3 +121,20 @@ def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
     action.destroy()
     for recorder in (color, depth, info, joints):
         recorder.destroy()
+
+
+def test_depth_encodings_and_camera_info():
+    from std_msgs.msg import Header
+
+    from ur5_driver_sim.core.camera import CameraModel
+    from ur5_driver_sim.sim_cell import camera_info_msg, depth_image
+
+    depth = np.array([[0.75, 0.7004], [np.nan, 70.0]], dtype=np.float32)
+    mm = depth_image(depth, "16UC1")
+    assert mm.dtype == np.uint16 and mm.tolist() == [[750, 700], [0, 65535]]
+    metres = depth_image(depth, "32FC1")
+    assert metres.dtype == np.float32 and metres[0, 1] == np.float32(0.7004)
+    info = camera_info_msg(CameraModel(), Header(frame_id=cell.CAMERA_OPTICAL_FRAME))
+    assert (info.width, info.height) == (cell.CAMERA_WIDTH, cell.CAMERA_HEIGHT)
+    expected_k = [cell.CAMERA_FX, 0.0, cell.CAMERA_CX, 0.0, cell.CAMERA_FY, cell.CAMERA_CY, 0.0, 0.0, 1.0]
+    assert list(info.k) == expected_k
