@@ -79,14 +79,14 @@ def actions_per_second(mode: str, actions: int, seed: int) -> None:
           f"{grasped}/{(actions + 1) // 2} grasps lifted something")
 
 
-def agreement(seeds: int) -> None:
+def agreement(seeds: int, scenario: str = "random") -> None:
     """Same scene, same primitive in both modes; outcome classes as in tests/test_sim_arm.py."""
     worlds = {mode: CellWorld(mode=mode) for mode in ("floating", "arm")}
     same = strict = 0
     for seed in range(seeds):
         results = {}
         for mode, world in worlds.items():
-            world.reset_scene("random", seed=seed, num_targets=1, num_objects=7)
+            world.reset_scene(scenario, seed=seed, num_targets=1, num_objects=7)
             rng = np.random.default_rng(1000 + seed)
             primitive = clutter_primitive(world, rng, seed)
             before = world.poses()
@@ -101,7 +101,8 @@ def agreement(seeds: int) -> None:
                 results[mode] = (cls,), (cls, top)
         same += results["floating"][0] == results["arm"][0]
         strict += results["floating"][1] == results["arm"][1]
-    print(f"mode agreement over {seeds} seeded primitives: {same}/{seeds} = {100 * same / seeds:.1f} % "
+    print(f"mode agreement over {seeds} seeded primitives ({scenario}, 8 blocks): {same}/{seeds} = "
+          f"{100 * same / seeds:.1f} % "
           f"(grasped or not / displacement class); {100 * strict / seeds:.1f} % also the same block")
 
 
@@ -155,6 +156,7 @@ def main() -> None:
     parser.add_argument("--arm-actions", type=int, default=10)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--agreement", type=int, default=0, metavar="N", help="also measure mode agreement")
+    parser.add_argument("--agreement-scenario", default="random", choices=SCENARIOS)
     parser.add_argument("--oracle", type=int, default=0, metavar="N", help="also oracle grasps over N seeds")
     parser.add_argument("--images", type=pathlib.Path, help="write one camera picture per scenario here")
     parser.add_argument("--only-images", action="store_true")
@@ -175,7 +177,7 @@ def main() -> None:
         for mode in ("floating", "arm"):
             oracle_grasps(mode, args.oracle)
     if args.agreement:
-        agreement(args.agreement)
+        agreement(args.agreement, args.agreement_scenario)
 
 
 if __name__ == "__main__":
