@@ -176,3 +176,9 @@ def test_bad_scene_requests_raise_clear_errors(world, tmp_path):
     bad.write_text("[{\"shape\": \"sphere\"}]")
     with pytest.raises(ValueError, match="unknown shape"):
         world.reset_scene("file", scene_file=str(bad))
+    world.reset_scene("random", seed=1, num_targets=1, num_objects=3)
+    with pytest.raises(ValueError, match="at least 10 non-target blocks"):
+        world.reset_scene("invisible", num_targets=2, num_objects=4)
+    with pytest.raises(ValueError, match="at most 60"):
+        world.reset_scene("random", num_targets=2, num_objects=100)
+    assert len(world.poses()) == 4  # a refused reset leaves the scene as it was

@@ -50,7 +50,20 @@ def resolve_counts(scenario: str, num_targets: int, num_objects: int) -> tuple:
     objects = default_objects if num_objects is None or num_objects < 0 else int(num_objects)
     if targets + objects > MAX_BLOCKS:
         raise ValueError(f"{targets + objects} blocks requested; at most {MAX_BLOCKS}")
+    if scenario == "invisible":
+        check_invisible_counts(targets, objects)
     return targets, objects
+
+
+def check_invisible_counts(num_targets: int, num_objects: int) -> int:
+    """Number of heaps for these counts; ValueError (before anything is built) when they cannot work."""
+    heaps = 2 if num_targets <= 2 else 3
+    if num_objects < heaps * HEAP_BLOCKS_PER_HEAP:
+        raise ValueError(f"invisible needs at least {heaps * HEAP_BLOCKS_PER_HEAP} non-target blocks "
+                         f"for {heaps} heaps, got {num_objects}")
+    if num_targets > 2 * heaps:
+        raise ValueError(f"invisible hides at most 2 targets per heap (6 in all), got {num_targets}")
+    return heaps
 
 
 def _block(rng, shape, is_target, target_color, dims=None) -> BlockSpec:
@@ -143,13 +156,8 @@ def _heap_centers(rng, count):
 def invisible_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
     """Two or three heaps; each hides its targets in a box of two bars and two pillars under a slab,
     and the remaining blocks are dropped onto the heaps."""
-    heaps = 2 if num_targets <= 2 else 3
-    if num_objects < heaps * HEAP_BLOCKS_PER_HEAP:
-        raise ValueError(f"invisible needs at least {heaps * HEAP_BLOCKS_PER_HEAP} non-target blocks "
-                         f"for {heaps} heaps, got {num_objects}")
+    heaps = check_invisible_counts(num_targets, num_objects)
     per_heap = [num_targets // heaps + (1 if i < num_targets % heaps else 0) for i in range(heaps)]
-    if max(per_heap) > 2:
-        raise ValueError(f"invisible hides at most 2 targets per heap (6 in all), got {num_targets}")
     centers = _heap_centers(rng, heaps)
     specs = []
     for (hx, hy), k in zip(centers, per_heap, strict=True):
