@@ -243,7 +243,7 @@ def gallery(params: AttentionParams) -> None:
     picture = np.concatenate(rows, axis=0)
     cv2.imwrite(str(IMAGES / "attention_saliency.png"), cv2.cvtColor(picture, cv2.COLOR_RGB2BGR))
 
-    record, frame = evaluation.record_from_world(world, "invisible", 1513, 2, NUM_OBJECTS, keep_frame=True)
+    record, frame = evaluation.record_from_world(world, "invisible", 1515, 2, NUM_OBJECTS, keep_frame=True)
     output = attend(record.color, record.height, params)
     clusters = find_clusters(record.height, 0.002, params.density)
     palette = np.random.default_rng(0).integers(60, 255, (len(clusters) + 1, 3)).astype(np.uint8)
