@@ -187,16 +187,17 @@ def sweep(records) -> None:
     print("== DBSCAN on invisible scenes (and no-impurity heaps): chosen cluster holds a hidden target")
     hidden = [r for r in records if r.category() == "invisible"]
     for score in ("area", "volume"):
-        for eps, min_samples in ((0.012, 18), (0.016, 30), (0.008, 8)):
+        # (stride, eps, min_samples): min_samples must stay below the grid points within eps
+        for stride, eps, min_samples in ((2, 0.012, 18), (3, 0.015, 12), (2, 0.016, 30), (4, 0.016, 8)):
             for min_height in (0.03, 0.045):
-                density = DensityParams(score=score, eps=eps, min_samples=min_samples,
+                density = DensityParams(score=score, stride=stride, eps=eps, min_samples=min_samples,
                                         min_cluster_height=min_height)
                 hits = 0
                 for record in hidden:
                     chosen = select_occluded_region(find_clusters(record.height, 0.002, density))
                     hits += chosen is not None and any(chosen.mask[r, c] for r, c in record.target_cells
                                                        if 0 <= r < 224 and 0 <= c < 224)
-                print(f"  score={score:6s} eps={eps:.3f} min_samples={min_samples:2d} "
+                print(f"  score={score:6s} stride={stride} eps={eps:.3f} min_samples={min_samples:2d} "
                       f"min_height={min_height:.3f}: {hits}/{len(hidden)}")
 
 

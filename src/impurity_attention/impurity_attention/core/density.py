@@ -14,7 +14,10 @@ eps = 12 mm, in half the time (~6 ms).
 its cells, robust to a single spike) is below `min_cluster_height` is one layer of objects with
 nothing underneath, and one whose area is below `min_cluster_area` is too small to hide an object.
 Among the clusters that pass both tests the one with the highest score is chosen ("largest": area,
-or volume = the sum of heights); when none passes, there is no occluded region to explore.
+or volume = the sum of heights); when none passes, there is no occluded region to explore. Volume is
+the default: hiding a target takes material on top of it, and on the tuning scenes (sweep in
+scripts/calibrate_attention.py) the largest volume held a hidden target in 17/18 invisible scenes,
+the largest area in 14/18.
 """
 
 from __future__ import annotations
@@ -40,7 +43,7 @@ class DensityParams:
     min_cluster_height: float = 0.03  # m; lower clusters cannot hide anything
     min_cluster_area: float = 0.0025  # m^2 (50 mm x 50 mm); smaller clusters cannot hide anything
     height_percentile: float = 90.0  # cluster height = this percentile of its cells' heights
-    score: str = "area"  # "area" or "volume": what makes a cluster the "largest"
+    score: str = "volume"  # "area" or "volume": what makes a cluster the "largest" (see module doc)
 
     def __post_init__(self):
         if self.stride < 1 or self.eps <= 0 or self.min_samples < 1:
