@@ -60,8 +60,9 @@ class AttentionParams:
     background: str = "objects"  # "objects": paint table/unseen cells with the objects' median colour
     region_fraction: float = 0.5  # a salient region: connected object cells >= this x the peak saliency
     min_region_area: int = 30  # px (2 mm cells): smaller regions are specks, not objects
-    # mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99): targets >= 0.053,
-    # scenes without impurity <= 0.018; 0.03 is about their geometric mean (1.7x margin either side).
+    # mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99): targets >= 0.054,
+    # scenes without impurity <= 0.021; 0.03 sits between (1.8x below the weakest target, 1.4x above
+    # the strongest clean scene).
     min_target_contrast: float = 0.03
     # The target mask: object cells connected to m_t whose shading-free chroma (RG, BY divided by
     # intensity) lies within this distance of m_t's. 0 = the salient region itself.

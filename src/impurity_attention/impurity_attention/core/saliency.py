@@ -53,9 +53,9 @@ class SaliencyParams:
 VOCUS2_DEFAULTS = SaliencyParams()  # the CVPR 2015 defaults (MSRA-style images, large objects)
 VOCUS2_CLUTTER = SaliencyParams(center_sigma=2.0, surround_sigma=6.0)  # the authors' "cluttered scenes"
 # Cell default, on the 224 x 224 colour heightmap (2 mm/px; blocks are 13-50 px across): the authors'
-# clutter setting. scripts/calibrate_attention.py sweep (tuning seeds) measured, as the ratio of the
-# weakest target's contrast to the strongest contrast in a scene without impurity: (2, 6) 2.96,
-# (2, 10, 4 octaves) 2.86, (3, 13) 2.66 - every setting found every visible target; (2, 6) separates
+# clutter setting. scripts/calibrate_attention.py sweep (70 tuning scenes) measured, as the ratio of
+# the weakest target's contrast to the strongest contrast in a scene without impurity: (2, 6) 2.57,
+# (2, 10, 4 octaves) 2.41, (3, 13) 2.28 - every setting found every visible target; (2, 6) separates
 # best and is the cheapest.
 CELL_SALIENCY = VOCUS2_CLUTTER
 
