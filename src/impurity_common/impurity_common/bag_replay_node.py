@@ -4,11 +4,12 @@ Thin shell around impurity_common.bags (BagReader, replay_plan, run_replay). Tim
 one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. Topics
 are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
 
-Pacing for offline tests: with `ack_topic` set, each message on `ack_before` opens a group (it and
-the messages after it); before the next group, the replay waits until a message with the same
-header stamp arrives on `ack_topic`, and re-publishes the group (up to `ack_retries` times) if none
-came within `ack_timeout`. E.g. each colour frame waits for the previous frame's /attention/result:
-a slow pipeline, or a best-effort subscriber that lost a fragmented image, never loses a frame.
+Pacing for offline tests: with `ack_topic` set, a message on `ack_before` is published only once
+the previous one was answered: a message with its header stamp arrived on `ack_topic`. Without an
+answer within `ack_timeout`, every played message with that stamp (the whole frame: colour, depth,
+camera_info) is published again, up to `ack_retries` times. E.g. each colour frame waits for the
+previous frame's /attention/result, so neither a slow pipeline nor a best-effort subscriber that
+lost a big image loses a frame.
 
 Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
 bag, an unknown message type or missing subscribers; every wait is bounded.
@@ -58,6 +59,9 @@ class BagReplayNode(Node):
         self.declare_parameter("wait_for_subscribers", 0, _describe(
             "Before playing, wait until every played topic has this many subscribers"))
         self.declare_parameter("wait_timeout", 10.0, _describe("s to wait for subscribers or ack_topic"))
+        self.declare_parameter("delay", 0.0, _describe(
+            "s to wait before playing (after the subscribers matched): a best-effort subscriber drops "
+            "what arrives before it has discovered the publisher in turn"))
         self.declare_parameter("ack_topic", "", _describe(
             "Topic whose messages acknowledge ack_before messages ('' = no pacing)"))
         self.declare_parameter("ack_before", "", _describe(
@@ -81,7 +85,8 @@ class BagReplayNode(Node):
         self.topics = wanted
         self._topic_publishers = {topic: self._publisher(topic) for topic in wanted}
         self._acked_stamps: set[int] = set()
-        self._group: list[BagMessage] = []  # the last ack_before message and those after it
+        self._pending_stamp: int | None = None  # of the last ack_before message, until answered
+        self._unanswered: list[BagMessage] = []  # played since, for re-publication
         self._ack_before = self._param("ack_before")
         self._pacing = bool(self._param("ack_topic"))
         if self._pacing:
@@ -120,6 +125,9 @@ class BagReplayNode(Node):
         """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
         self._spin_once = spin_once
         self._wait_for_subscribers(should_stop)
+        deadline = time.monotonic() + float(self._param("delay"))
+        while not should_stop() and (remaining := deadline - time.monotonic()) > 0:
+            spin_once(min(remaining, 0.05))
         plan = replay_plan(lambda start_ns: self.reader.messages(self.topics, start_ns), self.reader.start_ns,
                            self.timing)
         count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once)
@@ -140,20 +148,21 @@ class BagReplayNode(Node):
                 self._spin_once(0.02)
 
     def _publish(self, message: BagMessage) -> None:
-        if self._pacing and message.topic == self._ack_before:
-            self._settle_group()
-            if header_stamp_ns(message.data) is None:
-                raise BagError(f"ack_before {message.topic}: its messages carry no header stamp to match")
-            self._group = [message]
-        elif self._group:
-            self._group.append(message)
+        if self._pacing:
+            if message.topic == self._ack_before:
+                self._settle_group()
+                self._pending_stamp = header_stamp_ns(message.data)
+                if self._pending_stamp is None:
+                    raise BagError(f"ack_before {message.topic}: its messages carry no header stamp to match")
+            self._unanswered.append(message)
         self._topic_publishers[message.topic].publish(message.data)
 
     def _settle_group(self) -> None:
-        """Wait for the answer to the open group, re-publishing it when none comes."""
-        if not self._group:
+        """Wait for the answer to the pending stamp, re-publishing its frame when none comes."""
+        stamp = self._pending_stamp
+        if stamp is None:
             return
-        stamp = header_stamp_ns(self._group[0].data)
+        frame = [m for m in self._unanswered if header_stamp_ns(m.data) == stamp]
         timeout = float(self._param("ack_timeout"))
         retries = int(self._param("ack_retries"))
         for attempt in range(retries + 1):
@@ -164,12 +173,14 @@ class BagReplayNode(Node):
                 break
             if attempt < retries:
                 self.get_logger().warn(f"no answer on {self._param('ack_topic')} for stamp {stamp} within "
-                                       f"{timeout} s: publishing its {len(self._group)} message(s) again")
-                for message in self._group:
+                                       f"{timeout} s: publishing its {len(frame)} message(s) again")
+                for message in frame:
                     self._topic_publishers[message.topic].publish(message.data)
         else:
             self.get_logger().warn(f"stamp {stamp} got no answer after {retries} retries; going on")
-        self._group = []
+        # keep what already belongs to later frames (e.g. a depth image published before its colour)
+        self._unanswered = [m for m in self._unanswered if (header_stamp_ns(m.data) or 0) > stamp]
+        self._pending_stamp = None
 
 
 def main(args=None) -> int:

@@ -1,0 +1,109 @@
+"""Offline regression: the committed episode bag's camera frames, replayed through the real heightmap,
+attention and policy executables, give exactly the decisions recorded on /policy/primitive.
+
+The bag (tests/data/episode_bag) is made by scripts/record_test_bag.py (`make test-bag`); its
+custom_data says which weights decided. When the checkpoint changes, regenerate it with that one command.
+"""
+
+import pathlib
+
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.serialization import deserialize_message
+from sensor_msgs.msg import Image
+
+from impurity_common.bags import BagReader, file_sha256
+from impurity_interfaces.msg import Primitive
+from ros_harness import ros_args, spin_until
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+BAG = ROOT / "tests" / "data" / "episode_bag"
+CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
+COLOR = "/camera/camera/color/image_raw"
+DEPTH = "/camera/camera/aligned_depth_to_color/image_raw"
+INFO = "/camera/camera/color/camera_info"
+PRIMITIVE = "/policy/primitive"
+ATTENTION = "/attention/result"
+REGENERATE = "regenerate it with `make test-bag` (scripts/record_test_bag.py)"
+
+
+def stamp_ns(stamp) -> int:
+    return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+
+
+def policy_parameters(notes: dict) -> dict:
+    """The same weights as in the recording; stale-input checks off (the stamps are from then)."""
+    parameters = {"max_age": 1e9}
+    if notes.get("impurity.policy") == "untrained":
+        return {**parameters, "allow_untrained": True, "seed": int(notes["impurity.untrained_seed"]),
+                "checkpoint": "/nonexistent/untrained.pt"}
+    from impurity_policy.policy_node import default_checkpoint
+
+    checkpoint = pathlib.Path(default_checkpoint())
+    if not checkpoint.is_file():
+        pytest.fail(f"the bag was decided by a checkpoint, but there is none at {checkpoint}")
+    if file_sha256(checkpoint) != notes.get("impurity.checkpoint_sha256"):
+        pytest.fail(f"{checkpoint} changed since {BAG} was recorded: {REGENERATE}")
+    return {**parameters, "checkpoint": str(checkpoint)}
+
+
+def recorded_decisions(reader: BagReader) -> dict[int, bytes]:
+    """Camera stamp -> the recorded decision's bytes, for the frames kept in the bag."""
+    frames = set()
+    for message in reader.messages([COLOR]):
+        frames.add(stamp_ns(deserialize_message(message.data, Image).header.stamp))
+    decisions = {}
+    for message in reader.messages([PRIMITIVE]):
+        stamp = stamp_ns(deserialize_message(message.data, Primitive).header.stamp)
+        if stamp in frames:
+            decisions.setdefault(stamp, message.data)
+    return decisions
+
+
+def describe(data: bytes) -> str:
+    p = deserialize_message(data, Primitive)
+    return (f"kind={p.kind} x={p.position.x:.6f} y={p.position.y:.6f} z={p.position.z:.6f} yaw={p.yaw:.6f} "
+            f"q={p.q_value:.9f} rot={p.rotation_index} px=({p.pixel_row},{p.pixel_col})")
+
+
+@pytest.mark.skipif(not (BAG / "metadata.yaml").is_file(),
+                    reason=f"no committed bag at {BAG}: record it with `make test-bag` once the cell runs")
+def test_replayed_frames_give_the_recorded_decisions(ros_node, launch):
+    with BagReader(BAG) as reader:
+        notes = reader.custom_data
+        expected = recorded_decisions(reader)
+    assert expected, f"{BAG} holds no camera frame with a recorded decision: {REGENERATE}"
+
+    params = {"params_file": CONFIG}
+    nodes = [launch("impurity_attention", "heightmap_node", ros_args(**params)),
+             launch("impurity_attention", "attention_node", ros_args(**params)),
+             launch("impurity_policy", "policy_node", ros_args(policy_parameters(notes), **params))]
+    replayed: dict[int, bytes] = {}
+
+    def on_primitive(data: bytes) -> None:
+        replayed.setdefault(stamp_ns(deserialize_message(data, Primitive).header.stamp), data)
+
+    reliable = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+    subscription = ros_node.create_subscription(Primitive, PRIMITIVE, on_primitive, reliable, raw=True)
+    try:
+        spin_until(ros_node, lambda: (ros_node.count_publishers(PRIMITIVE) >= 1
+                                      and ros_node.count_subscribers(ATTENTION) >= 1
+                                      and ros_node.count_subscribers("/heightmap") >= 1),
+                   120.0, "heightmap, attention and policy nodes to connect", nodes)
+        # Each colour frame waits for the previous one's attention result (same stamp), re-publishing a
+        # frame that got none: the camera subscriptions are best effort, the pipeline may be slow. The
+        # delay lets the best-effort subscribers discover the replay before the first camera_info.
+        replay = launch("impurity_common", "bag_replay", ros_args({
+            "bag": str(BAG), "topics": [INFO, DEPTH, COLOR], "as_fast_as_possible": True,
+            "wait_for_subscribers": 1, "wait_timeout": 60.0, "delay": 2.0,
+            "ack_topic": ATTENTION, "ack_before": COLOR, "ack_timeout": 10.0, "ack_retries": 4}))
+        spin_until(ros_node, lambda: set(expected) <= set(replayed), 300.0,
+                   f"decisions for the {len(expected)} recorded frames", nodes)
+        assert replay.process.wait(timeout=60) == 0, replay.output()[-2000:]
+    finally:
+        ros_node.destroy_subscription(subscription)
+
+    differences = [f"frame {stamp}: recorded {describe(expected[stamp])}\n{'':>{len(str(stamp)) + 8}}"
+                   f"replayed {describe(replayed[stamp])}"
+                   for stamp in sorted(expected) if replayed[stamp] != expected[stamp]]
+    assert not differences, "decisions differ from the recording:\n" + "\n".join(differences)
