@@ -11,13 +11,22 @@ camera_info) is published again, up to `ack_retries` times. E.g. each colour fra
 previous frame's /attention/result, so neither a slow pipeline nor a best-effort subscriber that
 lost a big image loses a frame.
 
+Big images: Fast DDS's default shared-memory segment (512 KB) cannot hold a 640x480 frame; such a
+message falls back to UDP fragments, which a best-effort subscriber (the heightmap node's camera
+subscriptions) loses in bursts. Unless a Fast DDS profile or transport is chosen in the environment,
+bag_replay gives its own participant a 32 MB segment (it is the writer's segment that matters).
+
 Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
 bag, an unknown message type or missing subscribers; every wait is bounded.
 
   bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
 """
 
+import hashlib
+import os
+import pathlib
 import sys
+import tempfile
 import time
 
 import rclpy
@@ -39,6 +48,47 @@ from impurity_common.bags import (
     ros_message_class,
     run_replay,
 )
+
+FASTDDS_LARGE_SHM_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
+<profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
+  <transport_descriptors>
+    <transport_descriptor>
+      <transport_id>shm_32mb</transport_id>
+      <type>SHM</type>
+      <segment_size>33554432</segment_size>
+    </transport_descriptor>
+    <transport_descriptor>
+      <transport_id>udp</transport_id>
+      <type>UDPv4</type>
+    </transport_descriptor>
+  </transport_descriptors>
+  <participant profile_name="bag_replay_large_shm" is_default_profile="true">
+    <rtps>
+      <userTransports>
+        <transport_id>shm_32mb</transport_id>
+        <transport_id>udp</transport_id>
+      </userTransports>
+      <useBuiltinTransports>false</useBuiltinTransports>
+    </rtps>
+  </participant>
+</profiles>
+"""
+
+
+def use_large_shm_segment() -> None:
+    """Point Fast DDS at FASTDDS_LARGE_SHM_PROFILE, unless the environment already chose otherwise."""
+    chosen = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE", "FASTDDS_BUILTIN_TRANSPORTS")
+    if any(os.environ.get(name) for name in chosen):
+        return
+    if os.environ.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp") != "rmw_fastrtps_cpp":
+        return
+    digest = hashlib.sha256(FASTDDS_LARGE_SHM_PROFILE.encode()).hexdigest()[:12]
+    path = pathlib.Path(tempfile.gettempdir()) / f"impurity_bag_replay_fastdds_{digest}.xml"
+    if not path.is_file():
+        scratch = path.with_suffix(f".{os.getpid()}.tmp")
+        scratch.write_text(FASTDDS_LARGE_SHM_PROFILE)
+        os.replace(scratch, path)
+    os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(path)
 
 
 def _describe(text: str) -> ParameterDescriptor:
@@ -184,6 +234,7 @@ class BagReplayNode(Node):
 
 
 def main(args=None) -> int:
+    use_large_shm_segment()
     rclpy.init(args=args)
     node = None
     code = 0
