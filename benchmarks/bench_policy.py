@@ -60,7 +60,7 @@ def main():
         print(f"\n{label}: {parameter_count(net) / 1e6:.3f} M parameters")
         for chunk in (1, 4, 8, 16):
             with torch.no_grad():
-                p50, p95 = timed(lambda net=net, inputs=inputs, chunk=chunk: net.q_maps(*inputs, chunk=chunk),
+                p50, p95 = timed(lambda net=net, inputs=inputs, chunk=chunk: net.q_maps(inputs, chunk=chunk),
                                  args.repeats if config.crop_size == 112 else 5)
             print(f"  32 Q maps, {chunk:2d} rotation(s) per pass: p50 {p50:7.1f} ms  p95 {p95:7.1f} ms")
 

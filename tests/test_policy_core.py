@@ -180,7 +180,7 @@ def test_replay_round_trip_and_rank_priority(tmp_path):
 def test_network_gives_32_maps_of_crop_size():
     net = QNetwork(SMALL).eval()
     with torch.no_grad():
-        q = net.q_maps(*network_inputs(_state().color, _state().height, _state().mask))
+        q = net.q_maps(network_inputs(_state().color, _state().height, _state().mask))
     assert q.shape == (16, 2, 112, 112)
 
 

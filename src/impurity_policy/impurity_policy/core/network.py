@@ -43,7 +43,7 @@ COLOR_MEAN = 0.5
 COLOR_STD = 0.25
 HEIGHT_SCALE = 0.03  # m per unit
 PUSH, GRASP = 0, 1  # index of the primitive in Q-map tensors (same values as Primitive.PUSH/GRASP)
-# Rotations per forward pass: 4 measured fastest here (16 at once ~84 ms, 4 ~68 ms, 1 ~180 ms for 32 maps).
+# Rotations per forward pass: 4 measured fastest here (benchmarks/bench_policy.py: 16 at once, 4 or 1).
 INFERENCE_CHUNK = 4
 
 
@@ -147,8 +147,11 @@ def rotation_yaws(indices) -> torch.Tensor:
 
 
 class QNetwork(nn.Module):
-    """(colour (B, 6, S, S), depth (B, 6, S, S)) of already-rotated inputs -> (B, 2, S, S) Q maps
-    in the rotated frame; `q_maps` does the rotations."""
+    """Compact inputs (B, 5, S, S) already rotated -> (B, 2, S, S) Q maps (push, grasp) in the rotated
+    frame; `q_maps` does the rotations.
+
+    The compact input holds the 5 distinct planes (RGB, target mask, height); the towers' 6-channel
+    inputs are expanded from it after rotation, so rotating costs 5 planes instead of 12."""
 
     def __init__(self, config: NetworkConfig = NetworkConfig()):
         super().__init__()
@@ -164,49 +167,52 @@ class QNetwork(nn.Module):
                 if m.bias is not None:
                     nn.init.zeros_(m.bias)
 
-    def forward(self, color: torch.Tensor, depth: torch.Tensor) -> torch.Tensor:
+    @staticmethod
+    def tower_inputs(compact: torch.Tensor) -> tuple:
+        """(B, 5, S, S) -> colour (B, 6, S, S): RGB of the target-centric and of the target-mask
+        heightmap; depth (B, 6, S, S): the height of each, cloned to three channels."""
+        rgb, mask, height = compact[:, 0:3], compact[:, 3:4], compact[:, 4:5]
+        masked_height = height * mask
+        color = torch.cat([rgb, rgb * mask], dim=1)
+        depth = torch.cat([height, height, height, masked_height, masked_height, masked_height], dim=1)
+        return color, depth
+
+    def forward(self, compact: torch.Tensor) -> torch.Tensor:
+        color, depth = self.tower_inputs(compact)
         features = torch.cat([self.color_tower(color), self.depth_tower(depth)], dim=1)
         q = torch.cat([self.push_head(features), self.grasp_head(features)], dim=1)
-        return F.interpolate(q, size=color.shape[-2:], mode="bilinear", align_corners=False)
+        return F.interpolate(q, size=compact.shape[-2:], mode="bilinear", align_corners=False)
 
-    def q_maps(self, color: torch.Tensor, depth: torch.Tensor, rotations=None,
+    def q_maps(self, compact: torch.Tensor, rotations=None,
                chunk: int | None = INFERENCE_CHUNK) -> torch.Tensor:
-        """Unrotated inputs (1, 6, S, S) -> Q maps (R, 2, S, S) in the crop frame for the given
-        rotation indices (default all). `chunk` rotations per forward pass (None: all at once)."""
+        """Unrotated compact input (1, 5, S, S) -> Q maps (R, 2, S, S) in the crop frame for the
+        given rotation indices (default all); `chunk` rotations per forward pass (None: all at once)."""
         rotations = list(range(self.config.num_rotations)) if rotations is None else list(rotations)
-        size = color.shape[-1]
+        size = compact.shape[-1]
         outputs = []
         step = chunk or len(rotations)
         for start in range(0, len(rotations), step):
             yaws = rotation_yaws(rotations[start:start + step])
-            grid = rotation_grid(yaws, size, inverse=False)
-            n = len(yaws)
-            rotated_color = F.grid_sample(color.expand(n, -1, -1, -1), grid, align_corners=False)
-            rotated_depth = F.grid_sample(depth.expand(n, -1, -1, -1), grid, align_corners=False)
-            q_rotated = self(rotated_color, rotated_depth)
+            rotated = F.grid_sample(compact.expand(len(yaws), -1, -1, -1),
+                                    rotation_grid(yaws, size, inverse=False), align_corners=False)
+            q_rotated = self(rotated)
             back = rotation_grid(yaws, size, inverse=True)
             outputs.append(F.grid_sample(q_rotated, back, align_corners=False))
         return torch.cat(outputs, dim=0)
 
 
-def network_inputs(color_crop: np.ndarray, height_crop: np.ndarray, mask: np.ndarray) -> tuple:
-    """Attention crops -> (colour (1, 6, S, S), depth (1, 6, S, S)) float tensors.
-
-    colour: RGB of the target-centric heightmap, then RGB of the target-mask heightmap;
-    depth: height of each, cloned to three channels (VPG's layout for ImageNet-shaped towers).
-    """
+def network_inputs(color_crop: np.ndarray, height_crop: np.ndarray, mask: np.ndarray) -> torch.Tensor:
+    """Attention crops -> the compact input (1, 5, S, S): normalised RGB, target mask (0/1), scaled
+    height. QNetwork.tower_inputs turns it into the two towers' 6-channel inputs."""
     size = color_crop.shape[0]
     if color_crop.shape != (size, size, 3) or height_crop.shape != (size, size) or mask.shape != (size, size):
         raise ValueError(f"crops must be (S, S, 3), (S, S), (S, S); got {color_crop.shape}, "
                          f"{height_crop.shape}, {mask.shape}")
-    on_target = (mask > 0).astype(np.float32)
-    color = (color_crop.astype(np.float32) / 255.0 - COLOR_MEAN) / COLOR_STD
-    height = np.nan_to_num(height_crop.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0) / HEIGHT_SCALE
-    color_planes = np.concatenate([color, color * on_target[..., None]], axis=2).transpose(2, 0, 1)
-    masked_height = height * on_target
-    depth_planes = np.stack([height] * 3 + [masked_height] * 3, axis=0)
-    return (torch.from_numpy(np.ascontiguousarray(color_planes))[None],
-            torch.from_numpy(np.ascontiguousarray(depth_planes))[None])
+    planes = np.empty((5, size, size), dtype=np.float32)
+    planes[0:3] = ((color_crop.astype(np.float32) / 255.0 - COLOR_MEAN) / COLOR_STD).transpose(2, 0, 1)
+    planes[3] = mask > 0
+    planes[4] = np.nan_to_num(height_crop.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0) / HEIGHT_SCALE
+    return torch.from_numpy(planes)[None]
 
 
 def valid_action_mask(size: int = cell.CROP_SIZE, margin: float = 1.0) -> np.ndarray:

@@ -91,7 +91,7 @@ class Policy:
 
     @torch.no_grad()
     def q_maps(self, obs: Observation) -> np.ndarray:
-        return self.network.q_maps(*network_inputs(obs.color_crop, obs.height_crop, obs.mask)).numpy()
+        return self.network.q_maps(network_inputs(obs.color_crop, obs.height_crop, obs.mask)).numpy()
 
     def masks(self, obs: Observation) -> np.ndarray:
         return action_masks(obs.state, obs.crop_origin, obs.height.shape, allowed_primitives(obs.mode),

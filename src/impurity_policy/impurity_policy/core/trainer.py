@@ -133,7 +133,7 @@ class Trainer:
         net = self.target if use_target else self.online
         was_training = net.training
         net.eval()
-        q = net.q_maps(*network_inputs(state.color, state.height, state.mask)).numpy()
+        q = net.q_maps(network_inputs(state.color, state.height, state.mask)).numpy()
         net.train(was_training)
         return q
 
@@ -153,9 +153,8 @@ class Trainer:
         num_rotations = self.network_config.num_rotations
         if transition.primitive == GRASP and self.config.grasp_trains_opposite:
             rotations.append((transition.rotation + num_rotations // 2) % num_rotations)
-        color, depth = network_inputs(transition.state.color, transition.state.height,
-                                      transition.state.mask)
-        q = self.online.q_maps(color, depth, rotations=rotations, chunk=None)
+        inputs = network_inputs(transition.state.color, transition.state.height, transition.state.mask)
+        q = self.online.q_maps(inputs, rotations=rotations, chunk=None)
         row, col = transition.pixel
         return q[:, transition.primitive, row, col]
 
