@@ -57,7 +57,7 @@ def parameter_table() -> dict:
         "seed": (0, "Seed of the untrained network"),
         "max_age": (5.0, "s: older attention results are stale and not answered"),
         "publish_q_maps": (True, "Publish the 32 Q maps as an image"),
-        "threads": (2, "torch CPU threads"),
+        "threads": (1, "torch CPU threads (1: robust when the cell's other processes share the cores)"),
         "grasp_depth": (rules.grasp_depth, "Grasp fingertips below the local top (m)"),
         "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
         "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
