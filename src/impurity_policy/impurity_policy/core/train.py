@@ -70,6 +70,7 @@ class TrainConfig:
     plot_window: int = 300
     replay_capacity: int = 20000
     threads: int = 2
+    max_hours: float = 0.0  # > 0: stop (and save) after this much wall time in this invocation
     progress: bool = True
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
 
@@ -225,6 +226,8 @@ class TrainingRun:
         obs, truth, maps = self.new_scene()
         try:
             while self.iteration < config.iterations:
+                if config.max_hours > 0 and time.perf_counter() - started > 3600.0 * config.max_hours:
+                    break
                 if obs.mode == MODE_NONE or truth.targets_remaining == 0:
                     obs, truth, maps = self.new_scene()
                     if obs.mode == MODE_NONE:
@@ -379,7 +382,7 @@ def summary(path, window: int = 300) -> dict:
     for primitive in ("grasp", "push"):
         its, rates = rolling_success(rows, primitive, window)
         out[f"{primitive}_attempts"] = len(its)
-        out[f"{primitive}_success_last_{window}"] = rates[-1] if rates else float("nan")
+        out[f"{primitive}_success_last_{window}"] = rates[-1] if rates else None
     return out
 
 
