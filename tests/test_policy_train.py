@@ -65,3 +65,21 @@ def test_full_heightmap_methods_use_224_inputs():
     assert network_config_for("vpg").crop_size == 224 and network_config_for("ours").crop_size == 112
     with pytest.raises(ValueError, match="random scenario only"):
         TrainConfig(scenario="challenging")
+
+
+def test_fast_sim_episode_counts_like_the_episode_core():
+    from impurity_policy.core.episode import EpisodeRequest
+    from impurity_policy.core.evaluate import EVAL_SEED_BASE, run_episode
+    from impurity_policy.core.network import QNetwork
+    from impurity_policy.core.policy import Policy
+    from ur5_driver_sim.core.world import CellWorld
+
+    world = CellWorld(mode="floating")
+    torch.manual_seed(0)
+    try:
+        metrics = run_episode(world, Policy(QNetwork()), EpisodeRequest("random", seed=EVAL_SEED_BASE,
+                                                                        max_actions=3))
+    finally:
+        world.close()
+    assert 1 <= metrics["actions"] <= 3 and metrics["termination_reason"]
+    assert metrics["actions"] == metrics["grasp_attempts"] + metrics["pushes"]

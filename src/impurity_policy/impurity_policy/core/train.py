@@ -121,6 +121,21 @@ def positions(truth) -> dict:
     return {body: pose[0] for body, pose in truth.poses.items()}
 
 
+def sense(world, projectors: dict, method: str, attention_params, grid) -> tuple:
+    """Render the sim camera -> heightmaps -> attention -> the method's observation.
+    Returns (Observation, sim GroundTruth, Heightmaps); `projectors` caches the camera projection."""
+    from impurity_attention.core.attention import attend
+    from impurity_attention.core.heightmap import HeightmapProjector
+
+    frame = world.render()
+    if "camera" not in projectors:
+        projectors["camera"] = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape,
+                                                  grid)
+    maps = projectors["camera"].project(frame.color, frame.depth)
+    attention = attend(maps.color, maps.height, attention_params, grid)
+    return observe(method, attention, maps.height, maps.color), world.ground_truth(frame), maps
+
+
 # ---- the loop ----------------------------------------------------------------------------------------
 class TrainingRun:
     """The training loop state; `run()` trains up to config.iterations, resuming when possible."""
@@ -147,7 +162,7 @@ class TrainingRun:
         self.grid = HeightmapGrid()
         self.attention_params = AttentionParams()
         self.world = CellWorld(mode="floating")
-        self._projector = None
+        self._projectors = {}
         self.resumed = self._resume()
 
     # -- persistence
@@ -177,17 +192,7 @@ class TrainingRun:
 
     # -- sensing
     def sense(self):
-        from impurity_attention.core.attention import attend
-        from impurity_attention.core.heightmap import HeightmapProjector
-
-        frame = self.world.render()
-        if self._projector is None:
-            self._projector = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape,
-                                                 self.grid)
-        maps = self._projector.project(frame.color, frame.depth)
-        attention = attend(maps.color, maps.height, self.attention_params, self.grid)
-        obs = observe(self.config.method, attention, maps.height, maps.color)
-        return obs, self.world.ground_truth(frame), maps
+        return sense(self.world, self._projectors, self.config.method, self.attention_params, self.grid)
 
     def new_scene(self):
         self.scene_index += 1
