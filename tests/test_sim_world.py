@@ -182,3 +182,18 @@ def test_bad_scene_requests_raise_clear_errors(world, tmp_path):
     with pytest.raises(ValueError, match="at most 60"):
         world.reset_scene("random", num_targets=2, num_objects=100)
     assert len(world.poses()) == 4  # a refused reset leaves the scene as it was
+
+
+def test_mesh_shapes_face_outwards():
+    """Inward-wound triangles render as the shape's inside (a prism looked flat and dark)."""
+    import numpy as np
+
+    from ur5_driver_sim.core.shapes import _half_cylinder_mesh, _prism_mesh
+
+    for mesh in (_prism_mesh, _half_cylinder_mesh):
+        vertices, indices = mesh((0.04, 0.05, 0.03))
+        vertices = np.array(vertices)
+        centre = vertices.mean(axis=0)
+        for t in range(0, len(indices), 3):
+            a, b, c = vertices[indices[t:t + 3]]
+            assert np.dot(np.cross(b - a, c - a), (a + b + c) / 3 - centre) > 0, (mesh.__name__, t // 3)

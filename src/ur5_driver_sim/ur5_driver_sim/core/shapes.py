@@ -94,7 +94,9 @@ def _prism_mesh(dims):
     w, length, h = dims
     tri = [(-w / 2, -h / 2), (w / 2, -h / 2), (0.0, h / 2)]
     vertices = [(x, y, z) for y in (-length / 2, length / 2) for (x, z) in tri]
-    indices = [0, 2, 1, 3, 4, 5, 0, 1, 4, 0, 4, 3, 1, 2, 5, 1, 5, 4, 2, 0, 3, 2, 3, 5]
+    # Counter-clockwise seen from outside (outward normals): the renderer culls back faces, and
+    # inward-facing triangles made prisms render as their darkened, flattened inside.
+    indices = [0, 1, 2, 3, 5, 4, 0, 4, 1, 0, 3, 4, 1, 5, 2, 1, 4, 5, 2, 3, 0, 2, 5, 3]
     return vertices, indices
 
 
