@@ -3,7 +3,7 @@ SHELL := /bin/bash
 .SHELLFLAGS := -eo pipefail -c
 ENV := source scripts/env.sh &&
 
-.PHONY: setup test lint pytest demo train eval bench bag clean help
+.PHONY: setup test lint pytest demo train eval bench test-bag clean help
 
 help:
 	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
@@ -12,6 +12,7 @@ help:
 	@echo "make eval   - paper's evaluation: methods x scenarios, table and chart"
 	@echo "make bench  - latency and throughput figures"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
+	@echo "make test-bag - re-record tests/data/episode_bag (after a checkpoint or perception change)"
 
 setup:
 	@bash scripts/setup.sh
@@ -37,6 +38,9 @@ eval: setup
 
 bench: setup
 	@$(ENV) for b in benchmarks/bench_*.py; do echo "== $$b"; python "$$b"; done
+
+test-bag: setup
+	@$(ENV) python scripts/record_test_bag.py $(BAG_ARGS)
 
 clean:
 	rm -rf ros2_ws/build ros2_ws/install ros2_ws/log ros2_ws/colcon-build.log

@@ -90,6 +90,7 @@ def test_a_node_killed_mid_episode_ends_it_with_a_reason_and_intact_records(ros_
     assert handle.accepted
     spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
     cell["policy_node"].send_signal(signal.SIGKILL)
+    episode.processes = [p for name, p in cell.items() if name != "policy_node"]  # its death is expected
     result = episode.get_result(handle, timeout=300.0).result
     assert result.termination_reason.startswith("node_lost")
     steps = steps_of(result.record_path)

@@ -43,6 +43,11 @@ MODE_NAMES = {AttentionResult.MODE_NONE: "NONE", AttentionResult.MODE_TARGET: "T
               AttentionResult.MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}
 
 
+# s with no publisher on /policy/primitive before an episode gives up on the policy node (a
+# restarting node re-appears within this; a dead one does not).
+POLICY_GONE_GRACE = 5.0
+
+
 class EpisodeAborted(Exception):
     """The episode cannot go on; the message is its termination reason."""
 
@@ -249,6 +254,7 @@ class EpisodeNode(Node):
         """The first decision (and its attention result) from a frame stamped after `after_ns`."""
         timeout = float(self._param("decision_timeout"))
         deadline = time.monotonic() + timeout
+        gone_since = None
         with self._condition:
             while True:
                 primitive = self._latest_primitive
@@ -261,6 +267,12 @@ class EpisodeNode(Node):
                         and newest.mode == AttentionResult.MODE_NONE):
                     return newest, None
                 remaining = deadline - time.monotonic()
+                if self.count_publishers("/policy/primitive") == 0:
+                    gone_since = gone_since or time.monotonic()
+                    if time.monotonic() - gone_since > POLICY_GONE_GRACE:
+                        raise EpisodeAborted("node_lost: no policy node publishes /policy/primitive")
+                else:
+                    gone_since = None
                 if remaining <= 0:
                     raise EpisodeAborted(
                         f"node_lost: no fresh decision on /policy/primitive within {timeout:.0f} s "
