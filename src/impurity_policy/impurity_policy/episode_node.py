@@ -43,8 +43,7 @@ MODE_NAMES = {AttentionResult.MODE_NONE: "NONE", AttentionResult.MODE_TARGET: "T
               AttentionResult.MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}
 
 
-# s with no publisher on /policy/primitive before an episode gives up on the policy node (a
-# restarting node re-appears within this; a dead one does not).
+# s without the policy node's publisher, once it had been seen, before an episode gives up on it.
 POLICY_GONE_GRACE = 5.0
 
 
@@ -80,6 +79,7 @@ class EpisodeNode(Node):
         self._condition = threading.Condition()
         self._attention_by_stamp: collections.OrderedDict[int, AttentionResult] = collections.OrderedDict()
         self._latest_primitive: Primitive | None = None
+        self._policy_seen = False
         self._busy = threading.Lock()
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
@@ -267,12 +267,12 @@ class EpisodeNode(Node):
                         and newest.mode == AttentionResult.MODE_NONE):
                     return newest, None
                 remaining = deadline - time.monotonic()
-                if self.count_publishers("/policy/primitive") == 0:
+                if self.count_publishers("/policy/primitive") > 0:
+                    self._policy_seen, gone_since = True, None
+                elif self._policy_seen:  # it was there and left; a slow start is decision_timeout's job
                     gone_since = gone_since or time.monotonic()
                     if time.monotonic() - gone_since > POLICY_GONE_GRACE:
-                        raise EpisodeAborted("node_lost: no policy node publishes /policy/primitive")
-                else:
-                    gone_since = None
+                        raise EpisodeAborted("node_lost: the policy node left /policy/primitive")
                 if remaining <= 0:
                     raise EpisodeAborted(
                         f"node_lost: no fresh decision on /policy/primitive within {timeout:.0f} s "
