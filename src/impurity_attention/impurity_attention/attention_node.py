@@ -4,7 +4,6 @@ Thin shell around impurity_attention.core.attention.attend: one AttentionResult 
 heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line.
 """
 
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
@@ -15,6 +14,7 @@ from impurity_attention.core.heightmap import HeightmapGrid
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import describe
 from impurity_interfaces.msg import AttentionResult, Heightmap
 
 HEIGHTMAP_TOPIC = "/heightmap"
@@ -55,19 +55,15 @@ ATTENTION_PARAMETERS = {
 }
 
 
-def _describe(text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=True)
-
-
 class AttentionNode(Node):
     def __init__(self):
         super().__init__("attention")
         for prefix, table in (("saliency.", SALIENCY_PARAMETERS), ("density.", DENSITY_PARAMETERS),
                               ("", ATTENTION_PARAMETERS)):
             for name, (default, text) in table.items():
-                self.declare_parameter(prefix + name, default, _describe(text))
-        self.declare_parameter("publish_debug_image", True, _describe("Publish the saliency overlay"))
-        self.declare_parameter("log_throttle", 5.0, _describe("s between repeated warnings"))
+                self.declare_parameter(prefix + name, default, describe(text))
+        self.declare_parameter("publish_debug_image", True, describe("Publish the saliency overlay"))
+        self.declare_parameter("log_throttle", 5.0, describe("s between repeated warnings"))
         self._params = self._read_params()
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)

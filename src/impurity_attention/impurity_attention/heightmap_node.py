@@ -7,7 +7,6 @@ The camera pose in base_link is a parameter: a real cell sets it from its hand-e
 """
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
@@ -26,6 +25,7 @@ from impurity_attention.core.sync import StampPairer
 from impurity_common import cell
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import describe
 from impurity_interfaces.msg import Heightmap
 
 COLOR_TOPIC = "/camera/camera/color/image_raw"
@@ -40,34 +40,30 @@ SIM_LAB_MEAN = (60.21, 1.36, -8.57)
 SIM_LAB_STD = (9.35, 5.76, 19.01)
 
 
-def _describe(text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text)
-
-
 class HeightmapNode(Node):
     def __init__(self):
         super().__init__("heightmap")
-        self.declare_parameter("camera_position", list(cell.CAMERA_POSITION), _describe(
+        self.declare_parameter("camera_position", list(cell.CAMERA_POSITION), describe(
             "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye calibration)"))
-        self.declare_parameter("camera_orientation", list(cell.CAMERA_ORIENTATION), _describe(
+        self.declare_parameter("camera_orientation", list(cell.CAMERA_ORIENTATION), describe(
             "Camera optical frame orientation in base_link: quaternion [x, y, z, w]"))
         self.declare_parameter("workspace_x", list(cell.WORKSPACE_X),
-                               _describe("[x_min, x_max] in base_link (m)"))
+                               describe("[x_min, x_max] in base_link (m)"))
         self.declare_parameter("workspace_y", list(cell.WORKSPACE_Y),
-                               _describe("[y_min, y_max] in base_link (m)"))
-        self.declare_parameter("resolution", cell.HEIGHTMAP_RESOLUTION, _describe("Heightmap cell size (m)"))
-        self.declare_parameter("table_z", cell.TABLE_Z, _describe("Table top height in base_link (m)"))
-        self.declare_parameter("max_height", MAX_HEIGHT, _describe(
+                               describe("[y_min, y_max] in base_link (m)"))
+        self.declare_parameter("resolution", cell.HEIGHTMAP_RESOLUTION, describe("Heightmap cell size (m)"))
+        self.declare_parameter("table_z", cell.TABLE_Z, describe("Table top height in base_link (m)"))
+        self.declare_parameter("max_height", MAX_HEIGHT, describe(
             "Points higher than this above the table are dropped (arm, gripper, noise) (m)"))
-        self.declare_parameter("sync_tolerance", 0.01, _describe(
+        self.declare_parameter("sync_tolerance", 0.01, describe(
             "Largest stamp difference (s) for a colour and a depth frame to pair"))
-        self.declare_parameter("colour_adaptation", False, _describe(
+        self.declare_parameter("colour_adaptation", False, describe(
             "Reinhard Lab transfer of heightmap colours to the sim reference statistics (real cameras)"))
-        self.declare_parameter("colour_reference_mean", list(SIM_LAB_MEAN), _describe(
+        self.declare_parameter("colour_reference_mean", list(SIM_LAB_MEAN), describe(
             "Reference Lab mean [L, a, b] for colour adaptation"))
-        self.declare_parameter("colour_reference_std", list(SIM_LAB_STD), _describe(
+        self.declare_parameter("colour_reference_std", list(SIM_LAB_STD), describe(
             "Reference Lab standard deviation [L, a, b] for colour adaptation"))
-        self.declare_parameter("log_throttle", 5.0, _describe("s between repeated warnings about bad frames"))
+        self.declare_parameter("log_throttle", 5.0, describe("s between repeated warnings about bad frames"))
 
         self._grid = self._read_grid()
         self._camera_pose = pose_matrix(self._param("camera_position"), self._param("camera_orientation"))

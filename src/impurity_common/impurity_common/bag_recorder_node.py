@@ -19,7 +19,6 @@ import time
 from functools import partial
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -27,6 +26,7 @@ from rclpy.signals import SignalHandlerOptions
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from impurity_common.bags import BagError, BagWriter, cell_typestore, ros_message_class
+from impurity_common.parameters import describe
 
 DEFAULT_TOPICS = [
     "/camera/camera/color/image_raw",
@@ -38,9 +38,6 @@ DEFAULT_TOPICS = [
     "/episode/steps",
 ]
 
-
-def _describe(text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=True)
 
 
 def _qos_time(duration) -> QosTime:
@@ -60,13 +57,13 @@ def bag_qos(profile: QoSProfile) -> Qos:
 class BagRecorderNode(Node):
     def __init__(self):
         super().__init__("bag_recorder")
-        self.declare_parameter("topics", DEFAULT_TOPICS, _describe("Topics to record (absolute names)"))
-        self.declare_parameter("output", "", _describe(
+        self.declare_parameter("topics", DEFAULT_TOPICS, describe("Topics to record (absolute names)"))
+        self.declare_parameter("output", "", describe(
             "Bag directory to create (must not exist); default bag_<date>_<time> in the working directory"))
-        self.declare_parameter("split_duration", 5.0, _describe(
+        self.declare_parameter("split_duration", 5.0, describe(
             "s of messages per split file: what a SIGKILL can lose at most"))
-        self.declare_parameter("qos_depth", 100, _describe("Subscription queue depth"))
-        self.declare_parameter("discovery_period", 0.2, _describe("s between looks for not yet seen topics"))
+        self.declare_parameter("qos_depth", 100, describe("Subscription queue depth"))
+        self.declare_parameter("discovery_period", 0.2, describe("s between looks for not yet seen topics"))
 
         output = self._param("output") or time.strftime("bag_%Y%m%d_%H%M%S")
         self._pending = list(dict.fromkeys(self._param("topics")))

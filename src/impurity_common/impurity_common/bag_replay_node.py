@@ -30,7 +30,6 @@ import tempfile
 import time
 
 import rclpy
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.duration import Duration
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
@@ -48,6 +47,7 @@ from impurity_common.bags import (
     ros_message_class,
     run_replay,
 )
+from impurity_common.parameters import describe
 
 FASTDDS_LARGE_SHM_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
 <profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
@@ -91,34 +91,31 @@ def use_large_shm_segment() -> None:
     os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(path)
 
 
-def _describe(text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=True)
-
 
 class BagReplayNode(Node):
     def __init__(self):
         super().__init__("bag_replay")
-        self.declare_parameter("bag", "", _describe("rosbag2 directory to play"))
-        self.declare_parameter("topics", [""], _describe("Topics to play (default: all in the bag)"))
-        self.declare_parameter("rate", 1.0, _describe(
+        self.declare_parameter("bag", "", describe("rosbag2 directory to play"))
+        self.declare_parameter("topics", [""], describe("Topics to play (default: all in the bag)"))
+        self.declare_parameter("rate", 1.0, describe(
             "Speed factor of the original timing (2.0: twice as fast)"))
-        self.declare_parameter("start_offset", 0.0, _describe("s after the bag's first message to start at"))
-        self.declare_parameter("loop", False, _describe("Play the bag again and again (until Ctrl-C)"))
-        self.declare_parameter("as_fast_as_possible", False, _describe(
+        self.declare_parameter("start_offset", 0.0, describe("s after the bag's first message to start at"))
+        self.declare_parameter("loop", False, describe("Play the bag again and again (until Ctrl-C)"))
+        self.declare_parameter("as_fast_as_possible", False, describe(
             "Ignore the original timing (use ack_topic to let subscribers set the pace)"))
-        self.declare_parameter("wait_for_subscribers", 0, _describe(
+        self.declare_parameter("wait_for_subscribers", 0, describe(
             "Before playing, wait until every played topic has this many subscribers"))
-        self.declare_parameter("wait_timeout", 10.0, _describe("s to wait for subscribers or ack_topic"))
-        self.declare_parameter("delay", 0.0, _describe(
+        self.declare_parameter("wait_timeout", 10.0, describe("s to wait for subscribers or ack_topic"))
+        self.declare_parameter("delay", 0.0, describe(
             "s to wait before playing (after the subscribers matched): a best-effort subscriber drops "
             "what arrives before it has discovered the publisher in turn"))
-        self.declare_parameter("ack_topic", "", _describe(
+        self.declare_parameter("ack_topic", "", describe(
             "Topic whose messages acknowledge ack_before messages ('' = no pacing)"))
-        self.declare_parameter("ack_before", "", _describe(
+        self.declare_parameter("ack_before", "", describe(
             "Played topic whose messages wait until ack_topic answered the previous ones"))
-        self.declare_parameter("ack_timeout", 5.0, _describe("s to wait for one acknowledgement"))
-        self.declare_parameter("ack_retries", 3, _describe("Re-publications of a group that got no answer"))
-        self.declare_parameter("qos_depth", 100, _describe("Publisher queue depth"))
+        self.declare_parameter("ack_timeout", 5.0, describe("s to wait for one acknowledgement"))
+        self.declare_parameter("ack_retries", 3, describe("Re-publications of a group that got no answer"))
+        self.declare_parameter("qos_depth", 100, describe("Publisher queue depth"))
 
         path = self._param("bag")
         if not path:

@@ -21,6 +21,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from impurity_common.conversions import image_to_numpy, time_to_ns
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import describe
 from impurity_interfaces.action import ExecutePrimitive, RunEpisode
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene, StartEpisode
@@ -61,19 +62,19 @@ class EpisodeNode(Node):
     def __init__(self):
         super().__init__("episode")
         self.declare_parameter("record_dir", default_record_dir(),
-                               descriptor=_describe("Directory of episode records (JSON lines)"))
+                               descriptor=describe("Directory of episode records (JSON lines)"))
         self.declare_parameter("actions_per_target", DEFAULT_ACTIONS_PER_TARGET,
-                               descriptor=_describe("Action limit per target when a request gives 0"))
+                               descriptor=describe("Action limit per target when a request gives 0"))
         self.declare_parameter("max_consecutive_failures", DEFAULT_MAX_CONSECUTIVE_FAILURES,
-                               descriptor=_describe("Failed grasps/motions in a row that end the episode"))
+                               descriptor=describe("Failed grasps/motions in a row that end the episode"))
         self.declare_parameter("decision_timeout", 30.0,
-                               descriptor=_describe("s to wait for a fresh decision before giving up"))
+                               descriptor=describe("s to wait for a fresh decision before giving up"))
         self.declare_parameter("motion_timeout", 120.0,
-                               descriptor=_describe("s to wait for the driver to finish a motion"))
+                               descriptor=describe("s to wait for the driver to finish a motion"))
         self.declare_parameter("service_timeout", 30.0,
-                               descriptor=_describe("s to wait for a service (reset, ground truth)"))
+                               descriptor=describe("s to wait for a service (reset, ground truth)"))
         self.declare_parameter("use_ground_truth", True,
-                               descriptor=_describe("Sim: reset scenes and count targets from ground truth"))
+                               descriptor=describe("Sim: reset scenes and count targets from ground truth"))
 
         group = ReentrantCallbackGroup()
         self._condition = threading.Condition()
@@ -344,10 +345,6 @@ def _step_record(step_index, attention, primitive, outcome, remaining) -> StepRe
 def _new_episode_id() -> str:
     return time.strftime("%Y%m%d-%H%M%S-") + uuid.uuid4().hex[:6]
 
-
-def _describe(text: str):
-    from rcl_interfaces.msg import ParameterDescriptor
-    return ParameterDescriptor(description=text)
 
 
 def main(args=None):

@@ -10,7 +10,6 @@ import pathlib
 import time
 
 import numpy as np
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
@@ -18,6 +17,7 @@ from sensor_msgs.msg import Image
 from impurity_common import cell
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import describe
 from impurity_interfaces.msg import AttentionResult, Primitive
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
 from impurity_policy.core.policy import NoActionError, Observation, Policy, q_maps_picture
@@ -65,15 +65,12 @@ def parameter_table() -> dict:
     }
 
 
-def _describe(text: str) -> ParameterDescriptor:
-    return ParameterDescriptor(description=text, read_only=True)
-
 
 class PolicyNode(Node):
     def __init__(self):
         super().__init__("policy")
         for name, (default, text) in parameter_table().items():
-            self.declare_parameter(name, default, _describe(text))
+            self.declare_parameter(name, default, describe(text))
         import torch
 
         torch.set_num_threads(int(self._param("threads")))
