@@ -35,7 +35,8 @@ CAMERA_FY = 618.62
 CAMERA_CX = (CAMERA_WIDTH - 1) / 2.0
 CAMERA_CY = (CAMERA_HEIGHT - 1) / 2.0
 # Overhead camera above the workspace centre, optical axis straight down; image x (columns) runs along
-# +x_base and image y (rows) along -y_base; given as position (m) and orientation quaternion (x, y, z, w) of the optical frame in base_link.
+# +x_base and image y (rows) along -y_base. Given as the optical frame's position (m) and orientation
+# quaternion (x, y, z, w) in base_link.
 CAMERA_POSITION = (0.5, 0.0, 0.75)
 CAMERA_ORIENTATION = (1.0, 0.0, 0.0, 0.0)  # 180 deg about x: optical z points down (-z_base)
 CAMERA_NEAR = 0.05  # m
