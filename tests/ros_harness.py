@@ -182,4 +182,23 @@ def wait_for_subscribers(node: Node, publisher, count: int = 1, timeout: float =
                f"{count} subscriber(s) on {publisher.topic_name}", processes)
 
 
+def publish_until_answered(node: Node, publisher, make_message, recorder: TopicRecorder,
+                           timeout: float = 60.0, period: float = 2.0, processes=()):
+    """Republish make_message() until `recorder` hears an answer: a matched publisher does not mean
+    the subscriber has matched it back, so the first messages after discovery may be dropped."""
+    wait_for_subscribers(node, publisher, timeout=timeout, processes=processes)
+    deadline = time.monotonic() + timeout
+    heard = len(recorder.messages)
+    while len(recorder.messages) == heard:
+        publisher.publish(make_message())
+        remaining = deadline - time.monotonic()
+        if remaining <= 0:
+            raise WaitTimeout(f"timed out after {timeout:.0f} s waiting for an answer on {recorder.topic}")
+        try:
+            recorder.wait_for(heard + 1, min(period, remaining), processes=processes)
+        except WaitTimeout:
+            continue
+    return recorder.messages[heard]
+
+
 SENSOR_QOS = qos_profile_sensor_data

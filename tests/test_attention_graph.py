@@ -9,7 +9,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from impurity_attention.core.synthetic import random_boxes, render_boxes
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_interfaces.msg import AttentionResult, Heightmap
-from ros_harness import TopicRecorder, ros_args, spin_until, wait_for_subscribers
+from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until, wait_for_subscribers
 
 COLOR, DEPTH, INFO = ("/camera/camera/color/image_raw", "/camera/camera/aligned_depth_to_color/image_raw",
                       "/camera/camera/color/camera_info")
@@ -163,8 +163,11 @@ def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ro
     heightmaps = TopicRecorder(ros_node, Heightmap, "/heightmap", RELIABLE)
     try:
         wait_for_subscribers(ros_node, publisher, 2, 30.0, processes)  # the attention node and our recorder
+        # a good heightmap answered first: then both ends have matched and the next ones arrive
+        warm_up = heightmap_message(2_900_000_000, maps.color, maps.height)
+        publish_until_answered(ros_node, publisher, lambda: warm_up, results, processes=processes)
         bad = heightmap_message(3_000_000_000, maps.color, maps.height, "16UC1")
-        publisher.publish(bad)  # reliable, and the subscription is matched: it arrives
+        publisher.publish(bad)
         spin_until(ros_node, lambda: "heightmap dropped" in attention.output(), 30.0,
                    "the attention node's drop message", processes)
         good = heightmap_message(3_100_000_000, maps.color, maps.height)
