@@ -38,7 +38,7 @@ from impurity_policy.core.trainer import (
 )
 
 torch.set_num_threads(1)
-ETA = cell.GRIPPER_MAX_OPENING
+ETA = cell.GRASP_OPENING
 SMALL = NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=16)
 
 

@@ -4,8 +4,9 @@
     alpha_t     = sum_{j != t} d(p_t, p_j) / ((K - 1) eta)         (3)
 
 with p the objects' centres in the table plane (x, y in base_link), K the number of objects in the
-scene (target included) and eta the gripper's finger opening. alpha_t = 1: no object within eta of
-the target, which can then be grasped without disturbing anything.
+scene (target included) and eta the gripper's finger opening (cell.GRASP_OPENING, the pre-grasp
+width). alpha_t = 1: no object within eta of the target, which can then be grasped without disturbing
+anything.
 
 Rewards: a grasp earns 1 when it lifts a target; a push earns 0.5 when it raised alpha by more than
 delta = 0.005; everything else 0. The No-T ablation replaces the push rule with VPG's change
@@ -28,7 +29,7 @@ CHANGE_PIXELS_TAU = 300  # px
 CHANGE_HEIGHT_RANGE = (0.01, 0.3)  # m: a pixel "changed" when its height moved by this much (VPG)
 
 
-def tcdd(target_xy, other_xy, eta: float = cell.GRIPPER_MAX_OPENING) -> float:
+def tcdd(target_xy, other_xy, eta: float = cell.GRASP_OPENING) -> float:
     """alpha_t for one target at `target_xy` among the other objects' centres `other_xy` (K-1, 2).
 
     A target alone in the scene (K = 1) is isolated: 1.0.
@@ -42,7 +43,7 @@ def tcdd(target_xy, other_xy, eta: float = cell.GRIPPER_MAX_OPENING) -> float:
     return float(np.minimum(distances, eta).sum() / (len(others) * eta))
 
 
-def tcdd_of(target_id: int, positions: dict, eta: float = cell.GRIPPER_MAX_OPENING) -> float:
+def tcdd_of(target_id: int, positions: dict, eta: float = cell.GRASP_OPENING) -> float:
     """alpha of `target_id` given {object id: (x, y[, z])} of every object in the scene."""
     target = positions[target_id]
     others = [p[:2] for oid, p in positions.items() if oid != target_id]
@@ -79,7 +80,7 @@ class PushOutcome:
 
 
 def tcdd_push_outcome(target_id: int | None, before: dict, after: dict, in_workspace,
-                      eta: float = cell.GRIPPER_MAX_OPENING, delta: float = TCDD_DELTA) -> PushOutcome:
+                      eta: float = cell.GRASP_OPENING, delta: float = TCDD_DELTA) -> PushOutcome:
     """Push reward for the attended target `target_id`, object positions {id: (x, y, z)} before and
     after the push. Objects that left the workspace count as far away (pushed clear); the target
     itself leaving the workspace earns nothing (guard against VPG's "push everything away", #16)."""

@@ -1,6 +1,7 @@
 """The paper's two motion primitives (section 3), written once against the Carrier interface.
 
-grasp(x, y, z, yaw): start above, open, descend (guarded), close across yaw, lift >= 10 cm.
+grasp(x, y, z, yaw): start above, open to cell.GRASP_OPENING, descend (guarded), close across yaw,
+                     lift >= 10 cm.
 push(x, y, z, yaw):  close, start above, descend (guarded), move PUSH_LENGTH along yaw, lift.
 """
 
@@ -73,9 +74,9 @@ def execute_grasp(carrier: Carrier, x, y, z, yaw, body_heights, phase=lambda nam
     z = clamp_tip_height(z)
     above = (x, y, z + config.APPROACH_HEIGHT)
     phase("approach", 0.0)
-    carrier.go_to_start(above, yaw, cell.GRIPPER_MAX_OPENING)
+    carrier.go_to_start(above, yaw, cell.GRASP_OPENING)
     phase("open", 0.2)
-    carrier.move_fingers(cell.GRIPPER_MAX_OPENING, steps=2)
+    carrier.move_fingers(cell.GRASP_OPENING, steps=2)
     before = body_heights()
     phase("descend", 0.3)
     reached = descend(carrier, x, y, z, yaw)
