@@ -68,6 +68,7 @@ def test_full_heightmap_methods_use_224_inputs():
 
 
 def test_fast_sim_episode_counts_like_the_episode_core():
+    from impurity_policy.core.agents import NetworkAgent
     from impurity_policy.core.episode import EpisodeRequest
     from impurity_policy.core.evaluate import EVAL_SEED_BASE, run_episode
     from impurity_policy.core.network import QNetwork
@@ -77,8 +78,8 @@ def test_fast_sim_episode_counts_like_the_episode_core():
     world = CellWorld(mode="floating")
     torch.manual_seed(0)
     try:
-        metrics = run_episode(world, Policy(QNetwork()), EpisodeRequest("random", seed=EVAL_SEED_BASE,
-                                                                        max_actions=3))
+        metrics = run_episode(world, NetworkAgent("ours", Policy(QNetwork())),
+                              EpisodeRequest("random", seed=EVAL_SEED_BASE, max_actions=3))
     finally:
         world.close()
     assert 1 <= metrics["actions"] <= 3 and metrics["termination_reason"]

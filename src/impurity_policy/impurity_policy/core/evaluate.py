@@ -2,14 +2,15 @@
 decisions, and the episode core's EpisodeTracker so the numbers count exactly as the episode node's.
 
     world = CellWorld(mode="floating")
-    metrics = run_episode(world, Policy.from_checkpoint(path), EpisodeRequest("challenging", seed=7))
+    metrics = run_episode(world, make_agent("ours", checkpoint), EpisodeRequest("challenging", seed=7))
 
 Held-out seeds: training scenes use seed * 1_000_003 + scene index (train.SCENE_SEED_STRIDE) with
-small run seeds; evaluation should use seeds outside that pattern (e.g. EVAL_SEED_BASE + k).
+small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
 """
 
 from __future__ import annotations
 
+from .agents import Action
 from .episode import (
     DEFAULT_ACTIONS_PER_TARGET,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
@@ -19,18 +20,16 @@ from .episode import (
     StepRecord,
     action_limit,
 )
-from .network import GRASP
-from .policy import MODE_NONE, Policy
 
 EVAL_SEED_BASE = 900_000_000
 MODE_NAMES = {0: "NONE", 1: "TARGET", 2: "OCCLUDED_REGION"}
 
 
-def run_episode(world, policy: Policy, request: EpisodeRequest, method: str = "ours",
+def run_episode(world, agent, request: EpisodeRequest,
                 actions_per_target: int = DEFAULT_ACTIONS_PER_TARGET,
                 max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES) -> dict:
-    """One episode on `world` (a ur5_driver_sim CellWorld); returns the tracker's metrics plus
-    termination_reason."""
+    """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (core.agents); returns
+    the tracker's metrics plus termination_reason and completed (every target picked)."""
     from impurity_attention.core.attention import AttentionParams
     from impurity_attention.core.heightmap import HeightmapGrid
 
@@ -38,28 +37,30 @@ def run_episode(world, policy: Policy, request: EpisodeRequest, method: str = "o
 
     world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
                       num_objects=request.num_objects, scene_file=request.scene_file or None)
+    agent.reset(request.seed)
     projectors, params, grid = {}, AttentionParams(), HeightmapGrid()
-    obs, truth, _ = sense(world, projectors, method, params, grid)
-    total = truth.targets_remaining
+    sensed = sense(world, projectors, agent.method, params, grid)
+    total = sensed.truth.targets_remaining
     tracker = EpisodeTracker(f"{request.scenario}-{request.seed}", request, total,
                              action_limit(request, total, actions_per_target), max_consecutive_failures)
     reason = tracker.termination()
     while reason is None:
-        if obs.mode == MODE_NONE:
+        action: Action | None = agent.act(sensed)
+        if action is None:
             reason = TERMINATION_NOTHING_LEFT
             break
-        choice = policy.decide(obs)
-        pose, decision = choice.pose, choice.decision
-        kind = "grasp" if decision.primitive == GRASP else "push"
-        outcome = world.execute(kind, pose.x, pose.y, pose.z, pose.yaw)
-        next_obs, next_truth, _ = sense(world, projectors, method, params, grid)
+        pose = action.pose
+        outcome = world.execute(action.kind, pose.x, pose.y, pose.z, pose.yaw)
+        agent.observe_outcome(action, outcome)
+        sensed = sense(world, projectors, agent.method, params, grid)
         tracker.record(StepRecord(
-            step=tracker.actions + 1, attention_mode=MODE_NAMES.get(obs.mode, "NONE"), kind=kind,
-            position=(pose.x, pose.y, pose.z), yaw=pose.yaw, q_value=decision.q_value,
+            step=tracker.actions + 1, attention_mode=MODE_NAMES.get(action.mode, "NONE"), kind=action.kind,
+            position=(pose.x, pose.y, pose.z), yaw=pose.yaw, q_value=action.q_value,
             rotation_index=pose.rotation, pixel=pose.heightmap_pixel, decision_stamp_ns=0,
             motion_finished_ns=0, success=bool(outcome.success), target_grasped=bool(outcome.target_grasped),
-            object_grasped=bool(outcome.success and kind == "grasp"),
-            targets_remaining=next_truth.targets_remaining, message=outcome.message))
-        obs = next_obs
+            object_grasped=bool(outcome.success and action.kind == "grasp"),
+            targets_remaining=sensed.truth.targets_remaining, message=outcome.message))
         reason = tracker.termination()
-    return {**tracker.metrics(), "termination_reason": reason}
+    metrics = tracker.metrics()
+    return {**metrics, "termination_reason": reason,
+            "completed": total > 0 and metrics["targets_picked"] == total}

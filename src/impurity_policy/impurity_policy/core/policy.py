@@ -98,9 +98,11 @@ class Policy:
                             self.grasp_needs_object)
 
     def decide(self, obs: Observation, q: np.ndarray | None = None, epsilon: float = 0.0,
-               rng: np.random.Generator | None = None, grid: dict | None = None) -> Choice:
+               rng: np.random.Generator | None = None, grid: dict | None = None,
+               restrict: np.ndarray | None = None) -> Choice:
         """Best (or epsilon-greedy) action for `obs`; `grid` overrides the heightmap geometry passed
-        to pose.action_pose (resolution, x_min, y_min, table_z) when a message carries its own."""
+        to pose.action_pose (resolution, x_min, y_min, table_z) when a message carries its own;
+        `restrict` ((S, S) bool) keeps actions inside it where it leaves any (the S-VPG baseline)."""
         validate_observation(obs)
         allowed = allowed_primitives(obs.mode)
         size = obs.mask.shape[0]
@@ -108,6 +110,8 @@ class Policy:
             raise NoActionError(f"crops are {size} px, the network takes {self.network.config.crop_size}")
         q = self.q_maps(obs) if q is None else q
         masks = self.masks(obs)
+        if restrict is not None:
+            masks = np.stack([m & restrict if (m & restrict).any() else m for m in masks])
         if epsilon > 0.0 and rng is not None:
             decision = epsilon_greedy(q, masks, allowed, epsilon, rng)
         else:

@@ -121,9 +121,19 @@ def positions(truth) -> dict:
     return {body: pose[0] for body, pose in truth.poses.items()}
 
 
-def sense(world, projectors: dict, method: str, attention_params, grid) -> tuple:
-    """Render the sim camera -> heightmaps -> attention -> the method's observation.
-    Returns (Observation, sim GroundTruth, Heightmaps); `projectors` caches the camera projection."""
+@dataclass
+class Sensed:
+    """One look at the sim cell: what the policy sees and what the sim knows."""
+
+    obs: Observation  # the method's network input
+    truth: object  # ur5_driver_sim GroundTruth
+    maps: object  # impurity_attention Heightmaps (full colour and height maps)
+    attention: object  # impurity_attention AttentionOutput (saliency, target mask, clusters)
+
+
+def sense(world, projectors: dict, method: str, attention_params, grid) -> Sensed:
+    """Render the sim camera -> heightmaps -> attention -> the method's observation; `projectors`
+    caches the camera projection."""
     from impurity_attention.core.attention import attend
     from impurity_attention.core.heightmap import HeightmapProjector
 
@@ -133,7 +143,8 @@ def sense(world, projectors: dict, method: str, attention_params, grid) -> tuple
                                                   grid)
     maps = projectors["camera"].project(frame.color, frame.depth)
     attention = attend(maps.color, maps.height, attention_params, grid)
-    return observe(method, attention, maps.height, maps.color), world.ground_truth(frame), maps
+    obs = observe(method, attention, maps.height, maps.color)
+    return Sensed(obs, world.ground_truth(frame), maps, attention)
 
 
 # ---- the loop ----------------------------------------------------------------------------------------
@@ -192,7 +203,8 @@ class TrainingRun:
 
     # -- sensing
     def sense(self):
-        return sense(self.world, self._projectors, self.config.method, self.attention_params, self.grid)
+        sensed = sense(self.world, self._projectors, self.config.method, self.attention_params, self.grid)
+        return sensed.obs, sensed.truth, sensed.maps
 
     def new_scene(self):
         self.scene_index += 1

@@ -1,0 +1,246 @@
+"""`make eval`: the paper's comparison (Fig. 10, Table I) in the fast sim, every method side by side.
+
+For each scenario (random, challenging, invisible) and method, N episodes on the held-out seeds
+EVAL_SEED_BASE + k; metrics as paper 6.1 (per episode, then averaged): grasp success = targets
+picked / grasp attempts, action efficiency = targets picked / actions; also completion (every target
+picked) and false rejects (non-targets removed). Writes the table (docs/results.md), a Fig. 10-style
+bar chart (docs/images/results.png) and every episode's record with its seed (docs/results.json).
+
+Network methods load `<checkpoint-dir>/<trained method>.pt` ("ours" loads the shipped policy.pt); a
+method without a checkpoint is listed as not trained, with the command that trains it.
+
+    python -m impurity_policy.core.eval_cli --episodes 20
+    python -m impurity_policy.core.eval_cli --methods ours s_rgm --scenarios random --episodes 3
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import math
+import os
+import pathlib
+import sys
+import time
+
+import numpy as np
+
+from .agents import EVAL_METHODS, TRAINED_METHOD, make_agent
+from .episode import EpisodeRequest
+from .evaluate import EVAL_SEED_BASE, run_episode
+from .train_cli import SHIPPED_CHECKPOINT
+
+SCENARIOS = ("random", "challenging", "invisible")
+LABELS = {"ours": "Ours", "vpg": "VPG", "s_vpg": "S-VPG", "s_rgm": "S-RGM (heuristic)", "no_tsd": "No-TSD",
+          "no_oi": "No-OI", "no_t": "No-T"}
+# Paper section 6.3 (Fig. 10 text and Table I): grasp success % and action efficiency %, per scenario.
+# None where the paper gives no figure ("about 5 %" / "about 1 %" for VPG and S-VPG in invisible scenes).
+PAPER = {
+    "ours": ((78.1, 69.4, 78.5), (46.3, 45.1, 16.8)),
+    "vpg": ((34.6, 25.4, None), (18.9, 5.3, None)),
+    "s_vpg": ((52.6, 32.0, None), (26.5, 4.4, None)),
+    "s_rgm": ((46.2, 22.4, 20.0), (15.4, 6.5, 2.2)),
+    "no_tsd": ((34.6, 25.4, 5.1), (18.9, 5.3, 0.6)),
+    "no_oi": ((53.6, 49.7, 15.7), (34.5, 29.3, 8.9)),
+    "no_t": ((64.5, 62.2, 27.2), (35.8, 36.3, 7.5)),
+}
+
+
+def checkpoint_for(method: str, checkpoint_dir: pathlib.Path) -> pathlib.Path | None:
+    """The checkpoint a network method runs (None for the heuristic)."""
+    if method not in TRAINED_METHOD:
+        return None
+    trained = TRAINED_METHOD[method]
+    return checkpoint_dir / (SHIPPED_CHECKPOINT.name if trained == "ours" else f"{trained}.pt")
+
+
+def file_digest(path: pathlib.Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:12]
+
+
+def aggregate(episodes: list) -> dict:
+    """Paper 6.1 metrics averaged over episodes, in percent; plus totals."""
+    def mean(key):
+        return 100.0 * float(np.mean([e[key] for e in episodes])) if episodes else math.nan
+
+    return {"episodes": len(episodes), "grasp_success": mean("grasp_success"),
+            "action_efficiency": mean("action_efficiency"), "completion": mean("completed"),
+            "false_rejects": int(sum(e["false_rejects"] for e in episodes)),
+            "actions_mean": float(np.mean([e["actions"] for e in episodes])) if episodes else math.nan,
+            "targets_picked": int(sum(e["targets_picked"] for e in episodes)),
+            "targets_total": int(sum(e["targets_total"] for e in episodes))}
+
+
+def percent(value) -> str:
+    return "–" if value is None or not math.isfinite(value) else f"{value:.1f}"
+
+
+def results_table(results: dict, methods, scenarios) -> str:
+    """Markdown, Table I style: grasp success and action efficiency per scenario (the paper's figure in
+    brackets), then completion and false rejects."""
+    sections = []
+    for title, key, column in (("Grasp success, %", "grasp_success", 0),
+                               ("Action efficiency, %", "action_efficiency", 1),
+                               ("Completion (every target picked), %", "completion", None)):
+        lines = [f"**{title}**" + (" [paper]" if column is not None else ""), "",
+                 "| Method | " + " | ".join(scenarios) + " |", "|---|" + "---|" * len(scenarios)]
+        for method in methods:
+            entry = results[method]
+            if entry.get("missing"):
+                cells = ["not trained"] * len(scenarios)
+            else:
+                cells = [percent(entry["scenarios"][s][key]) for s in scenarios]
+                if column is not None:
+                    paper = PAPER[method][column]
+                    cells = [f"{c} [{percent(paper[SCENARIOS.index(s)])}]"
+                             for c, s in zip(cells, scenarios, strict=True)]
+            lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
+        sections.append("\n".join(lines))
+    lines = ["**False rejects (non-targets grasped) / targets picked of total**", "",
+             "| Method | " + " | ".join(scenarios) + " |", "|---|" + "---|" * len(scenarios)]
+    for method in methods:
+        entry = results[method]
+        cells = (["not trained"] * len(scenarios) if entry.get("missing") else
+                 [f"{entry['scenarios'][s]['false_rejects']} / {entry['scenarios'][s]['targets_picked']} of "
+                  f"{entry['scenarios'][s]['targets_total']}" for s in scenarios])
+        lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
+    sections.append("\n".join(lines))
+    return "\n\n".join(sections)
+
+
+def plot_results(results: dict, methods, scenarios, path: pathlib.Path) -> None:
+    """Fig. 10 style: grasp success (left) and action efficiency (right), bars per method and scenario."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    shown = [m for m in methods if not results[m].get("missing")]
+    fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
+    width = 0.8 / max(len(shown), 1)
+    x = np.arange(len(scenarios))
+    for axis, key, title in ((axes[0], "grasp_success", "Grasp success (%)"),
+                             (axes[1], "action_efficiency", "Action efficiency (%)")):
+        for i, method in enumerate(shown):
+            values = [results[method]["scenarios"][s][key] for s in scenarios]
+            bars = axis.bar(x + (i - (len(shown) - 1) / 2) * width, values, width, label=LABELS[method])
+            axis.bar_label(bars, fmt="%.0f", fontsize=7)
+        axis.set_xticks(x, scenarios)
+        axis.set_ylim(0, 105)
+        axis.set_title(title)
+        axis.grid(axis="y", alpha=0.3)
+    axes[0].legend(fontsize=8, loc="upper right")
+    missing = [LABELS[m] for m in methods if results[m].get("missing")]
+    note = f"not trained yet: {', '.join(missing)}" if missing else ""
+    fig.suptitle(f"Fast-sim evaluation, {results['_meta']['episodes']} episodes per method and scenario "
+                 f"(held-out seeds). {note}", fontsize=10)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def write_markdown(results: dict, methods, scenarios, path: pathlib.Path, chart: pathlib.Path, command: str):
+    meta = results["_meta"]
+    lines = ["# Evaluation results (fast sim)", "",
+             f"Generated by `{command}` on {meta['date']} in {meta['seconds']:.0f} s. "
+             f"{meta['episodes']} episodes per method and scenario on the held-out seeds "
+             f"{meta['seed_base']} … {meta['seed_base'] + meta['episodes'] - 1} (training scenes use "
+             "run seed × 1 000 003 + scene index). Floating-gripper sim, the same sensing as training, "
+             "greedy decisions; episode limits: 15 actions per target, 5 consecutive failures.", "",
+             "Metrics as the paper (section 6.1), averaged over episodes: grasp success = targets picked / "
+             "grasp attempts; action efficiency = targets picked / actions; completion = every target "
+             "picked. The paper's figures are in brackets.", "",
+             results_table(results, methods, scenarios), "",
+             f"![results]({os.path.relpath(chart, path.parent)})", "",
+             "## Checkpoints", ""]
+    for method in methods:
+        entry = results[method]
+        if entry.get("missing"):
+            lines.append(f"- {LABELS[method]}: no checkpoint at `{entry['checkpoint']}` — train it with "
+                         f"`make train TRAIN_ARGS=\"--method {TRAINED_METHOD[method]} --run-dir "
+                         f"runs/{TRAINED_METHOD[method]} --export {entry['checkpoint']}\"`")
+        elif entry.get("checkpoint"):
+            lines.append(f"- {LABELS[method]}: `{entry['checkpoint']}` (sha256 {entry['sha256']})")
+        else:
+            lines.append(f"- {LABELS[method]}: no network (heuristic)")
+    path.write_text("\n".join(lines) + "\n")
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
+    p.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
+    p.add_argument("--episodes", type=int, default=20, help="per method and scenario")
+    p.add_argument("--seed-base", type=int, default=EVAL_SEED_BASE)
+    p.add_argument("--checkpoint-dir", default=str(SHIPPED_CHECKPOINT.parent))
+    p.add_argument("--markdown", default="docs/results.md")
+    p.add_argument("--chart", default="docs/images/results.png")
+    p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
+    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--no-progress", action="store_true")
+    return p.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    import torch
+    from tqdm import tqdm
+
+    from ur5_driver_sim.core.world import CellWorld
+
+    args = parse_args(argv)
+    if args.episodes < 1:
+        print("eval: --episodes must be >= 1", file=sys.stderr)
+        return 2
+    torch.set_num_threads(args.threads)
+    checkpoint_dir = pathlib.Path(args.checkpoint_dir)
+    results, agents = {}, {}
+    for method in args.methods:
+        checkpoint = checkpoint_for(method, checkpoint_dir)
+        if checkpoint is not None and not checkpoint.is_file():
+            results[method] = {"missing": True, "checkpoint": str(checkpoint)}
+            print(f"eval: {LABELS[method]}: no checkpoint at {checkpoint}: listed as not trained",
+                  file=sys.stderr)
+            continue
+        agents[method] = make_agent(method, checkpoint)
+        results[method] = {"checkpoint": str(checkpoint) if checkpoint else "",
+                           "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
+                           "episodes": []}
+    started = time.perf_counter()
+    world = CellWorld(mode="floating")
+    total = len(agents) * len(args.scenarios) * args.episodes
+    try:
+        with tqdm(total=total, desc="eval", unit="episode", disable=args.no_progress,
+                  dynamic_ncols=True) as bar:
+            for scenario in args.scenarios:
+                for method, agent in agents.items():
+                    episodes = []
+                    for k in range(args.episodes):
+                        bar.set_postfix_str(f"{scenario} {LABELS[method]} seed +{k}")
+                        metrics = run_episode(world, agent, EpisodeRequest(scenario, seed=args.seed_base + k))
+                        episodes.append({"method": method, "scenario": scenario, "seed": args.seed_base + k,
+                                         **metrics})
+                        bar.update(1)
+                    results[method]["scenarios"][scenario] = aggregate(episodes)
+                    results[method]["episodes"] += episodes
+    finally:
+        world.close()
+    results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
+                        "methods": args.methods, "seconds": time.perf_counter() - started,
+                        "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads}
+    arguments = argv if argv is not None else sys.argv[1:]
+    command = "python -m impurity_policy.core.eval_cli " + " ".join(arguments)
+    markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
+    for path in (markdown, chart, raw):
+        path.parent.mkdir(parents=True, exist_ok=True)
+    raw.write_text(json.dumps(results, indent=1, default=float) + "\n")
+    plot_results(results, args.methods, args.scenarios, chart)
+    write_markdown(results, args.methods, args.scenarios, markdown, chart, command.strip())
+    print(results_table(results, args.methods, args.scenarios))
+    print(f"eval: wrote {markdown}, {chart}, {raw} in {results['_meta']['seconds']:.0f} s", file=sys.stderr)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,139 @@
+"""Evaluation harness (issue 8): baselines' decisions, the paper's metrics, and `make eval`'s outputs."""
+
+import json
+import math
+from types import SimpleNamespace
+
+import numpy as np
+import pytest
+import torch
+
+from impurity_common import cell
+from impurity_policy.core.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
+from impurity_policy.core.eval_cli import aggregate, main
+from impurity_policy.core.network import NetworkConfig, QNetwork
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy
+from impurity_policy.core.trainer import Trainer
+
+SIZE = cell.HEIGHTMAP_SIZE
+
+
+def bar_mask(rows: slice, cols: slice) -> np.ndarray:
+    mask = np.zeros((SIZE, SIZE), bool)
+    mask[rows, cols] = True
+    return mask
+
+
+@pytest.mark.parametrize("rows, cols, closing_yaw", [
+    (slice(100, 110), slice(80, 140), math.pi / 2),  # long along columns (base x): close along y
+    (slice(80, 140), slice(100, 110), 0.0),  # long along rows (base y): close along x
+])
+def test_grasp_rectangle_closes_across_the_short_side(rows, cols, closing_yaw):
+    (row, col), yaw = grasp_rectangle(bar_mask(rows, cols))
+    centre = ((rows.start + rows.stop - 1) / 2, (cols.start + cols.stop - 1) / 2)
+    assert (row, col) == pytest.approx(centre, abs=1)
+    assert math.cos(2 * (yaw - closing_yaw)) == pytest.approx(1.0, abs=1e-3)  # same axis, either way
+
+
+def test_grasp_rectangle_of_a_diagonal_bar():
+    mask = np.zeros((SIZE, SIZE), bool)
+    for k in range(60):
+        mask[80 + k: 80 + k + 8, 80 + k: 80 + k + 8] = True  # long along the +row+col diagonal
+    _, yaw = grasp_rectangle(mask)
+    assert math.cos(2 * (yaw - 3 * math.pi / 4)) == pytest.approx(1.0, abs=0.05)
+    assert grasp_rectangle(np.zeros((SIZE, SIZE), bool)) is None
+
+
+def sensed_scene(mode=MODE_TARGET):
+    """A red target bar between two neighbours, as the attention module would report it."""
+    height = np.zeros((SIZE, SIZE), np.float32)
+    target = bar_mask(slice(100, 112), slice(90, 130))
+    height[target] = 0.03
+    height[100:112, 136:160] = 0.03  # a neighbour just right of the target (+col, +x)
+    cluster = SimpleNamespace(centroid=(106.0, 120.0))
+    attention = SimpleNamespace(mode=mode, target_mask=target if mode == MODE_TARGET else None,
+                                cluster=cluster)
+    color = np.zeros((SIZE, SIZE, 3), np.uint8)
+    obs = Observation(mode, color, height, np.full((SIZE, SIZE), 255, np.uint8), (0, 0), height)
+    return SimpleNamespace(obs=obs, attention=attention, maps=SimpleNamespace(height=height, color=color))
+
+
+def test_s_rgm_grasps_the_target_then_pushes_it_away_from_its_neighbour_after_a_failure():
+    agent = SalientGraspHeuristic()
+    agent.reset(0)
+    sensed = sensed_scene()
+    grasp = agent.act(sensed)
+    assert grasp.kind == "grasp" and grasp.pose.heightmap_pixel == pytest.approx((105.5, 109.5), abs=1)
+    assert math.cos(2 * (grasp.pose.yaw - math.pi / 2)) > 0.99  # across the bar's short side
+    agent.observe_outcome(grasp, SimpleNamespace(success=False))
+    push = agent.act(sensed)
+    assert push.kind == "push"
+    assert math.cos(push.pose.yaw - math.pi) > 0.9  # away from the neighbour: towards -x
+    assert push.pose.heightmap_pixel[1] > 110  # starts on the neighbour's side of the target
+    agent.observe_outcome(push, SimpleNamespace(success=True))
+    assert agent.act(sensed).kind == "grasp"  # the scene changed: grasp again
+
+
+def test_s_rgm_pushes_through_the_cluster_without_a_target_and_stops_with_nothing():
+    agent = SalientGraspHeuristic()
+    agent.reset(0)
+    push = agent.act(sensed_scene(MODE_OCCLUDED_REGION))
+    assert push.kind == "push" and push.mode == MODE_OCCLUDED_REGION
+    end_x = push.pose.x + cell.PUSH_LENGTH * math.cos(push.pose.yaw)
+    end_y = push.pose.y + cell.PUSH_LENGTH * math.sin(push.pose.yaw)
+    centre_x, centre_y = cell.pixel_to_base(106, 120)
+    midpoint = ((push.pose.x + end_x) / 2, (push.pose.y + end_y) / 2)
+    assert math.dist(midpoint, (centre_x, centre_y)) < 0.01  # the push runs through the cluster centre
+    second = agent.act(sensed_scene(MODE_OCCLUDED_REGION))
+    assert second.pose.rotation != push.pose.rotation  # a different direction each time
+    nothing = sensed_scene(MODE_OCCLUDED_REGION)
+    nothing.attention.mode = 0
+    assert agent.act(nothing) is None
+
+
+def test_s_vpg_acts_inside_the_grown_saliency_mask_and_vpg_may_not():
+    torch.manual_seed(3)
+    network = QNetwork(NetworkConfig(crop_size=SIZE))
+    sensed = sensed_scene()
+    s_vpg, vpg = NetworkAgent("s_vpg", Policy(network)), NetworkAgent("vpg", Policy(network))
+    restricted = s_vpg.restriction(sensed)
+    assert restricted[105, 110] and not restricted[105, 150] and vpg.restriction(sensed) is None
+    action = s_vpg.act(sensed)
+    assert restricted[action.pose.heightmap_pixel]
+    assert action.kind in ("push", "grasp") and math.isfinite(action.q_value)
+
+
+def test_aggregate_averages_per_episode_like_the_paper():
+    episodes = [dict(grasp_success=1.0, action_efficiency=0.5, completed=True, false_rejects=0, actions=4,
+                     targets_picked=2, targets_total=2),
+                dict(grasp_success=0.5, action_efficiency=0.25, completed=False, false_rejects=1, actions=4,
+                     targets_picked=1, targets_total=2)]
+    summary = aggregate(episodes)
+    assert summary["grasp_success"] == pytest.approx(75.0)
+    assert summary["action_efficiency"] == pytest.approx(37.5)
+    assert summary["completion"] == pytest.approx(50.0)
+    assert (summary["false_rejects"], summary["targets_picked"], summary["targets_total"]) == (1, 3, 4)
+
+
+def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(tmp_path):
+    checkpoints = tmp_path / "checkpoints"
+    checkpoints.mkdir()
+    Trainer(seed=0).save(checkpoints / "policy.pt")  # "ours"; no vpg.pt
+    out = tmp_path / "docs"
+    code = main(["--methods", "ours", "s_rgm", "vpg", "--scenarios", "random", "--episodes", "1",
+                 "--checkpoint-dir", str(checkpoints), "--markdown", str(out / "results.md"),
+                 "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
+                 "--threads", "1", "--no-progress"])
+    assert code == 0
+    records = json.loads((out / "results.json").read_text())
+    assert records["vpg"]["missing"] and records["_meta"]["seed_base"] == 900_000_000
+    for method in ("ours", "s_rgm"):
+        (episode,) = records[method]["episodes"]
+        assert episode["seed"] == 900_000_000 and episode["scenario"] == "random"
+        assert episode["actions"] == episode["grasp_attempts"] + episode["pushes"] >= 1
+        assert records[method]["scenarios"]["random"]["grasp_success"] == pytest.approx(
+            100.0 * episode["grasp_success"])
+    table = (out / "results.md").read_text()
+    assert "| VPG | not trained |" in table and "| S-RGM (heuristic) |" in table
+    assert "--method vpg" in table  # how to train the missing one
+    assert (out / "images" / "results.png").stat().st_size > 10_000
