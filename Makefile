@@ -3,13 +3,16 @@ SHELL := /bin/bash
 .SHELLFLAGS := -eo pipefail -c
 ENV := source scripts/env.sh &&
 
+EVAL_GRAPH_EPISODES ?= 2
+
 .PHONY: setup test lint pytest demo train eval bench test-bag clean help
 
 help:
 	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
 	@echo "make test   - set up if needed, lint (ruff, hadolint), run every test"
 	@echo "make train  - train the push-grasp policy in the fast sim (resumable)"
-	@echo "make eval   - paper's evaluation: methods x scenarios, table and chart"
+	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
+	@echo "              episodes through the node graph (EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
 	@echo "make test-bag - re-record tests/data/episode_bag (after a checkpoint or perception change)"
@@ -35,6 +38,7 @@ train: setup
 
 eval: setup
 	@$(ENV) python -m impurity_policy.core.eval_cli $(EVAL_ARGS)
+	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
 
 bench: setup
 	@$(ENV) for b in benchmarks/bench_*.py; do echo "== $$b"; python "$$b"; done

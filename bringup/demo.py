@@ -5,11 +5,8 @@ Writes runs/demo/<episode>/ (steps.jsonl, summary.json, episode.png) and node lo
 """
 
 import argparse
-import os
 import pathlib
 import shutil
-import signal
-import subprocess
 import sys
 
 import rclpy
@@ -19,7 +16,7 @@ from impurity_interfaces.action import RunEpisode
 BRINGUP = pathlib.Path(__file__).resolve().parent
 ROOT = BRINGUP.parent
 sys.path.insert(0, str(BRINGUP))
-from episode_client import format_result, run_episode  # noqa: E402
+from episode_client import format_result, run_episode, running_cell  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -32,11 +29,14 @@ def main(argv=None) -> int:
     parser.add_argument("--out", type=pathlib.Path, default=ROOT / "runs" / "demo")
     args = parser.parse_args(argv)
 
-    args.out.mkdir(parents=True, exist_ok=True)
-    launcher = subprocess.Popen(
-        [sys.executable, str(BRINGUP / "launch_cell.py"), "--quiet", "--log-dir", str(args.out / "logs"),
-         "--record-dir", str(args.out)], start_new_session=True)
-    print(f"demo: cell starting (node logs in {args.out / 'logs'})", flush=True)
+    with running_cell(args.out) as launcher:
+        print(f"demo: cell starting (node logs in {args.out / 'logs'})", flush=True)
+        code = run_demo_episode(args, launcher)
+    print("demo: cell stopped", flush=True)
+    return code
+
+
+def run_demo_episode(args, launcher) -> int:
     rclpy.init()
     node = rclpy.create_node("demo_client")
     code = 1
@@ -65,13 +65,6 @@ def main(argv=None) -> int:
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
-        if launcher.poll() is None:
-            os.killpg(launcher.pid, signal.SIGINT)
-            try:
-                launcher.wait(30)
-            except subprocess.TimeoutExpired:
-                os.killpg(launcher.pid, signal.SIGKILL)
-        print("demo: cell stopped", flush=True)
     return code
 
 

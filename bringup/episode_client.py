@@ -7,6 +7,11 @@ Equivalent on a ROS install:
 """
 
 import argparse
+import contextlib
+import os
+import pathlib
+import signal
+import subprocess
 import sys
 import time
 
@@ -18,6 +23,26 @@ from impurity_interfaces.msg import Primitive
 from impurity_interfaces.srv import StartEpisode
 
 KIND = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
+BRINGUP = pathlib.Path(__file__).resolve().parent
+
+
+@contextlib.contextmanager
+def running_cell(out: pathlib.Path):
+    """The whole node graph (launch_cell.py) for the duration of a `with`: episode records in `out`,
+    node logs in out/logs; stopped with SIGINT (SIGKILL after 30 s) on the way out."""
+    out.mkdir(parents=True, exist_ok=True)
+    launcher = subprocess.Popen(
+        [sys.executable, str(BRINGUP / "launch_cell.py"), "--quiet", "--log-dir", str(out / "logs"),
+         "--record-dir", str(out)], start_new_session=True)
+    try:
+        yield launcher
+    finally:
+        if launcher.poll() is None:
+            os.killpg(launcher.pid, signal.SIGINT)
+            try:
+                launcher.wait(30)
+            except subprocess.TimeoutExpired:
+                os.killpg(launcher.pid, signal.SIGKILL)
 
 
 def format_step(step) -> str:
