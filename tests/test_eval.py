@@ -120,7 +120,10 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     checkpoints.mkdir()
     Trainer(seed=0).save(checkpoints / "policy.pt")  # "ours"; no vpg.pt
     out = tmp_path / "docs"
-    code = main(["--methods", "ours", "s_rgm", "vpg", "--scenarios", "random", "--episodes", "1",
+    readme = tmp_path / "README.md"
+    readme.write_text("intro\n<!-- results:start -->\nold table\n<!-- results:end -->\nrest\n")
+    code = main(["--readme", str(readme), "--methods", "ours", "s_rgm", "vpg", "--scenarios", "random",
+                 "--episodes", "1",
                  "--checkpoint-dir", str(checkpoints), "--markdown", str(out / "results.md"),
                  "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
                  "--threads", "1", "--no-progress"])
@@ -137,3 +140,6 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     assert "| VPG | not trained |" in table and "| S-RGM (heuristic) |" in table
     assert "--method vpg" in table  # how to train the missing one
     assert (out / "images" / "results.png").stat().st_size > 10_000
+    updated = readme.read_text()
+    assert "old table" not in updated and "| VPG | not trained |" in updated
+    assert updated.startswith("intro\n") and updated.endswith("rest\n")

@@ -168,6 +168,23 @@ def write_markdown(results: dict, methods, scenarios, path: pathlib.Path, chart:
     path.write_text("\n".join(lines) + "\n")
 
 
+README_START, README_END = "<!-- results:start -->", "<!-- results:end -->"
+
+
+def update_readme(readme: pathlib.Path, table: str, markdown: pathlib.Path) -> bool:
+    """Replace the README's results block (between the markers) with the new table; False when the
+    README has no such block."""
+    if not readme.is_file():
+        return False
+    text = readme.read_text()
+    start, end = text.find(README_START), text.find(README_END)
+    if start < 0 or end < start:
+        return False
+    block = f"{README_START}\n{table}\n\n(from `{markdown}`)\n{README_END}"
+    readme.write_text(text[:start] + block + text[end + len(README_END):])
+    return True
+
+
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
@@ -178,6 +195,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--markdown", default="docs/results.md")
     p.add_argument("--chart", default="docs/images/results.png")
     p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
+    p.add_argument("--readme", default="README.md", help="its results block is replaced with the table")
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
@@ -237,7 +255,10 @@ def main(argv=None) -> int:
     raw.write_text(json.dumps(results, indent=1, default=float) + "\n")
     plot_results(results, args.methods, args.scenarios, chart)
     write_markdown(results, args.methods, args.scenarios, markdown, chart, command.strip())
-    print(results_table(results, args.methods, args.scenarios))
+    table = results_table(results, args.methods, args.scenarios)
+    if update_readme(pathlib.Path(args.readme), table, markdown):
+        print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
+    print(table)
     print(f"eval: wrote {markdown}, {chart}, {raw} in {results['_meta']['seconds']:.0f} s", file=sys.stderr)
     return 0
 
