@@ -11,12 +11,12 @@ random weights: latency does not depend on the weights. Printed, never asserted.
 import argparse
 import math
 import os
-import time
 
 import numpy as np
 import torch
 import torch.nn as nn
 import torch.nn.functional as F
+from timing import timed
 
 from impurity_attention.core.attention import AttentionParams, attend
 from impurity_attention.core.heightmap import HeightmapGrid, HeightmapProjector
@@ -85,17 +85,6 @@ class VPGSized(nn.Module):
         return torch.stack(maps)
 
 
-def timed(fn, repeats: int, warmup: int = 1) -> np.ndarray:
-    for _ in range(warmup):
-        fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return 1000 * np.array(times)
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=10)
@@ -135,8 +124,8 @@ def main() -> None:
         q = vpg.q_maps(color / 255.0, depth.contiguous())
         torch.argmax(q)
 
-    ours_ms = timed(ours, args.repeats)
-    vpg_ms = timed(vpg_decision, args.vpg_repeats, warmup=0)
+    ours_ms, _ = timed(ours, args.repeats, warmup=1)
+    vpg_ms, _ = timed(vpg_decision, args.vpg_repeats, warmup=0)
     print(f"ours: heightmap + attention + 32 Q maps (112^2): p50 {np.median(ours_ms):7.0f} ms  "
           f"max {ours_ms.max():7.0f} ms  (n={args.repeats})")
     print(f"VPG-sized: heightmap + 4 DenseNet-121 trunks x 16 rotations (320^2): "

@@ -9,27 +9,13 @@ simulator; pass --sim to also time frames rendered by the PyBullet cell. Aims (i
 
 import argparse
 import os
-import time
 
 import numpy as np
+from timing import timed
 
 from impurity_attention.core.attention import AttentionParams, attend
 from impurity_attention.core.heightmap import HeightmapProjector, depth_to_meters
 from impurity_attention.core.synthetic import random_boxes, render_boxes
-
-
-def timed(function, repeats: int, warmup: int = 3) -> tuple:
-    """Wall-clock and process-CPU milliseconds per call. On a shared machine the wall clock includes
-    waiting for a core; the CPU time does not (it may exceed the wall time when OpenCV uses 2 threads)."""
-    for _ in range(warmup):
-        function()
-    wall, cpu = [], []
-    for _ in range(repeats):
-        start, start_cpu = time.perf_counter(), time.process_time()
-        function()
-        wall.append((time.perf_counter() - start) * 1000.0)
-        cpu.append((time.process_time() - start_cpu) * 1000.0)
-    return np.array(wall), np.array(cpu)
 
 
 def report(name: str, times: tuple, aim_ms: float) -> None:

@@ -8,10 +8,10 @@ Budget (issue 5): a decision's 32 maps <= 100 ms p50 on this 2-core machine. Pri
 
 import argparse
 import os
-import time
 
 import numpy as np
 import torch
+from timing import p50_p95, timed
 
 from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs, parameter_count
 from impurity_policy.core.policy import MODE_TARGET, Observation, Policy, q_maps_picture
@@ -32,17 +32,6 @@ def scene(size=112, seed=0):
     return State(color, height, mask)
 
 
-def timed(fn, repeats, warmup=3):
-    for _ in range(warmup):
-        fn()
-    times = []
-    for _ in range(repeats):
-        start = time.perf_counter()
-        fn()
-        times.append(time.perf_counter() - start)
-    return 1000 * np.percentile(times, 50), 1000 * np.percentile(times, 95)
-
-
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--threads", type=int, default=2)
@@ -60,28 +49,30 @@ def main():
         print(f"\n{label}: {parameter_count(net) / 1e6:.3f} M parameters")
         for chunk in (1, 4, 8, 16):
             with torch.no_grad():
-                p50, p95 = timed(lambda net=net, inputs=inputs, chunk=chunk: net.q_maps(inputs, chunk=chunk),
-                                 args.repeats if config.crop_size == 112 else 5)
+                wall, _ = timed(lambda net=net, inputs=inputs, chunk=chunk: net.q_maps(inputs, chunk=chunk),
+                                args.repeats if config.crop_size == 112 else 5)
+            p50, p95 = p50_p95(wall)
             print(f"  32 Q maps, {chunk:2d} rotation(s) per pass: p50 {p50:7.1f} ms  p95 {p95:7.1f} ms")
 
     state = scene()
     policy = Policy(QNetwork().eval())
     obs = Observation(MODE_TARGET, state.color, state.height, state.mask, (50, 50),
                       np.zeros((224, 224), np.float32))
-    p50, p95 = timed(lambda: policy.decide(obs), args.repeats)
+    p50, p95 = p50_p95(timed(lambda: policy.decide(obs), args.repeats)[0])
     print(f"\ndecision (Q maps + masks + argmax + pose): p50 {p50:.1f} ms  p95 {p95:.1f} ms")
     choice = policy.decide(obs)
-    p50, _ = timed(lambda: q_maps_picture(choice.q_maps, choice.masks, choice.decision), args.repeats)
+    wall, _ = timed(lambda: q_maps_picture(choice.q_maps, choice.masks, choice.decision), args.repeats)
+    p50, _ = p50_p95(wall)
     print(f"Q-map debug picture: p50 {p50:.1f} ms")
 
     trainer = Trainer(seed=0)
     push = Transition(state, PUSH, 3, (56, 60), 0.5, state, (PUSH, GRASP))
     grasp = Transition(state, GRASP, 5, (56, 56), 1.0, None)
-    p50, _ = timed(lambda: trainer.target_value(push.reward, push.next_state), args.repeats)
+    p50, _ = p50_p95(timed(lambda: trainer.target_value(push.reward, push.next_state), args.repeats)[0])
     print(f"TD target (target network, 32 maps): p50 {p50:.1f} ms")
-    p50, _ = timed(lambda: trainer.update(push, label=0.5), args.repeats)
+    p50, _ = p50_p95(timed(lambda: trainer.update(push, label=0.5), args.repeats)[0])
     print(f"DQN update, push (1 rotation fwd+bwd): p50 {p50:.1f} ms")
-    p50, _ = timed(lambda: trainer.update(grasp, label=1.0), args.repeats)
+    p50, _ = p50_p95(timed(lambda: trainer.update(grasp, label=1.0), args.repeats)[0])
     print(f"DQN update, grasp (+ opposite rotation): p50 {p50:.1f} ms")
 
 

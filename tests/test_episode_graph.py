@@ -67,13 +67,19 @@ def test_complete_episode_matches_ground_truth(ros_node, cell):
     episode.destroy()
 
 
-def test_cancel_stops_after_the_current_motion(ros_node, cell):
+def episode_under_way(ros_node, cell, seed: int):
+    """A 30-action challenging episode that has executed its first action: (ActionHelper, goal handle)."""
     procs = list(cell.values())
     episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
-    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=4, num_targets=2, num_objects=16,
+    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=seed, num_targets=2, num_objects=16,
                                                max_actions=30))
     assert handle.accepted
     spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
+    return episode, handle
+
+
+def test_cancel_stops_after_the_current_motion(ros_node, cell):
+    episode, handle = episode_under_way(ros_node, cell, seed=4)
     episode.cancel(handle)
     result = episode.get_result(handle, timeout=300.0).result
     assert result.termination_reason == "canceled"
@@ -83,12 +89,7 @@ def test_cancel_stops_after_the_current_motion(ros_node, cell):
 
 
 def test_a_node_killed_mid_episode_ends_it_with_a_reason_and_intact_records(ros_node, cell):
-    procs = list(cell.values())
-    episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
-    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=5, num_targets=2, num_objects=16,
-                                               max_actions=30))
-    assert handle.accepted
-    spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
+    episode, handle = episode_under_way(ros_node, cell, seed=5)
     cell["policy_node"].send_signal(signal.SIGKILL)
     episode.processes = [p for name, p in cell.items() if name != "policy_node"]  # its death is expected
     result = episode.get_result(handle, timeout=300.0).result
