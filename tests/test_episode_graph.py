@@ -71,8 +71,8 @@ def episode_under_way(ros_node, cell, seed: int):
     """A 30-action challenging episode that has executed its first action: (ActionHelper, goal handle)."""
     procs = list(cell.values())
     episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
-    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=seed, num_targets=2, num_objects=16,
-                                               max_actions=30))
+    handle = episode.send_goal(RunEpisode.Goal(scenario="challenging", seed=seed, num_targets=2,
+                                               num_objects=16, max_actions=30))
     assert handle.accepted
     spin_until(ros_node, lambda: len(episode.feedback) >= 1, 300.0, "the first executed action", procs)
     return episode, handle
