@@ -32,8 +32,9 @@ def stamp_ns(stamp) -> int:
 
 
 def policy_parameters(notes: dict) -> dict:
-    """The same weights as in the recording; stale-input checks off (the stamps are from then)."""
-    parameters = {"max_age": 1e9}
+    """The same weights as in the recording; stale-input checks and the failed-grasp memory off (the
+    stamps are from then; the episode's outcomes are not replayed)."""
+    parameters = {"max_age": 1e9, "avoid_failed_grasps": False}
     if notes.get("impurity.policy") == "untrained":
         return {**parameters, "allow_untrained": True, "seed": int(notes["impurity.untrained_seed"]),
                 "checkpoint": "/nonexistent/untrained.pt"}

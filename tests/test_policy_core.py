@@ -22,6 +22,7 @@ from impurity_policy.core.policy import (
     MODE_NONE,
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
+    FailedGraspMemory,
     NoActionError,
     Observation,
     Policy,
@@ -274,3 +275,44 @@ def test_policy_rejects_malformed_crops():
     obs.color_crop = obs.color_crop[:, :100]
     with pytest.raises(NoActionError, match="colour crop"):
         policy.decide(obs)
+
+
+def test_failed_grasp_memory_rules_out_the_grasp_and_its_opposite_until_the_scene_changes():
+    memory = FailedGraspMemory(radius_px=3)
+    q = np.zeros((16, 2, 20, 20), np.float32)
+    crop_origin = (100, 50)
+    memory.record(GRASP, False, (110, 60), rotation=3)  # crop pixel (10, 10)
+    suppressed = memory.suppress(q, crop_origin)
+    for rotation in (3, 11):
+        assert np.isneginf(suppressed[rotation, GRASP, 10, 10])
+        assert np.isneginf(suppressed[rotation, GRASP, 13, 10])
+        assert suppressed[rotation, GRASP, 14, 10] == 0 and suppressed[rotation, GRASP, 10, 14] == 0
+    assert np.isfinite(suppressed[[r for r in range(16) if r not in (3, 11)], GRASP]).all()
+    assert np.isfinite(suppressed[:, PUSH]).all() and np.isfinite(q).all()  # pushes untouched, input kept
+    memory.record(PUSH, True, (0, 0), rotation=0)  # the scene changed
+    assert memory.suppress(q, crop_origin) is q
+    memory.record(GRASP, False, (110, 60), 3)
+    memory.record(GRASP, True, (30, 30), 5)  # something was lifted: the scene changed too
+    assert not memory.failed
+
+
+def test_a_greedy_policy_does_not_repeat_a_failed_grasp():
+    torch.manual_seed(0)
+    policy = Policy(QNetwork())
+    color = np.full((112, 112, 3), 150, np.uint8)
+    height = np.zeros((112, 112), np.float32)
+    height[40:70, 40:70] = 0.03
+    mask = np.zeros((112, 112), np.uint8)
+    mask[45:65, 45:65] = 255
+    obs = Observation(MODE_TARGET, color, height, mask, (0, 0), np.pad(height, ((0, 112), (0, 112))))
+    memory = FailedGraspMemory()
+    q = policy.q_maps(obs)
+    q[:, PUSH] = -np.inf  # only grasps compete
+    first = policy.decide(obs, q=memory.suppress(q, obs.crop_origin))
+    assert first.decision.primitive == GRASP
+    memory.record(GRASP, False, first.pose.heightmap_pixel, first.pose.rotation)
+    second = policy.decide(obs, q=memory.suppress(q, obs.crop_origin))
+    assert second.decision.primitive == GRASP
+    same_axis = second.pose.rotation % 8 == first.pose.rotation % 8
+    distance = math.dist(second.pose.heightmap_pixel, first.pose.heightmap_pixel)
+    assert not (same_axis and distance <= memory.radius_px)

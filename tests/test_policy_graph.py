@@ -2,6 +2,7 @@
 refuses stale, malformed and NONE inputs with a log line (then keeps answering)."""
 
 import math
+import time
 
 import numpy as np
 import pytest
@@ -10,9 +11,9 @@ from sensor_msgs.msg import Image
 
 from impurity_common import cell
 from impurity_common.conversions import ns_to_time, numpy_to_image, time_to_ns
-from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.trainer import Trainer
-from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until
+from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until, wait_for_subscribers
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 CROP = cell.CROP_SIZE
@@ -111,3 +112,35 @@ def test_policy_node_without_checkpoint_exits_with_a_clear_message(ros_node, lau
     spin_until(ros_node, lambda: not proc.alive, 60.0, "policy_node to exit")
     assert proc.process.returncode != 0
     assert "does not exist" in proc.output() and "allow_untrained" in proc.output()
+
+
+def test_policy_node_does_not_repeat_a_grasp_the_episode_reported_as_failed(ros_node, launch, checkpoint):
+    proc = launch("impurity_policy", "policy_node", ros_args({"checkpoint": str(checkpoint), "threads": 1}))
+    publisher = ros_node.create_publisher(AttentionResult, "/attention/result", RELIABLE)
+    steps = ros_node.create_publisher(EpisodeStep, "/episode/steps", 10)
+    primitives = TopicRecorder(ros_node, Primitive, "/policy/primitive", RELIABLE)
+    clock = ros_node.get_clock()
+    scene = attention_message
+    failed = publish_until_answered(ros_node, publisher, lambda: scene(clock.now().nanoseconds), primitives,
+                                    processes=[proc])
+    assert failed.kind == Primitive.GRASP  # the seeded network's choice in this scene
+    wait_for_subscribers(ros_node, steps, processes=[proc])
+    steps.publish(EpisodeStep(episode_id="e1", step=1, attention_mode="TARGET", primitive=failed,
+                              success=False))
+
+    def same_grasp(answer) -> bool:
+        distance = math.dist((answer.pixel_row, answer.pixel_col), (failed.pixel_row, failed.pixel_col))
+        return (answer.kind == Primitive.GRASP and answer.rotation_index % 8 == failed.rotation_index % 8
+                and distance <= 10)
+
+    # the same scene again (new stamps) until an answer comes that is not the failed grasp
+    deadline, answer = time.monotonic() + 30.0, failed
+    while same_grasp(answer):
+        assert time.monotonic() < deadline, "the policy node kept choosing the grasp reported as failed"
+        stamp = clock.now().nanoseconds
+        publisher.publish(attention_message(stamp))
+        answer = primitives.wait_for(1, 30.0, lambda m, s=stamp: time_to_ns(m.header.stamp) == s, [proc])[0]
+    assert proc.alive
+    ros_node.destroy_publisher(publisher)
+    ros_node.destroy_publisher(steps)
+    primitives.destroy()

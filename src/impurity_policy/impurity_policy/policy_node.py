@@ -18,15 +18,16 @@ from impurity_common import cell
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import describe
-from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
-from impurity_policy.core.policy import NoActionError, Observation, Policy, q_maps_picture
+from impurity_policy.core.policy import FailedGraspMemory, NoActionError, Observation, Policy, q_maps_picture
 from impurity_policy.core.pose import PoseRules
 from impurity_policy.core.trainer import CheckpointError, load_network
 
 ATTENTION_TOPIC = "/attention/result"
 PRIMITIVE_TOPIC = "/policy/primitive"
 Q_MAPS_TOPIC = "/policy/q_maps_image"
+EPISODE_STEPS_TOPIC = "/episode/steps"
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[1]  # src/impurity_policy with --symlink-install
 
 
@@ -62,6 +63,10 @@ def parameter_table() -> dict:
         "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
         "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
         "push_min_tip": (rules.push_min_tip, "Lowest push fingertip height above the table (m)"),
+        "avoid_failed_grasps": (True, "Rule out a grasp that failed (same place, same rotation or its "
+                                      "opposite) until the scene changes; outcomes from /episode/steps"),
+        "failed_grasp_radius_px": (FailedGraspMemory().radius_px, "Heightmap pixels around a failed grasp "
+                                                                  "that are ruled out"),
     }
 
 
@@ -79,12 +84,16 @@ class PolicyNode(Node):
         self.policy = Policy(self._network(), rules)
         self._last_answered_ns = -1
         self._last_warning = {}
+        self.memory = FailedGraspMemory(int(self._param("failed_grasp_radius_px")))
+        self._memory_episode = ""
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         self._primitive_pub = self.create_publisher(Primitive, PRIMITIVE_TOPIC, reliable)
         self._q_maps_pub = self.create_publisher(Image, Q_MAPS_TOPIC,
                                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.create_subscription(AttentionResult, ATTENTION_TOPIC, self._on_attention, reliable)
+        if self._param("avoid_failed_grasps"):
+            self.create_subscription(EpisodeStep, EPISODE_STEPS_TOPIC, self._on_episode_step, 10)
         self.get_logger().info(f"ready: {ATTENTION_TOPIC} -> {PRIMITIVE_TOPIC}")
 
     def _param(self, name):
@@ -144,6 +153,15 @@ class PolicyNode(Node):
                           np.nan_to_num(height.astype(np.float32), nan=0.0))
         return obs, grid
 
+    # ---- outcomes ------------------------------------------------------------------------------
+    def _on_episode_step(self, step: EpisodeStep) -> None:
+        if step.episode_id != self._memory_episode:
+            self.memory.clear()
+            self._memory_episode = step.episode_id
+        primitive = GRASP if step.primitive.kind == Primitive.GRASP else PUSH
+        self.memory.record(primitive, step.success, (step.primitive.pixel_row, step.primitive.pixel_col),
+                           step.primitive.rotation_index)
+
     # ---- decision ------------------------------------------------------------------------------
     def _on_attention(self, msg: AttentionResult) -> None:
         reason = self._rejection(msg)
@@ -153,7 +171,8 @@ class PolicyNode(Node):
         started = time.perf_counter()
         try:
             obs, grid = self._observation(msg)
-            choice = self.policy.decide(obs, grid=grid)
+            q = self.memory.suppress(self.policy.q_maps(obs), obs.crop_origin)
+            choice = self.policy.decide(obs, q=q, grid=grid)
         except (ImageFormatError, NoActionError, ValueError) as error:
             self._warn("malformed", f"no decision: malformed attention result: {error}")
             return

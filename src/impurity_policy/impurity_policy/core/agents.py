@@ -27,7 +27,7 @@ import numpy as np
 from impurity_common import cell
 
 from .network import GRASP, PUSH
-from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Policy
+from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, FailedGraspMemory, Policy
 from .pose import ActionPose, PoseRules, action_pose, yaw_to_rotation
 from .trainer import OBJECT_HEIGHT
 
@@ -61,9 +61,10 @@ class NetworkAgent:
             raise ValueError(f"'{method}' is not a network method ({', '.join(NETWORK_METHODS)})")
         self.name, self.policy = method, policy
         self.method = TRAINED_METHOD[method]  # how train.sense builds the observation
+        self.memory = FailedGraspMemory()
 
     def reset(self, seed: int) -> None:
-        """A new episode (network agents keep no episode state)."""
+        self.memory.clear()
 
     def restriction(self, sensed) -> np.ndarray | None:
         attention = sensed.attention
@@ -78,12 +79,16 @@ class NetworkAgent:
     def act(self, sensed) -> Action | None:
         if sensed.obs.mode == MODE_NONE:
             return None
-        choice = self.policy.decide(sensed.obs, restrict=self.restriction(sensed))
+        q = self.memory.suppress(self.policy.q_maps(sensed.obs), sensed.obs.crop_origin)
+        choice = self.policy.decide(sensed.obs, q=q, restrict=self.restriction(sensed))
         return Action(primitive_name(choice.decision.primitive), choice.pose, choice.decision.q_value,
                       sensed.obs.mode)
 
     def observe_outcome(self, action: Action, outcome) -> None:
-        """Network agents learn nothing during evaluation."""
+        """No learning during evaluation; failed grasps are remembered (FailedGraspMemory)."""
+        primitive = GRASP if action.kind == "grasp" else PUSH
+        pose = action.pose
+        self.memory.record(primitive, bool(outcome.success), pose.heightmap_pixel, pose.rotation)
 
 
 def grasp_rectangle(mask: np.ndarray) -> tuple | None:

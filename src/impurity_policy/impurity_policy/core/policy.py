@@ -121,12 +121,48 @@ class Policy:
         return Choice(decision, pose, q, masks)
 
 
+class FailedGraspMemory:
+    """Greedy decisions repeat a failed grasp: the fingers closed on nothing, the scene (the state) is
+    unchanged, so the argmax is too. Remember each failed grasp (heightmap pixel, rotation) and rule
+    out that rotation and its opposite within `radius_px` until the scene changes (any push, any grasp
+    that lifted something). Used at test time only (training explores with epsilon instead), by every
+    network method alike."""
+
+    def __init__(self, radius_px: int = 10):
+        self.radius_px = radius_px
+        self.failed: list = []  # (row, col, rotation)
+
+    def clear(self) -> None:
+        self.failed = []
+
+    def record(self, primitive: int, success: bool, heightmap_pixel, rotation: int) -> None:
+        if primitive == GRASP and not success:
+            self.failed.append((int(heightmap_pixel[0]), int(heightmap_pixel[1]), int(rotation)))
+        else:
+            self.clear()
+
+    def suppress(self, q: np.ndarray, crop_origin) -> np.ndarray:
+        """A copy of the Q maps (R, 2, S, S) with the remembered grasps at -inf."""
+        if not self.failed:
+            return q
+        q = q.copy()
+        rotations, _, size, _ = q.shape
+        rows, cols = np.ogrid[:size, :size]
+        for row, col, rotation in self.failed:
+            distance2 = (rows - (row - crop_origin[0])) ** 2 + (cols - (col - crop_origin[1])) ** 2
+            near = distance2 <= self.radius_px ** 2
+            for r in (rotation % rotations, (rotation + rotations // 2) % rotations):
+                q[r, GRASP][near] = -np.inf
+        return q
+
+
 def q_maps_picture(q: np.ndarray, masks: np.ndarray, decision: Decision | None = None,
                    tile: int = 56) -> np.ndarray:
     """RGB debug picture: 2 rows (push, grasp) x R columns of Q maps (masked pixels dark), one
     colour scale for all, the chosen action circled."""
     rotations, _, size, _ = q.shape
     finite = q[np.broadcast_to(masks[None], q.shape)]
+    finite = finite[np.isfinite(finite)]  # FailedGraspMemory rules grasps out with -inf
     low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     scale = max(high - low, 1e-6)
     picture = np.zeros((2 * tile, rotations * tile, 3), dtype=np.uint8)
