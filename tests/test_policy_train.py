@@ -45,6 +45,29 @@ def test_training_runs_checkpoints_and_resumes(tmp_path):
     assert shipped.stat().st_size < (tmp_path / "run" / "checkpoint.pt").stat().st_size
 
 
+def test_ctrl_c_finishes_the_iteration_saves_and_stops(tmp_path):
+    import signal
+
+    config = TrainConfig(run_dir=str(tmp_path / "run"), iterations=50, threads=1, progress=False, seed=4)
+    run = TrainingRun(config)
+    step = run.step
+
+    def step_then_ctrl_c(*args):
+        result = step(*args)
+        signal.raise_signal(signal.SIGINT)  # as if pressed during the first iteration
+        return result
+
+    run.step = step_then_ctrl_c
+    result = run.run()
+    run.world.close()
+    assert result["iterations"] == 1
+    assert [int(r["iteration"]) for r in _rows(tmp_path / "run" / "log.csv")] == [1]
+    resumed = TrainingRun(config)
+    assert resumed.resumed and resumed.iteration == 1 and len(resumed.replay) == 1
+    resumed.world.close()
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # pytest's handler is back
+
+
 def test_old_log_columns_are_migrated_before_appending(tmp_path):
     log = tmp_path / "log.csv"
     log.write_text("iteration,primitive,reward\n1,push,0.5\n2,grasp,1.0\n")

@@ -28,6 +28,8 @@ from __future__ import annotations
 import csv
 import math
 import pathlib
+import signal
+import threading
 import time
 from dataclasses import asdict, dataclass, field
 
@@ -241,8 +243,18 @@ class TrainingRun:
                        unit="it", dynamic_ncols=True)
         started, first_iteration = time.perf_counter(), self.iteration
         obs, truth, maps = self.new_scene()
+        interrupted = []
+
+        def finish_iteration_then_stop(_signum, _frame):  # Ctrl-C: finish the step, save, stop
+            interrupted.append(True)
+            print(f"\ntrain: interrupted; saving after iteration {self.iteration + 1}", flush=True)
+
+        in_main_thread = threading.current_thread() is threading.main_thread()
+        previous_handler = None
+        if in_main_thread:
+            previous_handler = signal.signal(signal.SIGINT, finish_iteration_then_stop)
         try:
-            while self.iteration < config.iterations:
+            while self.iteration < config.iterations and not interrupted:
                 if config.max_hours > 0 and time.perf_counter() - started > 3600.0 * config.max_hours:
                     break
                 if obs.mode == MODE_NONE or truth.targets_remaining == 0:
@@ -262,6 +274,8 @@ class TrainingRun:
                     log_file.flush()
                     plot_success(self.log_path, self.plot_path, config.plot_window)
         finally:
+            if in_main_thread:
+                signal.signal(signal.SIGINT, previous_handler)
             log_file.close()
             if bar is not None:
                 bar.close()
