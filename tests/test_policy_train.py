@@ -74,6 +74,8 @@ def test_old_log_columns_are_migrated_before_appending(tmp_path):
     migrate_log(log)
     rows = _rows(log)
     assert list(rows[0]) == list(CSV_FIELDS) and rows[1]["primitive"] == "grasp" and rows[1]["message"] == ""
+    migrate_log(log, last_iteration=1)  # a run killed after logging iteration 2, checkpointed at 1
+    assert [r["iteration"] for r in _rows(log)] == ["1"]
 
 
 def test_resume_refuses_another_method(tmp_path):

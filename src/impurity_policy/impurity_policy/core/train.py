@@ -229,7 +229,7 @@ class TrainingRun:
 
     def run(self) -> dict:
         config = self.config
-        migrate_log(self.log_path)
+        migrate_log(self.log_path, self.iteration)
         write_header = not self.log_path.is_file() or self.log_path.stat().st_size == 0
         log_file = open(self.log_path, "a", newline="")
         writer = csv.DictWriter(log_file, CSV_FIELDS)
@@ -371,17 +371,21 @@ def recent_rates(row: dict, recent: list, window: int = 300) -> str:
 
 
 # ---- log analysis --------------------------------------------------------------------------------------
-def migrate_log(path) -> None:
-    """A log written with other columns (an older version of this file) is rewritten with today's
-    columns before a resumed run appends to it; missing values stay empty."""
+def migrate_log(path, last_iteration: int | None = None) -> None:
+    """Before a resumed run appends: a log written with other columns (an older version of this file)
+    is rewritten with today's columns (missing values empty), and rows after `last_iteration` (the
+    checkpoint's; a run killed between checkpoints logged them) are dropped, since they are redone."""
     path = pathlib.Path(path)
     if not path.is_file() or path.stat().st_size == 0:
         return
     with open(path, newline="") as f:
         header = next(csv.reader(f), [])
-    if tuple(header) == CSV_FIELDS:
-        return
     rows = read_log(path)
+    beyond = last_iteration is not None and any(int(r["iteration"]) > last_iteration for r in rows)
+    if tuple(header) == CSV_FIELDS and not beyond:
+        return
+    if last_iteration is not None:
+        rows = [r for r in rows if int(r["iteration"]) <= last_iteration]
     tmp = path.with_suffix(".csv.tmp")
     with open(tmp, "w", newline="") as f:
         writer = csv.DictWriter(f, CSV_FIELDS, extrasaction="ignore")
