@@ -13,6 +13,7 @@ Sampling: sort by priority, draw rank r (1 = largest) with P(r) ~ r^-alpha.
 
 from __future__ import annotations
 
+import pathlib
 import pickle
 import zlib
 from dataclasses import dataclass
@@ -120,10 +121,14 @@ class RankedReplay:
         return int(order[rng.choice(len(order), p=weights / weights.sum())])
 
     def save(self, path) -> None:
-        with open(path, "wb") as f:
+        """Atomic, like the checkpoint: a run killed while saving keeps the previous buffer intact."""
+        path = pathlib.Path(path)
+        tmp = path.with_suffix(path.suffix + ".tmp")
+        with open(tmp, "wb") as f:
             pickle.dump({"version": REPLAY_FORMAT_VERSION, "capacity": self.capacity, "alpha": self.alpha,
                          "items": self._items, "priority": self._priority, "primitive": self._primitive,
                          "positive": self._positive, "next": self._next}, f, protocol=pickle.HIGHEST_PROTOCOL)
+        tmp.replace(path)
 
     @classmethod
     def load(cls, path) -> RankedReplay:
