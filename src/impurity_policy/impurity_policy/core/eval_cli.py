@@ -55,6 +55,12 @@ def checkpoint_for(method: str, checkpoint_dir: pathlib.Path) -> pathlib.Path | 
     return checkpoint_dir / (SHIPPED_CHECKPOINT.name if trained == "ours" else f"{trained}.pt")
 
 
+def shown_path(path: pathlib.Path) -> str:
+    """Paths in the committed tables are relative to where make runs, not this machine's checkout."""
+    relative = os.path.relpath(path)
+    return path.as_posix() if relative.startswith("..") else relative
+
+
 def file_digest(path: pathlib.Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:12]
 
@@ -217,12 +223,12 @@ def main(argv=None) -> int:
     for method in args.methods:
         checkpoint = checkpoint_for(method, checkpoint_dir)
         if checkpoint is not None and not checkpoint.is_file():
-            results[method] = {"missing": True, "checkpoint": str(checkpoint)}
+            results[method] = {"missing": True, "checkpoint": shown_path(checkpoint)}
             print(f"eval: {LABELS[method]}: no checkpoint at {checkpoint}: listed as not trained",
                   file=sys.stderr)
             continue
         agents[method] = make_agent(method, checkpoint)
-        results[method] = {"checkpoint": str(checkpoint) if checkpoint else "",
+        results[method] = {"checkpoint": shown_path(checkpoint) if checkpoint else "",
                            "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
                            "episodes": []}
     started = time.perf_counter()
