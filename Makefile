@@ -5,12 +5,13 @@ ENV := source scripts/env.sh &&
 
 EVAL_GRAPH_EPISODES ?= 2
 
-.PHONY: setup test lint pytest demo train eval bench test-bag clean help
+.PHONY: setup test lint pytest demo train train-baselines eval bench test-bag clean help
 
 help:
 	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
 	@echo "make test   - set up if needed, lint (ruff, hadolint), run every test"
 	@echo "make train  - train the push-grasp policy in the fast sim (resumable)"
+	@echo "make train-baselines - VPG, No-TSD, No-OI, No-T at once (BASELINE_HOURS=1.3, resumable)"
 	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
 	@echo "              episodes through the node graph (EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
@@ -35,6 +36,9 @@ demo: setup
 
 train: setup
 	@$(ENV) python -m impurity_policy.core.train_cli $(TRAIN_ARGS)
+
+train-baselines: setup
+	@$(ENV) scripts/train_baselines.sh
 
 eval: setup
 	@$(ENV) python -m impurity_policy.core.eval_cli $(EVAL_ARGS)
