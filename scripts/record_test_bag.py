@@ -50,7 +50,7 @@ def policy_overrides(untrained: bool, seed: int) -> tuple[dict, dict]:
     """(policy node parameters, bag notes) for the weights that will decide."""
     if untrained:
         return ({"allow_untrained": True, "seed": seed, "checkpoint": "/nonexistent/untrained.pt",
-                 "avoid_failed_grasps": False},
+                 "avoid_tried_actions": False},
                 {POLICY_KEY: "untrained", SEED_KEY: str(seed)})
     from impurity_policy.policy_node import default_checkpoint
 
@@ -59,8 +59,8 @@ def policy_overrides(untrained: bool, seed: int) -> tuple[dict, dict]:
         raise SystemExit(f"record_test_bag: no checkpoint at {checkpoint}: train one (make train) "
                          "or record with --untrained")
     notes = {POLICY_KEY: "checkpoint", CHECKPOINT_SHA_KEY: file_sha256(checkpoint)}
-    # Decisions must follow from the camera topics alone to replay exactly: no failed-grasp memory.
-    return {"checkpoint": str(checkpoint), "avoid_failed_grasps": False}, notes
+    # Decisions must follow from the camera topics alone to replay exactly: no tried-action memory.
+    return {"checkpoint": str(checkpoint), "avoid_tried_actions": False}, notes
 
 
 def write_config(base: pathlib.Path, policy_params: dict, path: pathlib.Path) -> pathlib.Path:

@@ -34,7 +34,7 @@ def stamp_ns(stamp) -> int:
 def policy_parameters(notes: dict) -> dict:
     """The same weights as in the recording; stale-input checks and the failed-grasp memory off (the
     stamps are from then; the episode's outcomes are not replayed)."""
-    parameters = {"max_age": 1e9, "avoid_failed_grasps": False}
+    parameters = {"max_age": 1e9, "avoid_tried_actions": False}
     if notes.get("impurity.policy") == "untrained":
         return {**parameters, "allow_untrained": True, "seed": int(notes["impurity.untrained_seed"]),
                 "checkpoint": "/nonexistent/untrained.pt"}

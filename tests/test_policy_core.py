@@ -22,10 +22,10 @@ from impurity_policy.core.policy import (
     MODE_NONE,
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
-    FailedGraspMemory,
     NoActionError,
     Observation,
     Policy,
+    TriedActionMemory,
     q_maps_picture,
 )
 from impurity_policy.core.pose import action_pose, pose_to_action, push_end, yaw_to_rotation
@@ -277,23 +277,40 @@ def test_policy_rejects_malformed_crops():
         policy.decide(obs)
 
 
-def test_failed_grasp_memory_rules_out_the_grasp_and_its_opposite_until_the_scene_changes():
-    memory = FailedGraspMemory(radius_px=3)
+def _scene_observation(crop_origin=(100, 50), moved_pixels: int = 0) -> Observation:
+    """A 224^2 scene with one 20x20 block; `moved_pixels` extra cells raised (the scene changed)."""
+    height = np.zeros((224, 224), np.float32)
+    height[100:120, 50:70] = 0.03
+    height.flat[len(height.flat) - moved_pixels:] = 0.05 if moved_pixels else 0.0
+    size = 20
+    return Observation(MODE_OCCLUDED_REGION, np.zeros((size, size, 3), np.uint8),
+                       np.zeros((size, size), np.float32), np.full((size, size), 255, np.uint8), crop_origin,
+                       height)
+
+
+def test_tried_action_memory_rules_out_failed_grasps_and_pushes_that_changed_nothing():
+    memory = TriedActionMemory(radius_px=3)
     q = np.zeros((16, 2, 20, 20), np.float32)
-    crop_origin = (100, 50)
-    memory.record(GRASP, False, (110, 60), rotation=3)  # crop pixel (10, 10)
-    suppressed = memory.suppress(q, crop_origin)
-    for rotation in (3, 11):
+    obs = _scene_observation()
+    memory.record(GRASP, (110, 60), 3, obs.height, success=False)  # crop pixel (10, 10)
+    suppressed = memory.suppress(q, obs)
+    for rotation in (3, 11):  # a grasp: its rotation and the opposite one (the same closing axis)
         assert np.isneginf(suppressed[rotation, GRASP, 10, 10])
         assert np.isneginf(suppressed[rotation, GRASP, 13, 10])
         assert suppressed[rotation, GRASP, 14, 10] == 0 and suppressed[rotation, GRASP, 10, 14] == 0
     assert np.isfinite(suppressed[[r for r in range(16) if r not in (3, 11)], GRASP]).all()
     assert np.isfinite(suppressed[:, PUSH]).all() and np.isfinite(q).all()  # pushes untouched, input kept
-    memory.record(PUSH, True, (0, 0), rotation=0)  # the scene changed
-    assert memory.suppress(q, crop_origin) is q
-    memory.record(GRASP, False, (110, 60), 3)
-    memory.record(GRASP, True, (30, 30), 5)  # something was lifted: the scene changed too
-    assert not memory.failed
+    moved = _scene_observation(moved_pixels=tcdd.CHANGE_PIXELS_TAU + 1)
+    assert np.isneginf(memory.suppress(q, moved)[3, GRASP, 10, 10])  # a failed grasp stays ruled out...
+    memory.record(PUSH, (105, 55), 6, obs.height, success=True)  # crop pixel (5, 5)
+    suppressed = memory.suppress(q, _scene_observation(moved_pixels=tcdd.CHANGE_PIXELS_TAU))
+    assert np.isfinite(suppressed[:, GRASP]).all()  # ... until a push
+    assert np.isneginf(suppressed[6, PUSH, 5, 5]) and np.isneginf(suppressed[6, PUSH, 8, 5])
+    assert np.isfinite(suppressed[[r for r in range(16) if r != 6], PUSH]).all()  # a push: its direction
+    assert memory.suppress(q, moved) is q and not memory.tried  # the push moved something after all
+    memory.record(GRASP, (110, 60), 3, obs.height, success=False)
+    memory.record(GRASP, (30, 30), 5, obs.height, success=True)  # something was lifted
+    assert not memory.tried
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():
@@ -305,13 +322,13 @@ def test_a_greedy_policy_does_not_repeat_a_failed_grasp():
     mask = np.zeros((112, 112), np.uint8)
     mask[45:65, 45:65] = 255
     obs = Observation(MODE_TARGET, color, height, mask, (0, 0), np.pad(height, ((0, 112), (0, 112))))
-    memory = FailedGraspMemory()
+    memory = TriedActionMemory()
     q = policy.q_maps(obs)
     q[:, PUSH] = -np.inf  # only grasps compete
-    first = policy.decide(obs, q=memory.suppress(q, obs.crop_origin))
+    first = policy.decide(obs, q=memory.suppress(q, obs))
     assert first.decision.primitive == GRASP
-    memory.record(GRASP, False, first.pose.heightmap_pixel, first.pose.rotation)
-    second = policy.decide(obs, q=memory.suppress(q, obs.crop_origin))
+    memory.record(GRASP, first.pose.heightmap_pixel, first.pose.rotation, obs.height, success=False)
+    second = policy.decide(obs, q=memory.suppress(q, obs))
     assert second.decision.primitive == GRASP
     same_axis = second.pose.rotation % 8 == first.pose.rotation % 8
     distance = math.dist(second.pose.heightmap_pixel, first.pose.heightmap_pixel)

@@ -114,7 +114,7 @@ def test_policy_node_without_checkpoint_exits_with_a_clear_message(ros_node, lau
     assert "does not exist" in proc.output() and "allow_untrained" in proc.output()
 
 
-def test_policy_node_does_not_repeat_a_grasp_the_episode_reported_as_failed(ros_node, launch, checkpoint):
+def test_policy_node_does_not_repeat_an_executed_grasp_in_an_unchanged_scene(ros_node, launch, checkpoint):
     proc = launch("impurity_policy", "policy_node", ros_args({"checkpoint": str(checkpoint), "threads": 1}))
     publisher = ros_node.create_publisher(AttentionResult, "/attention/result", RELIABLE)
     steps = ros_node.create_publisher(EpisodeStep, "/episode/steps", 10)
@@ -136,7 +136,7 @@ def test_policy_node_does_not_repeat_a_grasp_the_episode_reported_as_failed(ros_
     # the same scene again (new stamps) until an answer comes that is not the failed grasp
     deadline, answer = time.monotonic() + 30.0, failed
     while same_grasp(answer):
-        assert time.monotonic() < deadline, "the policy node kept choosing the grasp reported as failed"
+        assert time.monotonic() < deadline, "the policy node kept choosing the grasp it saw executed"
         stamp = clock.now().nanoseconds
         publisher.publish(attention_message(stamp))
         answer = primitives.wait_for(1, 30.0, lambda m, s=stamp: time_to_ns(m.header.stamp) == s, [proc])[0]

@@ -20,7 +20,7 @@ from impurity_common.node_main import spin_node
 from impurity_common.parameters import describe
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
-from impurity_policy.core.policy import FailedGraspMemory, NoActionError, Observation, Policy, q_maps_picture
+from impurity_policy.core.policy import NoActionError, Observation, Policy, TriedActionMemory, q_maps_picture
 from impurity_policy.core.pose import PoseRules
 from impurity_policy.core.trainer import CheckpointError, load_network
 
@@ -28,6 +28,7 @@ ATTENTION_TOPIC = "/attention/result"
 PRIMITIVE_TOPIC = "/policy/primitive"
 Q_MAPS_TOPIC = "/policy/q_maps_image"
 EPISODE_STEPS_TOPIC = "/episode/steps"
+DECISIONS_KEPT = 16  # answered attention results whose height maps wait for their episode step
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[1]  # src/impurity_policy with --symlink-install
 
 
@@ -63,9 +64,10 @@ def parameter_table() -> dict:
         "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
         "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
         "push_min_tip": (rules.push_min_tip, "Lowest push fingertip height above the table (m)"),
-        "avoid_failed_grasps": (True, "Rule out a grasp that failed (same place, same rotation or its "
-                                      "opposite) until the scene changes; outcomes from /episode/steps"),
-        "failed_grasp_radius_px": (FailedGraspMemory().radius_px, "Heightmap pixels around a failed grasp "
+        "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
+                                      "the scene is unchanged (same place and direction; grasps also the "
+                                      "opposite rotation); executed actions from /episode/steps"),
+        "tried_action_radius_px": (TriedActionMemory().radius_px, "Heightmap pixels around a tried action "
                                                                   "that are ruled out"),
     }
 
@@ -84,15 +86,16 @@ class PolicyNode(Node):
         self.policy = Policy(self._network(), rules)
         self._last_answered_ns = -1
         self._last_warning = {}
-        self.memory = FailedGraspMemory(int(self._param("failed_grasp_radius_px")))
+        self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")))
         self._memory_episode = ""
+        self._decided_on = {}  # stamp (ns) of an answered attention result -> its full height map
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         self._primitive_pub = self.create_publisher(Primitive, PRIMITIVE_TOPIC, reliable)
         self._q_maps_pub = self.create_publisher(Image, Q_MAPS_TOPIC,
                                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.create_subscription(AttentionResult, ATTENTION_TOPIC, self._on_attention, reliable)
-        if self._param("avoid_failed_grasps"):
+        if self._param("avoid_tried_actions"):
             self.create_subscription(EpisodeStep, EPISODE_STEPS_TOPIC, self._on_episode_step, 10)
         self.get_logger().info(f"ready: {ATTENTION_TOPIC} -> {PRIMITIVE_TOPIC}")
 
@@ -158,9 +161,14 @@ class PolicyNode(Node):
         if step.episode_id != self._memory_episode:
             self.memory.clear()
             self._memory_episode = step.episode_id
+        height = self._decided_on.get(time_to_ns(step.primitive.header.stamp))
+        if height is None:
+            self._warn("unknown step", f"episode step {step.step} executed a primitive this node did not "
+                                       "answer recently: not remembered as tried")
+            return
         primitive = GRASP if step.primitive.kind == Primitive.GRASP else PUSH
-        self.memory.record(primitive, step.success, (step.primitive.pixel_row, step.primitive.pixel_col),
-                           step.primitive.rotation_index)
+        self.memory.record(primitive, (step.primitive.pixel_row, step.primitive.pixel_col),
+                           step.primitive.rotation_index, height, step.success)
 
     # ---- decision ------------------------------------------------------------------------------
     def _on_attention(self, msg: AttentionResult) -> None:
@@ -171,7 +179,7 @@ class PolicyNode(Node):
         started = time.perf_counter()
         try:
             obs, grid = self._observation(msg)
-            q = self.memory.suppress(self.policy.q_maps(obs), obs.crop_origin)
+            q = self.memory.suppress(self.policy.q_maps(obs), obs)
             choice = self.policy.decide(obs, q=q, grid=grid)
         except (ImageFormatError, NoActionError, ValueError) as error:
             self._warn("malformed", f"no decision: malformed attention result: {error}")
@@ -192,6 +200,9 @@ class PolicyNode(Node):
         out.pixel_row, out.pixel_col = (int(v) for v in pose.heightmap_pixel)
         self._primitive_pub.publish(out)
         self._last_answered_ns = time_to_ns(msg.header.stamp)
+        self._decided_on[self._last_answered_ns] = obs.height
+        while len(self._decided_on) > DECISIONS_KEPT:
+            del self._decided_on[next(iter(self._decided_on))]  # oldest first (insertion order)
         kind = "grasp" if out.kind == Primitive.GRASP else "push"
         self.get_logger().info(
             f"{kind} at ({pose.x:.3f}, {pose.y:.3f}, {pose.z:.3f}) yaw {np.degrees(pose.yaw):.1f} deg, "

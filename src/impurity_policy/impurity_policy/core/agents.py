@@ -27,7 +27,7 @@ import numpy as np
 from impurity_common import cell
 
 from .network import GRASP, PUSH
-from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, FailedGraspMemory, Policy
+from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Policy, TriedActionMemory
 from .pose import ActionPose, PoseRules, action_pose, yaw_to_rotation
 from .trainer import OBJECT_HEIGHT
 
@@ -61,7 +61,8 @@ class NetworkAgent:
             raise ValueError(f"'{method}' is not a network method ({', '.join(NETWORK_METHODS)})")
         self.name, self.policy = method, policy
         self.method = TRAINED_METHOD[method]  # how train.sense builds the observation
-        self.memory = FailedGraspMemory()
+        self.memory = TriedActionMemory()
+        self._decided_on = None  # the observation of the action under way
 
     def reset(self, seed: int) -> None:
         self.memory.clear()
@@ -79,16 +80,18 @@ class NetworkAgent:
     def act(self, sensed) -> Action | None:
         if sensed.obs.mode == MODE_NONE:
             return None
-        q = self.memory.suppress(self.policy.q_maps(sensed.obs), sensed.obs.crop_origin)
+        q = self.memory.suppress(self.policy.q_maps(sensed.obs), sensed.obs)
+        self._decided_on = sensed.obs
         choice = self.policy.decide(sensed.obs, q=q, restrict=self.restriction(sensed))
         return Action(primitive_name(choice.decision.primitive), choice.pose, choice.decision.q_value,
                       sensed.obs.mode)
 
     def observe_outcome(self, action: Action, outcome) -> None:
-        """No learning during evaluation; failed grasps are remembered (FailedGraspMemory)."""
+        """No learning during evaluation; the action is remembered (TriedActionMemory)."""
         primitive = GRASP if action.kind == "grasp" else PUSH
         pose = action.pose
-        self.memory.record(primitive, bool(outcome.success), pose.heightmap_pixel, pose.rotation)
+        self.memory.record(primitive, pose.heightmap_pixel, pose.rotation, self._decided_on.height,
+                           bool(outcome.success))
 
 
 def grasp_rectangle(mask: np.ndarray) -> tuple | None:

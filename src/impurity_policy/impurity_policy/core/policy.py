@@ -20,6 +20,7 @@ import torch
 from .network import GRASP, PUSH, QNetwork, network_inputs
 from .pose import ActionPose, PoseRules, action_pose
 from .replay import State
+from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
 from .trainer import Decision, action_masks, best_action, epsilon_greedy, load_network
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
@@ -121,38 +122,53 @@ class Policy:
         return Choice(decision, pose, q, masks)
 
 
-class FailedGraspMemory:
-    """Greedy decisions repeat a failed grasp: the fingers closed on nothing, the scene (the state) is
-    unchanged, so the argmax is too. Remember each failed grasp (heightmap pixel, rotation) and rule
-    out that rotation and its opposite within `radius_px` until the scene changes (any push, any grasp
-    that lifted something). Used at test time only (training explores with epsilon instead), by every
-    network method alike."""
+class TriedActionMemory:
+    """A greedy policy repeats itself: after a grasp that closed on nothing or a push that moved
+    nothing the state is about the same, so the argmax is too (invisible scenes showed the same push
+    ten times over). Executed actions are ruled out within `radius_px` (a push: its direction; a grasp:
+    its rotation and the opposite one, one closing axis):
+      - a failed grasp until a push rearranges the scene or a grasp lifts something;
+      - a push while the scene is unchanged since it was decided (at most `changed_pixels` height
+        pixels moved: the paper's change rule, tcdd.changed_pixels).
+    Test time only (training explores with epsilon instead), every network method alike."""
 
-    def __init__(self, radius_px: int = 10):
-        self.radius_px = radius_px
-        self.failed: list = []  # (row, col, rotation)
+    def __init__(self, radius_px: int = 10, changed_pixels: int = CHANGE_PIXELS_TAU):
+        self.radius_px, self.changed_pixels = radius_px, changed_pixels
+        self.tried: list = []  # (primitive, row, col, rotation, height map decided on) in heightmap pixels
 
     def clear(self) -> None:
-        self.failed = []
+        self.tried = []
 
-    def record(self, primitive: int, success: bool, heightmap_pixel, rotation: int) -> None:
-        if primitive == GRASP and not success:
-            self.failed.append((int(heightmap_pixel[0]), int(heightmap_pixel[1]), int(rotation)))
-        else:
+    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray,
+               success: bool) -> None:
+        """An executed action, the full height map it was decided on and whether it succeeded (a grasp:
+        lifted something)."""
+        if primitive == GRASP and success:
             self.clear()
+            return
+        if primitive == PUSH:
+            self.tried = [entry for entry in self.tried if entry[0] == PUSH]
+        self.tried.append((int(primitive), int(heightmap_pixel[0]), int(heightmap_pixel[1]), int(rotation),
+                           np.array(height, dtype=np.float32)))
 
-    def suppress(self, q: np.ndarray, crop_origin) -> np.ndarray:
-        """A copy of the Q maps (R, 2, S, S) with the remembered grasps at -inf."""
-        if not self.failed:
+    def _unchanged(self, before: np.ndarray, now: np.ndarray) -> bool:
+        return before.shape == now.shape and changed_pixels(before, now) <= self.changed_pixels
+
+    def suppress(self, q: np.ndarray, obs: Observation) -> np.ndarray:
+        """A copy of the Q maps (R, 2, S, S) with the remembered actions at -inf."""
+        self.tried = [entry for entry in self.tried
+                      if entry[0] == GRASP or self._unchanged(entry[4], obs.height)]
+        if not self.tried:
             return q
         q = q.copy()
         rotations, _, size, _ = q.shape
         rows, cols = np.ogrid[:size, :size]
-        for row, col, rotation in self.failed:
-            distance2 = (rows - (row - crop_origin[0])) ** 2 + (cols - (col - crop_origin[1])) ** 2
-            near = distance2 <= self.radius_px ** 2
-            for r in (rotation % rotations, (rotation + rotations // 2) % rotations):
-                q[r, GRASP][near] = -np.inf
+        row0, col0 = obs.crop_origin
+        for primitive, row, col, rotation, _ in self.tried:
+            near = (rows - (row - row0)) ** 2 + (cols - (col - col0)) ** 2 <= self.radius_px ** 2
+            same = (rotation,) if primitive == PUSH else (rotation, rotation + rotations // 2)
+            for r in same:
+                q[r % rotations, primitive][near] = -np.inf
         return q
 
 
@@ -162,7 +178,7 @@ def q_maps_picture(q: np.ndarray, masks: np.ndarray, decision: Decision | None =
     colour scale for all, the chosen action circled."""
     rotations, _, size, _ = q.shape
     finite = q[np.broadcast_to(masks[None], q.shape)]
-    finite = finite[np.isfinite(finite)]  # FailedGraspMemory rules grasps out with -inf
+    finite = finite[np.isfinite(finite)]  # TriedActionMemory rules actions out with -inf
     low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     scale = max(high - low, 1e-6)
     picture = np.zeros((2 * tile, rotations * tile, 3), dtype=np.uint8)
