@@ -126,7 +126,7 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
                  "--episodes", "1",
                  "--checkpoint-dir", str(checkpoints), "--markdown", str(out / "results.md"),
                  "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
-                 "--threads", "1", "--no-progress"])
+                 "--threads", "1", "--jobs", "2", "--no-progress"])
     assert code == 0
     records = json.loads((out / "results.json").read_text())
     assert records["vpg"]["missing"] and records["_meta"]["seed_base"] == 900_000_000
@@ -143,3 +143,18 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     updated = readme.read_text()
     assert "old table" not in updated and "| VPG | not trained |" in updated
     assert updated.startswith("intro\n") and updated.endswith("rest\n")
+
+
+def test_eval_episodes_are_the_same_in_one_process_and_in_a_pool(tmp_path):
+    def records(jobs: int) -> list:
+        out = tmp_path / f"jobs{jobs}"
+        assert main(["--methods", "s_rgm", "--scenarios", "random", "challenging", "--episodes", "2",
+                     "--jobs", str(jobs), "--markdown", str(out / "r.md"), "--chart", str(out / "r.png"),
+                     "--json", str(out / "r.json"), "--readme", str(out / "README.md"), "--no-progress"]) == 0
+        return json.loads((out / "r.json").read_text())["s_rgm"]["episodes"]
+
+    single, pooled = records(1), records(2)
+    assert [(e["scenario"], e["seed"]) for e in single] == [("random", 900_000_000), ("random", 900_000_001),
+                                                             ("challenging", 900_000_000),
+                                                             ("challenging", 900_000_001)]
+    assert pooled == single  # seeded scenes and a deterministic heuristic: the same episodes

@@ -191,6 +191,33 @@ def update_readme(readme: pathlib.Path, table: str, markdown: pathlib.Path) -> b
     return True
 
 
+_WORKER: dict = {}  # per process: the sim world and each method's agent, built on first use
+
+
+def run_task(task: tuple) -> dict:
+    """One evaluation episode (method, checkpoint, scenario, seed, torch threads) -> its record; runs
+    in the main process or in a pool worker."""
+    import torch
+
+    from ur5_driver_sim.core.world import CellWorld
+
+    method, checkpoint, scenario, seed, threads = task
+    if "world" not in _WORKER:
+        torch.set_num_threads(threads)
+        _WORKER["world"] = CellWorld(mode="floating")
+    agents = _WORKER.setdefault("agents", {})
+    if method not in agents:
+        agents[method] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None)
+    metrics = run_episode(_WORKER["world"], agents[method], EpisodeRequest(scenario, seed=seed))
+    return {"method": method, "scenario": scenario, "seed": seed, **metrics}
+
+
+def close_worker() -> None:
+    if "world" in _WORKER:
+        _WORKER.pop("world").close()
+    _WORKER.pop("agents", None)
+
+
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
@@ -202,7 +229,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--chart", default="docs/images/results.png")
     p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
     p.add_argument("--readme", default="README.md", help="its results block is replaced with the table")
-    p.add_argument("--threads", type=int, default=2, help="torch CPU threads")
+    p.add_argument("--threads", type=int, default=1, help="torch CPU threads per episode process")
+    p.add_argument("--jobs", type=int, default=2, help="episodes run in this many processes at once")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
 
@@ -211,15 +239,13 @@ def main(argv=None) -> int:
     import torch
     from tqdm import tqdm
 
-    from ur5_driver_sim.core.world import CellWorld
-
     args = parse_args(argv)
     if args.episodes < 1:
         print("eval: --episodes must be >= 1", file=sys.stderr)
         return 2
     torch.set_num_threads(args.threads)
     checkpoint_dir = pathlib.Path(args.checkpoint_dir)
-    results, agents = {}, {}
+    results, runnable = {}, {}
     for method in args.methods:
         checkpoint = checkpoint_for(method, checkpoint_dir)
         if checkpoint is not None and not checkpoint.is_file():
@@ -227,32 +253,45 @@ def main(argv=None) -> int:
             print(f"eval: {LABELS[method]}: no checkpoint at {checkpoint}: listed as not trained",
                   file=sys.stderr)
             continue
-        agents[method] = make_agent(method, checkpoint)
+        make_agent(method, checkpoint)  # a checkpoint that does not load fails here, before any episode
+        runnable[method] = str(checkpoint.resolve()) if checkpoint else ""  # workers need not share our cwd
         results[method] = {"checkpoint": shown_path(checkpoint) if checkpoint else "",
                            "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
                            "episodes": []}
     started = time.perf_counter()
-    world = CellWorld(mode="floating")
-    total = len(agents) * len(args.scenarios) * args.episodes
-    try:
-        with tqdm(total=total, desc="eval", unit="episode", disable=args.no_progress,
-                  dynamic_ncols=True) as bar:
-            for scenario in args.scenarios:
-                for method, agent in agents.items():
-                    episodes = []
-                    for k in range(args.episodes):
-                        bar.set_postfix_str(f"{scenario} {LABELS[method]} seed +{k}")
-                        metrics = run_episode(world, agent, EpisodeRequest(scenario, seed=args.seed_base + k))
-                        episodes.append({"method": method, "scenario": scenario, "seed": args.seed_base + k,
-                                         **metrics})
-                        bar.update(1)
-                    results[method]["scenarios"][scenario] = aggregate(episodes)
-                    results[method]["episodes"] += episodes
-    finally:
-        world.close()
+    tasks = [(method, checkpoint, scenario, args.seed_base + k, args.threads)
+             for scenario in args.scenarios for method, checkpoint in runnable.items()
+             for k in range(args.episodes)]
+    episodes = []
+    with tqdm(total=len(tasks), desc="eval", unit="episode", disable=args.no_progress,
+              dynamic_ncols=True) as bar:
+        if args.jobs > 1:
+            import multiprocessing
+            from concurrent.futures import ProcessPoolExecutor, as_completed
+
+            # spawn: a fresh interpreter per worker (no forked torch thread pools or pybullet clients);
+            # a worker that dies raises BrokenProcessPool here instead of hanging the run
+            with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+                for future in as_completed([pool.submit(run_task, task) for task in tasks]):
+                    episode = future.result()
+                    episodes.append(episode)
+                    bar.set_postfix_str(f"{episode['scenario']} {LABELS[episode['method']]}")
+                    bar.update(1)
+        else:
+            for task in tasks:
+                bar.set_postfix_str(f"{task[2]} {LABELS[task[0]]} seed {task[3]}")
+                episodes.append(run_task(task))
+                bar.update(1)
+    close_worker()
+    episodes.sort(key=lambda e: (args.scenarios.index(e["scenario"]), e["seed"]))
+    for method in runnable:
+        for scenario in args.scenarios:
+            mine = [e for e in episodes if e["method"] == method and e["scenario"] == scenario]
+            results[method]["scenarios"][scenario] = aggregate(mine)
+            results[method]["episodes"] += mine
     results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
                         "methods": args.methods, "seconds": time.perf_counter() - started,
-                        "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads}
+                        "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_policy.core.eval_cli " + " ".join(arguments)
     markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
