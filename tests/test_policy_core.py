@@ -313,6 +313,23 @@ def test_tried_action_memory_rules_out_failed_grasps_and_pushes_that_changed_not
     assert not memory.tried
 
 
+def test_tried_action_memory_forces_a_push_after_failed_grasps_in_a_row():
+    q = np.zeros((16, 2, 20, 20), np.float32)
+    obs = _scene_observation()
+    memory = TriedActionMemory(radius_px=3, failed_grasps_before_push=2)
+    memory.record(GRASP, (110, 60), 3, obs.height, success=False)
+    assert np.isfinite(memory.suppress(q, obs)[0, GRASP, 0, 0])  # one failure: other grasps stay open
+    memory.record(GRASP, (100, 50), 7, obs.height, success=False)
+    suppressed = memory.suppress(q, obs)
+    assert np.isneginf(suppressed[:, GRASP]).all() and np.isfinite(suppressed[:, PUSH]).all()
+    memory.record(PUSH, (105, 55), 6, obs.height, success=True)
+    assert np.isfinite(memory.suppress(q, obs)[:, GRASP]).all()  # the push reopens grasping
+    never = TriedActionMemory(radius_px=3, failed_grasps_before_push=0)
+    for pixel in ((110, 60), (100, 50), (95, 45)):
+        never.record(GRASP, pixel, 3, obs.height, success=False)
+    assert np.isfinite(never.suppress(q, obs)[0, GRASP, 0, 0])
+
+
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():
     torch.manual_seed(0)
     policy = Policy(QNetwork())

@@ -20,7 +20,14 @@ from impurity_common.node_main import spin_node
 from impurity_common.parameters import describe
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
-from impurity_policy.core.policy import NoActionError, Observation, Policy, TriedActionMemory, q_maps_picture
+from impurity_policy.core.policy import (
+    FAILED_GRASPS_BEFORE_PUSH,
+    NoActionError,
+    Observation,
+    Policy,
+    TriedActionMemory,
+    q_maps_picture,
+)
 from impurity_policy.core.pose import PoseRules
 from impurity_policy.core.trainer import CheckpointError, load_network
 
@@ -69,6 +76,8 @@ def parameter_table() -> dict:
                                       "opposite rotation); executed actions from /episode/steps"),
         "tried_action_radius_px": (TriedActionMemory().radius_px, "Heightmap pixels around a tried action "
                                                                   "that are ruled out"),
+        "failed_grasps_before_push": (FAILED_GRASPS_BEFORE_PUSH, "Failed grasps in a row after which only "
+                                                                 "pushes are chosen (0: never)"),
     }
 
 
@@ -86,7 +95,8 @@ class PolicyNode(Node):
         self.policy = Policy(self._network(), rules)
         self._last_answered_ns = -1
         self._last_warning = {}
-        self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")))
+        self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")),
+                                        failed_grasps_before_push=int(self._param("failed_grasps_before_push")))
         self._memory_episode = ""
         self._decided_on = {}  # stamp (ns) of an answered attention result -> its full height map
 

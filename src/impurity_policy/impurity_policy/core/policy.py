@@ -24,6 +24,7 @@ from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
 from .trainer import Decision, action_masks, best_action, epsilon_greedy, load_network
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
+FAILED_GRASPS_BEFORE_PUSH = 2  # TriedActionMemory: failed grasps in a row before a push is forced
 
 
 class NoActionError(ValueError):
@@ -129,11 +130,16 @@ class TriedActionMemory:
     its rotation and the opposite one, one closing axis):
       - a failed grasp until a push rearranges the scene or a grasp lifts something;
       - a push while the scene is unchanged since it was decided (at most `changed_pixels` height
-        pixels moved: the paper's change rule, tcdd.changed_pixels).
+        pixels moved: the paper's change rule, tcdd.changed_pixels);
+      - every grasp once `failed_grasps_before_push` grasps in a row have failed: a wedged target
+        needs a separating push, and the net under-values it in packings it rarely saw in training
+        (challenging scenes ended in five failed grasps with no push between them).
     Test time only (training explores with epsilon instead), every network method alike."""
 
-    def __init__(self, radius_px: int = 10, changed_pixels: int = CHANGE_PIXELS_TAU):
+    def __init__(self, radius_px: int = 10, changed_pixels: int = CHANGE_PIXELS_TAU,
+                 failed_grasps_before_push: int = FAILED_GRASPS_BEFORE_PUSH):
         self.radius_px, self.changed_pixels = radius_px, changed_pixels
+        self.failed_grasps_before_push = failed_grasps_before_push  # 0: never force a push
         self.tried: list = []  # (primitive, row, col, rotation, height map decided on) in heightmap pixels
 
     def clear(self) -> None:
@@ -161,6 +167,9 @@ class TriedActionMemory:
         if not self.tried:
             return q
         q = q.copy()
+        failed_grasps = sum(entry[0] == GRASP for entry in self.tried)
+        if 0 < self.failed_grasps_before_push <= failed_grasps:
+            q[:, GRASP] = -np.inf
         rotations, _, size, _ = q.shape
         rows, cols = np.ogrid[:size, :size]
         row0, col0 = obs.crop_origin
