@@ -114,12 +114,32 @@ def wait_for_service(node: Node, srv_type, name: str, timeout: float = 30.0, pro
     return client
 
 
-def call_service(node: Node, srv_type, name: str, request, timeout: float = 30.0, processes=()):
-    client = wait_for_service(node, srv_type, name, timeout, processes)
-    future = client.call_async(request)
-    spin_until(node, future.done, timeout, f"response from {name}", processes)
-    node.destroy_client(client)
-    return future.result()
+_clients: dict = {}  # (node, service type, name) -> client, kept so its endpoints stay matched
+
+
+def call_service(node: Node, srv_type, name: str, request, timeout: float = 30.0, processes=(),
+                 resend_after: float | None = None):
+    """One call, bounded by `timeout`. A server can take a request before it has matched the client's
+    response reader and then drops the answer (Fast DDS: "failed to send response (timeout)"), most
+    likely on a client's first call on a loaded machine: clients are reused, and an idempotent request
+    (a refusal, a query) may pass `resend_after` seconds to be sent again while unanswered."""
+    key = (id(node), srv_type, name)
+    if key not in _clients:
+        _clients[key] = node.create_client(srv_type, name)
+    client = _clients[key]
+    spin_until(node, client.service_is_ready, timeout, f"service {name}", processes)
+    deadline = time.monotonic() + timeout
+    while True:
+        future = client.call_async(request)
+        wait = timeout if resend_after is None else min(resend_after, max(deadline - time.monotonic(), 0.1))
+        try:
+            spin_until(node, future.done, wait, f"response from {name}", processes)
+            return future.result()
+        except WaitTimeout:
+            client.remove_pending_request(future)
+            if resend_after is None or time.monotonic() >= deadline:
+                raise WaitTimeout(f"timed out after {timeout:.0f} s waiting for response from {name}") \
+                    from None
 
 
 class ActionHelper:

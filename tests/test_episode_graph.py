@@ -44,7 +44,7 @@ def test_complete_episode_matches_ground_truth(ros_node, cell):
     assert handle.accepted
     result = wrapped.result
     truth = call_service(ros_node, GetGroundTruth, "/cell/ground_truth", GetGroundTruth.Request(),
-                         processes=procs)
+                         processes=procs, resend_after=5.0)
     assert result.termination_reason in ("all_targets_picked", "action_limit", "repeated_failure",
                                          "no_target_or_cluster_left")
     assert result.targets_total == 1

@@ -13,10 +13,10 @@ def test_refusals_and_a_missing_cell(ros_node, launch, tmp_path):
                      ros_args({"record_dir": str(tmp_path), "service_timeout": 6.0}))
 
     bad = call_service(ros_node, StartEpisode, "/episode/start",
-                       StartEpisode.Request(scenario="moon_rocks"), processes=[episode])
+                       StartEpisode.Request(scenario="moon_rocks"), processes=[episode], resend_after=5.0)
     assert not bad.accepted and "unknown scenario 'moon_rocks'" in bad.reason
     negative = call_service(ros_node, StartEpisode, "/episode/start",
-                            StartEpisode.Request(num_objects=-4), processes=[episode])
+                            StartEpisode.Request(num_objects=-4), processes=[episode], resend_after=5.0)
     assert not negative.accepted and "num_objects must be >= 0" in negative.reason
 
     first = call_service(ros_node, StartEpisode, "/episode/start",

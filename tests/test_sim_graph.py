@@ -41,7 +41,8 @@ def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
     block = {"shape": "cube", "dims": [0.04, 0.04, 0.04], "position": [0.52, 0.05, 0.021], "is_target": True}
     scene.write_text(json.dumps([block]))
     reset = call_service(ros_node, ResetScene, "/cell/reset_scene",
-                         ResetScene.Request(scenario="file", scene_file=str(scene)), processes=procs)
+                         ResetScene.Request(scenario="file", scene_file=str(scene)), processes=procs,
+                         resend_after=5.0)  # the same file scene again: idempotent
     assert reset.success, reset.message
     assert (reset.num_targets, reset.num_objects) == (1, 0)
     reset_done_ns = ros_node.get_clock().now().nanoseconds
@@ -102,7 +103,7 @@ def test_sim_cell_through_its_interfaces(ros_node, launch, tmp_path):
     assert image_to_numpy(fresh).min() >= 750 - 5
 
     truth = call_service(ros_node, GetGroundTruth, "/cell/ground_truth", GetGroundTruth.Request(),
-                         processes=procs)
+                         processes=procs, resend_after=5.0)
     assert (truth.targets_removed, truth.targets_remaining, truth.non_targets_removed) == (1, 0, 0)
 
     # Cancel: the motion stops, the goal ends canceled, and the driver takes the next goal.
