@@ -108,13 +108,17 @@ def spin_until(node: Node, predicate, timeout: float, what: str, processes=()) -
         rclpy.spin_once(node, timeout_sec=0.05)
 
 
+_clients: dict = {}  # (node, service type, name) -> client, kept so its endpoints stay matched
+
+
 def wait_for_service(node: Node, srv_type, name: str, timeout: float = 30.0, processes=()):
-    client = node.create_client(srv_type, name)
+    """The node's client of `name` (created once, then reused), once the service is ready."""
+    key = (node, srv_type, name)
+    if key not in _clients:
+        _clients[key] = node.create_client(srv_type, name)
+    client = _clients[key]
     spin_until(node, client.service_is_ready, timeout, f"service {name}", processes)
     return client
-
-
-_clients: dict = {}  # (node, service type, name) -> client, kept so its endpoints stay matched
 
 
 def call_service(node: Node, srv_type, name: str, request, timeout: float = 30.0, processes=(),
@@ -123,11 +127,7 @@ def call_service(node: Node, srv_type, name: str, request, timeout: float = 30.0
     response reader and then drops the answer (Fast DDS: "failed to send response (timeout)"), most
     likely on a client's first call on a loaded machine: clients are reused, and an idempotent request
     (a refusal, a query) may pass `resend_after` seconds to be sent again while unanswered."""
-    key = (id(node), srv_type, name)
-    if key not in _clients:
-        _clients[key] = node.create_client(srv_type, name)
-    client = _clients[key]
-    spin_until(node, client.service_is_ready, timeout, f"service {name}", processes)
+    client = wait_for_service(node, srv_type, name, timeout, processes)
     deadline = time.monotonic() + timeout
     while True:
         future = client.call_async(request)
