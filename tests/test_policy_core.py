@@ -28,7 +28,14 @@ from impurity_policy.core.policy import (
     TriedActionMemory,
     q_maps_picture,
 )
-from impurity_policy.core.pose import action_pose, pose_to_action, push_end, yaw_to_rotation
+from impurity_policy.core.pose import (
+    action_pose,
+    finger_kernel,
+    grasp_clearance,
+    pose_to_action,
+    push_end,
+    yaw_to_rotation,
+)
 from impurity_policy.core.replay import RankedReplay, State, Transition
 from impurity_policy.core.trainer import (
     CHECKPOINT_FORMAT_VERSION,
@@ -328,6 +335,55 @@ def test_tried_action_memory_forces_a_push_after_failed_grasps_in_a_row():
     for pixel in ((110, 60), (100, 50), (95, 45)):
         never.record(GRASP, pixel, 3, obs.height, success=False)
     assert np.isfinite(never.suppress(q, obs)[0, GRASP, 0, 0])
+
+
+def _block(height, centre, half_px, top):
+    height[centre[0] - half_px:centre[0] + half_px + 1, centre[1] - half_px:centre[1] + half_px + 1] = top
+
+
+def test_finger_kernel_puts_the_pads_where_the_open_fingers_land():
+    kernel = finger_kernel(0.0)  # closing along +x = +column
+    centre = kernel.shape[0] // 2
+    pad_cols = np.flatnonzero(kernel[centre]) - centre
+    inner, outer = cell.GRASP_OPENING / 2, cell.GRASP_OPENING / 2 + cell.FINGER_THICKNESS
+    res = cell.HEIGHTMAP_RESOLUTION
+    assert np.all((np.abs(pad_cols) * res >= inner - 1e-9) & (np.abs(pad_cols) * res <= outer + 1e-9))
+    assert set(np.sign(pad_cols)) == {-1, 1} and not kernel[:, centre].any()
+    pad_rows = np.flatnonzero(kernel[:, centre + pad_cols.max()]) - centre
+    assert np.abs(pad_rows).max() * res <= cell.FINGER_WIDTH / 2 + 1e-9
+    np.testing.assert_array_equal(finger_kernel(math.pi / 2), kernel.T)  # closing along +y = +row
+
+
+def test_grasp_clearance_on_hand_built_layouts():
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 6, 0.026)  # a 26 mm cube alone
+    clear = grasp_clearance(height, (56, 56), 112)
+    assert clear.shape == (16, 112, 112) and clear[:, 56, 56].all()
+    # a taller neighbour 4 mm away along +x: grasps closing along x land a pad on it, along y do not
+    _block(height, (112, 112 + 6 + 2 + 7), 6, 0.035)
+    clear = grasp_clearance(height, (56, 56), 112)
+    assert not clear[0, 56, 56] and not clear[8, 56, 56]  # rotation r and r + 8 close along one axis
+    assert clear[4, 56, 56] and clear[12, 56, 56]
+    # wedged between neighbours on all four sides: no grasp is clear
+    for d_row, d_col in ((0, -15), (15, 0), (-15, 0), (15, 15), (-15, -15), (15, -15), (-15, 15)):
+        _block(height, (112 + d_row, 112 + d_col), 6, 0.035)
+    assert not grasp_clearance(height, (56, 56), 112)[:, 56, 56].any()
+    # off the map counts as table: a crop hanging over the corner is computed, not an error
+    assert grasp_clearance(height, (-56, -56), 112).shape == (16, 112, 112)
+
+
+def test_policy_pushes_when_no_grasp_is_clear_and_clearance_can_be_turned_off():
+    torch.manual_seed(0)
+    height = np.zeros((224, 224), np.float32)
+    for d_row in (-15, 0, 15):
+        for d_col in (-15, 0, 15):
+            _block(height, (112 + d_row, 112 + d_col), 6, 0.035)  # target wedged in a 3x3 packing
+    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(),
+                      np.full((112, 112), 255, np.uint8), (56, 56), height)
+    q = np.zeros((16, 2, 112, 112), np.float32)
+    q[:, GRASP, 50:62, 50:62] = 1.0  # the network would rather grasp the wedged target
+    assert Policy(QNetwork(SMALL), finger_clearance=False).decide(obs, q=q).decision.primitive == GRASP
+    assert Policy(QNetwork(SMALL)).decide(obs, q=q).decision.primitive == PUSH
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():

@@ -32,6 +32,9 @@ GRIPPER_MAX_OPENING = 0.110  # m, RG2-like stroke
 # 55 % at 80 mm).
 # TCDD's eta: a neighbour closer than this is in the fingers' way.
 GRASP_OPENING = 0.080  # m
+# Finger pads (RG2-like), shared by the simulated gripper and the policy's finger-clearance check.
+FINGER_THICKNESS = 0.008  # m, along the closing axis
+FINGER_WIDTH = 0.02  # m, across it
 
 # Simulated RealSense colour stream (aligned depth shares the intrinsics).
 CAMERA_WIDTH = 640

@@ -71,6 +71,10 @@ def parameter_table() -> dict:
         "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
         "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
         "push_min_tip": (rules.push_min_tip, "Lowest push fingertip height above the table (m)"),
+        "finger_clearance": (True, "Rule out grasps whose open finger pads would land on something (the "
+                                   "guarded descent would stop above the object)"),
+        "finger_overlap": (rules.finger_overlap, "Finger clearance: the pads must reach this far below the "
+                                                 "local top at the grasp pixel (m)"),
         "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
                                       "the scene is unchanged (same place and direction; grasps also the "
                                       "opposite rotation); executed actions from /episode/steps"),
@@ -91,8 +95,9 @@ class PolicyNode(Node):
 
         torch.set_num_threads(int(self._param("threads")))
         rules = PoseRules(grasp_depth=self._param("grasp_depth"), grasp_min_tip=self._param("grasp_min_tip"),
-                          push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"))
-        self.policy = Policy(self._network(), rules)
+                          push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"),
+                          finger_overlap=self._param("finger_overlap"))
+        self.policy = Policy(self._network(), rules, finger_clearance=bool(self._param("finger_clearance")))
         self._last_answered_ns = -1
         self._last_warning = {}
         self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")),

@@ -18,7 +18,7 @@ import numpy as np
 import torch
 
 from .network import GRASP, PUSH, QNetwork, network_inputs
-from .pose import ActionPose, PoseRules, action_pose
+from .pose import ActionPose, PoseRules, action_pose, grasp_clearance
 from .replay import State
 from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
 from .trainer import Decision, action_masks, best_action, epsilon_greedy, load_network
@@ -83,9 +83,11 @@ def validate_observation(obs: Observation) -> None:
 
 
 class Policy:
-    def __init__(self, network: QNetwork, rules: PoseRules = PoseRules(), grasp_needs_object: bool = True):
+    def __init__(self, network: QNetwork, rules: PoseRules = PoseRules(), grasp_needs_object: bool = True,
+                 finger_clearance: bool = True):
         self.network = network.eval()
         self.rules, self.grasp_needs_object = rules, grasp_needs_object
+        self.finger_clearance = finger_clearance
 
     @classmethod
     def from_checkpoint(cls, path, **kwargs) -> Policy:
@@ -112,6 +114,8 @@ class Policy:
             raise NoActionError(f"crops are {size} px, the network takes {self.network.config.crop_size}")
         q = self.q_maps(obs) if q is None else q
         masks = self.masks(obs)
+        if self.finger_clearance and GRASP in allowed:
+            q = self.without_blocked_grasps(q, obs)
         if restrict is not None:
             masks = np.stack([m & restrict if (m & restrict).any() else m for m in masks])
         if epsilon > 0.0 and rng is not None:
@@ -121,6 +125,15 @@ class Policy:
         pose = action_pose(decision.primitive, decision.rotation, decision.pixel, obs.crop_origin,
                            obs.height, self.rules, **(grid or {}))
         return Choice(decision, pose, q, masks)
+
+    def without_blocked_grasps(self, q: np.ndarray, obs: Observation) -> np.ndarray:
+        """A copy of the Q maps with every grasp whose fingers would land on something at -inf
+        (pose.grasp_clearance): the guarded descent would stop above the object, so only a push
+        can help there."""
+        clear = grasp_clearance(obs.height, obs.crop_origin, obs.mask.shape[0], self.rules, q.shape[0])
+        q = q.copy()
+        q[:, GRASP] = np.where(clear, q[:, GRASP], -np.inf)
+        return q
 
 
 class TriedActionMemory:

@@ -9,6 +9,11 @@ ur5_driver_sim config): a grasp puts the fingertips `grasp_depth` below the high
 pixel, never lower than `grasp_min_tip` above the table; a push starts with the closed fingertips
 `push_depth` below the local top, never lower than `push_min_tip` (the driver's guarded descent stops
 on anything in the way).
+
+Finger clearance: the grasp's guarded descent stops as soon as a finger pad touches anything, so a grasp
+whose open fingers would land on a neighbour closes above the object it was meant for. A grasp counts
+as clear when the heightmap under both pads (cell.GRASP_OPENING apart, cell.FINGER_THICKNESS by
+cell.FINGER_WIDTH) lies at least `finger_overlap` below the local top at its pixel.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+import cv2
 import numpy as np
 
 from impurity_common import cell
@@ -30,6 +36,7 @@ class PoseRules:
     push_depth: float = 0.02  # m below the local top at the start pixel
     push_min_tip: float = 0.01  # m above the table
     local_radius_px: int = 3  # window (2r+1)^2 for "local top"
+    finger_overlap: float = 0.015  # m: the pads must reach this far below the local top (clearance)
 
 
 @dataclass(frozen=True)
@@ -74,6 +81,44 @@ def action_z(primitive: int, height: np.ndarray, row: int, col: int, rules: Pose
     if primitive == PUSH:
         return table_z + max(top - rules.push_depth, rules.push_min_tip)
     raise ValueError(f"unknown primitive {primitive}")
+
+
+def finger_kernel(yaw: float, resolution: float = cell.HEIGHTMAP_RESOLUTION,
+                  opening: float = cell.GRASP_OPENING) -> np.ndarray:
+    """uint8 footprint of both open finger pads around a grasp pixel, closing along `yaw` (+col = +x)."""
+    reach = opening / 2.0 + cell.FINGER_THICKNESS
+    half = int(math.ceil(reach / resolution)) + 1
+    rows, cols = np.mgrid[-half:half + 1, -half:half + 1] * resolution
+    along = cols * math.cos(yaw) + rows * math.sin(yaw)
+    across = -cols * math.sin(yaw) + rows * math.cos(yaw)
+    eps = 1e-9  # pixel centres on a pad's edge count as inside, whatever the rounding of cos and sin
+    pads = ((np.abs(along) >= opening / 2.0 - eps) & (np.abs(along) <= reach + eps)
+            & (np.abs(across) <= cell.FINGER_WIDTH / 2.0 + eps))
+    return pads.astype(np.uint8)
+
+
+def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules = PoseRules(),
+                    num_rotations: int = cell.NUM_ROTATIONS,
+                    resolution: float = cell.HEIGHTMAP_RESOLUTION) -> np.ndarray:
+    """(R, S, S) bool over a crop of the full heightmap `height` (m): True where a grasp at that pixel
+    and rotation has its finger pads clear (module docstring). Off the map counts as table."""
+    kernels = [finger_kernel(cell.rotation_yaw(r), resolution) for r in range(num_rotations // 2)]
+    margin = kernels[0].shape[0] // 2 + rules.local_radius_px + 1
+    row0, col0 = int(crop_origin[0]) - margin, int(crop_origin[1]) - margin
+    span = size + 2 * margin
+    region = np.zeros((span, span), dtype=np.float32)
+    r0, c0 = max(row0, 0), max(col0, 0)
+    r1, c1 = min(row0 + span, height.shape[0]), min(col0 + span, height.shape[1])
+    if r1 > r0 and c1 > c0:
+        region[r0 - row0:r1 - row0, c0 - col0:c1 - col0] = np.nan_to_num(height[r0:r1, c0:c1], nan=0.0)
+    region = np.maximum(region, 0.0)
+    window = np.ones((2 * rules.local_radius_px + 1,) * 2, dtype=np.uint8)
+    limit = cv2.dilate(region, window) - rules.finger_overlap
+    clear = np.empty((num_rotations, size, size), dtype=bool)
+    inner = (slice(margin, margin + size), slice(margin, margin + size))
+    for r, kernel in enumerate(kernels):  # rotation r and r + R/2 close along the same axis
+        clear[r] = clear[r + num_rotations // 2] = (cv2.dilate(region, kernel) <= limit)[inner]
+    return clear
 
 
 def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: np.ndarray,

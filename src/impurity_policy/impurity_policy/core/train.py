@@ -73,6 +73,9 @@ class TrainConfig:
     replay_capacity: int = 20000
     threads: int = 2
     max_hours: float = 0.0  # > 0: stop (and save) after this much wall time in this invocation
+    # Rule out grasps whose fingers would land on something (pose.grasp_clearance). Off by default: the
+    # shipped checkpoint was trained without it, and evaluation and the node apply it at test time.
+    finger_clearance: bool = False
     progress: bool = True
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
 
@@ -167,7 +170,8 @@ class TrainingRun:
         self.log_path = self.dir / "log.csv"
         self.plot_path = self.dir / "success.png"
         self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed)
-        self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object)
+        self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object,
+                             config.finger_clearance)
         self.replay = RankedReplay(config.replay_capacity)
         self.rng = np.random.default_rng(config.seed)
         self.iteration = 0

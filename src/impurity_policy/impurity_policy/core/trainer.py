@@ -92,6 +92,8 @@ def best_action(q: np.ndarray, masks: np.ndarray, primitives=(PUSH, GRASP)) -> D
         flat = int(np.argmax(values))
         rotation, row, col = np.unravel_index(flat, values.shape)
         value = float(values[rotation, row, col])
+        if value == -np.inf:  # every action of this primitive ruled out (TriedActionMemory, clearance)
+            continue
         if best is None or value > best.q_value:
             best = Decision(primitive, int(rotation), (int(row), int(col)), value)
     if best is None:
@@ -103,7 +105,7 @@ def epsilon_greedy(q: np.ndarray, masks: np.ndarray, allowed, epsilon: float,
                    rng: np.random.Generator) -> Decision:
     """VPG's exploration: with probability epsilon the primitive is drawn at random (among the allowed
     ones), and its best pixel and rotation are taken; else the overall argmax."""
-    allowed = [p for p in allowed if masks[p].any()]
+    allowed = [p for p in allowed if np.isfinite(np.where(masks[p][None], q[:, p], -np.inf)).any()]
     if len(allowed) > 1 and rng.random() < epsilon:
         decision = best_action(q, masks, (allowed[int(rng.integers(len(allowed)))],))
         decision.explored = True
