@@ -22,6 +22,7 @@ from impurity_policy.core.policy import (
     MODE_NONE,
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
+    NO_FILTERS,
     NoActionError,
     Observation,
     Policy,
@@ -32,8 +33,10 @@ from impurity_policy.core.pose import (
     action_pose,
     finger_kernel,
     grasp_clearance,
+    heap_top,
     pose_to_action,
     push_end,
+    pushes_passing,
     yaw_to_rotation,
 )
 from impurity_policy.core.replay import RankedReplay, State, Transition
@@ -382,8 +385,47 @@ def test_policy_pushes_when_no_grasp_is_clear_and_clearance_can_be_turned_off():
                       np.full((112, 112), 255, np.uint8), (56, 56), height)
     q = np.zeros((16, 2, 112, 112), np.float32)
     q[:, GRASP, 50:62, 50:62] = 1.0  # the network would rather grasp the wedged target
-    assert Policy(QNetwork(SMALL), finger_clearance=False).decide(obs, q=q).decision.primitive == GRASP
+    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.primitive == GRASP
     assert Policy(QNetwork(SMALL)).decide(obs, q=q).decision.primitive == PUSH
+
+
+def test_pushes_passing_a_point_and_the_heap_top():
+    passing = pushes_passing((56, 56), 112, radius_px=5)
+    push_px = round(cell.PUSH_LENGTH / cell.HEIGHTMAP_RESOLUTION)  # 50 px
+    assert passing[0, 56, 20]  # 36 px before the point, pushing towards it (+col)
+    assert not passing[0, 56, 56 - push_px - 6]  # stops short of it
+    assert not passing[8, 56, 20]  # pushing away from it
+    assert passing[8, 56, 90] and passing[4, 20, 56]  # from the other side; along +row
+    assert not passing[0, 70, 30]  # passes 14 px beside it
+    height = np.zeros((112, 112), np.float32)
+    _block(height, (30, 80), 10, 0.02)
+    _block(height, (30, 80), 4, 0.05)  # a pile: its top is the highest point
+    _block(height, (2, 2), 1, 0.2)  # a tall speck outside the action disk does not count
+    assert heap_top(height, valid_action_mask(112), 6.0) == (30, 80)
+
+
+def test_policy_filters_grasps_off_the_target_and_pushes_away_from_the_heap():
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 6, 0.026)  # the target, free
+    _block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
+    mask = np.zeros((112, 112), np.uint8)
+    mask[50:63, 50:63] = 255
+    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
+                      (56, 56), height)
+    q = np.zeros((16, 2, 112, 112), np.float32)
+    q[:, PUSH] = -1.0
+    q[:, GRASP, 56, 84] = 1.0  # the network prefers the neighbour
+    decision = Policy(QNetwork(SMALL)).decide(obs, q=q).decision
+    assert decision.primitive == GRASP and mask[decision.pixel]
+    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 84)
+    occluded = Observation(MODE_OCCLUDED_REGION, obs.color_crop, obs.height_crop, np.full_like(mask, 255),
+                           (56, 56), height)
+    q[:, PUSH] = 0.0
+    q[0, PUSH, 100, 10] = 1.0  # the network prefers a push far from the pile
+    push = Policy(QNetwork(SMALL)).decide(occluded, q=q).decision
+    assert push.primitive == PUSH
+    assert pushes_passing(heap_top(occluded.height_crop, valid_action_mask(112), 6.0), 112, 10)[
+        push.rotation][push.pixel]
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():

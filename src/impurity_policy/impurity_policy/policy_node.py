@@ -22,6 +22,7 @@ from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
 from impurity_policy.core.policy import (
     FAILED_GRASPS_BEFORE_PUSH,
+    ActionFilters,
     NoActionError,
     Observation,
     Policy,
@@ -58,7 +59,7 @@ def default_checkpoint() -> str:
 
 def parameter_table() -> dict:
     """name -> (default, description): everything bringup/config/cell.yaml may set."""
-    rules = PoseRules()
+    rules, filters = PoseRules(), ActionFilters()
     return {
         "checkpoint": (default_checkpoint(), "Trained network (.pt)"),
         "allow_untrained": (False, "Without a checkpoint, decide with seeded random weights (wiring tests "
@@ -71,10 +72,14 @@ def parameter_table() -> dict:
         "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
         "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
         "push_min_tip": (rules.push_min_tip, "Lowest push fingertip height above the table (m)"),
-        "finger_clearance": (True, "Rule out grasps whose open finger pads would land on something (the "
-                                   "guarded descent would stop above the object)"),
+        "finger_clearance": (filters.finger_clearance, "Rule out grasps whose open finger pads would land "
+                                                       "on something (the descent would stop above it)"),
         "finger_overlap": (rules.finger_overlap, "Finger clearance: the pads must reach this far below the "
                                                  "local top at the grasp pixel (m)"),
+        "grasp_on_target": (filters.grasp_on_target, "Rule out grasps off the attended target's mask"),
+        "occluded_push_radius_px": (filters.occluded_push_radius_px, "No target in view: pushes pass this "
+                                                                     "close (px) to the crop's highest "
+                                                                     "pile (0: any push)"),
         "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
                                       "the scene is unchanged (same place and direction; grasps also the "
                                       "opposite rotation); executed actions from /episode/steps"),
@@ -97,7 +102,10 @@ class PolicyNode(Node):
         rules = PoseRules(grasp_depth=self._param("grasp_depth"), grasp_min_tip=self._param("grasp_min_tip"),
                           push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"),
                           finger_overlap=self._param("finger_overlap"))
-        self.policy = Policy(self._network(), rules, finger_clearance=bool(self._param("finger_clearance")))
+        filters = ActionFilters(finger_clearance=bool(self._param("finger_clearance")),
+                                grasp_on_target=bool(self._param("grasp_on_target")),
+                                occluded_push_radius_px=int(self._param("occluded_push_radius_px")))
+        self.policy = Policy(self._network(), rules, filters=filters)
         self._last_answered_ns = -1
         self._last_warning = {}
         self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")),

@@ -17,14 +17,25 @@ import cv2
 import numpy as np
 import torch
 
-from .network import GRASP, PUSH, QNetwork, network_inputs
-from .pose import ActionPose, PoseRules, action_pose, grasp_clearance
+from .network import GRASP, PUSH, QNetwork, network_inputs, valid_action_mask
+from .pose import (
+    ActionPose,
+    PoseRules,
+    action_pose,
+    grasp_clearance,
+    heap_top,
+    pushes_ending_inside,
+    pushes_passing,
+)
 from .replay import State
 from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
 from .trainer import Decision, action_masks, best_action, epsilon_greedy, load_network
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
 FAILED_GRASPS_BEFORE_PUSH = 2  # TriedActionMemory: failed grasps in a row before a push is forced
+OCCLUDED_PUSH_RADIUS_PX = 10  # ActionFilters: occluded-region pushes pass this close to the heap top
+HEAP_SIGMA_PX = 6.0  # ActionFilters: smoothing (px) of the height crop before its top is taken
+PUSH_END_MARGIN = None  # ActionFilters: pushes end at least this far (m) inside the workspace
 
 
 class NoActionError(ValueError):
@@ -82,12 +93,35 @@ def validate_observation(obs: Observation) -> None:
         raise NoActionError("height crop has NaN or inf values")
 
 
+@dataclass(frozen=True)
+class ActionFilters:
+    """Geometric rules applied to the Q maps at test time; each rules actions out, none adds one. The
+    network, trained on random scenes only, values some actions the cell can tell are hopeless:
+      - finger_clearance: a grasp whose open finger pads would land on something (pose.grasp_clearance):
+        the guarded descent stops above the object, so only a push can help (wedged targets);
+      - grasp_on_target: a grasp off the attended target's mask: the cell picks impurities only, and a
+        grasp beside a blocked target otherwise lifts its neighbour (a false reject);
+      - occluded_push_radius_px: with no target in view, a push whose path does not pass within this
+        many pixels of the crop's highest pile (pose.heap_top): scatter the heap that can hide a target
+        (paper section 4) instead of trimming its rim. 0 turns it off.
+    """
+
+    finger_clearance: bool = True
+    grasp_on_target: bool = True
+    occluded_push_radius_px: int = OCCLUDED_PUSH_RADIUS_PX
+    heap_sigma_px: float = HEAP_SIGMA_PX
+    push_end_margin: float | None = PUSH_END_MARGIN
+
+
+NO_FILTERS = ActionFilters(finger_clearance=False, grasp_on_target=False, occluded_push_radius_px=0,
+                           push_end_margin=None)
+
+
 class Policy:
     def __init__(self, network: QNetwork, rules: PoseRules = PoseRules(), grasp_needs_object: bool = True,
-                 finger_clearance: bool = True):
+                 filters: ActionFilters = ActionFilters()):
         self.network = network.eval()
-        self.rules, self.grasp_needs_object = rules, grasp_needs_object
-        self.finger_clearance = finger_clearance
+        self.rules, self.grasp_needs_object, self.filters = rules, grasp_needs_object, filters
 
     @classmethod
     def from_checkpoint(cls, path, **kwargs) -> Policy:
@@ -114,8 +148,7 @@ class Policy:
             raise NoActionError(f"crops are {size} px, the network takes {self.network.config.crop_size}")
         q = self.q_maps(obs) if q is None else q
         masks = self.masks(obs)
-        if self.finger_clearance and GRASP in allowed:
-            q = self.without_blocked_grasps(q, obs)
+        q = self.filtered(q, obs)
         if restrict is not None:
             masks = np.stack([m & restrict if (m & restrict).any() else m for m in masks])
         if epsilon > 0.0 and rng is not None:
@@ -126,14 +159,23 @@ class Policy:
                            obs.height, self.rules, **(grid or {}))
         return Choice(decision, pose, q, masks)
 
-    def without_blocked_grasps(self, q: np.ndarray, obs: Observation) -> np.ndarray:
-        """A copy of the Q maps with every grasp whose fingers would land on something at -inf
-        (pose.grasp_clearance): the guarded descent would stop above the object, so only a push
-        can help there."""
-        clear = grasp_clearance(obs.height, obs.crop_origin, obs.mask.shape[0], self.rules, q.shape[0])
-        q = q.copy()
-        q[:, GRASP] = np.where(clear, q[:, GRASP], -np.inf)
-        return q
+    def filtered(self, q: np.ndarray, obs: Observation) -> np.ndarray:
+        """The Q maps with the actions that `self.filters` rules out at -inf (a copy when any is)."""
+        filters, size, rotations = self.filters, obs.mask.shape[0], q.shape[0]
+        ruled_out = np.zeros(q.shape, dtype=bool)
+        if obs.mode == MODE_TARGET:
+            if filters.finger_clearance:
+                clear = grasp_clearance(obs.height, obs.crop_origin, size, self.rules, rotations)
+                ruled_out[:, GRASP] |= ~clear
+            if filters.grasp_on_target and (obs.mask > 0).any():
+                ruled_out[:, GRASP] |= ~(obs.mask > 0)[None]
+        elif obs.mode == MODE_OCCLUDED_REGION and filters.occluded_push_radius_px > 0:
+            top = heap_top(obs.height_crop, valid_action_mask(size), filters.heap_sigma_px)
+            ruled_out[:, PUSH] |= ~pushes_passing(top, size, filters.occluded_push_radius_px, rotations)
+        if filters.push_end_margin is not None and PUSH in allowed_primitives(obs.mode):
+            inside = pushes_ending_inside(obs.crop_origin, size, filters.push_end_margin, rotations)
+            ruled_out[:, PUSH] |= ~inside
+        return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
 
 class TriedActionMemory:

@@ -121,6 +121,48 @@ def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules
     return clear
 
 
+def heap_top(height_crop: np.ndarray, valid: np.ndarray, sigma_px: float) -> tuple:
+    """(row, col) of the highest point of the smoothed height crop inside `valid` (bool, S x S): the
+    pile most likely to hide something, and where a push should scatter it."""
+    smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), sigma_px)
+    row, col = np.unravel_index(int(np.argmax(np.where(valid, smooth, -np.inf))), smooth.shape)
+    return int(row), int(col)
+
+
+def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell.NUM_ROTATIONS,
+                   resolution: float = cell.HEIGHTMAP_RESOLUTION,
+                   length: float = cell.PUSH_LENGTH) -> np.ndarray:
+    """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw sweeps its
+    fingertips within `radius_px` of `point` (row, col) on the way (the push path, a segment)."""
+    rows, cols = np.mgrid[:size, :size].astype(np.float64)
+    to_row, to_col = point[0] - rows, point[1] - cols
+    steps = length / resolution
+    passing = np.empty((num_rotations, size, size), dtype=bool)
+    for r in range(num_rotations):
+        yaw = cell.rotation_yaw(r)
+        d_col, d_row = math.cos(yaw), math.sin(yaw)
+        along = np.clip(to_col * d_col + to_row * d_row, 0.0, steps)
+        passing[r] = np.hypot(to_col - along * d_col, to_row - along * d_row) <= radius_px
+    return passing
+
+
+def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: int = cell.NUM_ROTATIONS,
+                         resolution: float = cell.HEIGHTMAP_RESOLUTION, x_min: float = cell.WORKSPACE_X[0],
+                         y_min: float = cell.WORKSPACE_Y[0], length: float = cell.PUSH_LENGTH) -> np.ndarray:
+    """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw ends at least
+    `margin` (m) inside the workspace (what the fingers shove ahead of them lands beyond the end)."""
+    rows, cols = np.mgrid[:size, :size].astype(np.float64)
+    x = x_min + (cols + int(crop_origin[1]) + 0.5) * resolution
+    y = y_min + (rows + int(crop_origin[0]) + 0.5) * resolution
+    inside = np.empty((num_rotations, size, size), dtype=bool)
+    for r in range(num_rotations):
+        yaw = cell.rotation_yaw(r)
+        end_x, end_y = x + length * math.cos(yaw), y + length * math.sin(yaw)
+        inside[r] = ((end_x >= cell.WORKSPACE_X[0] + margin) & (end_x <= cell.WORKSPACE_X[1] - margin)
+                     & (end_y >= cell.WORKSPACE_Y[0] + margin) & (end_y <= cell.WORKSPACE_Y[1] - margin))
+    return inside
+
+
 def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: np.ndarray,
                 rules: PoseRules = PoseRules(), resolution: float = cell.HEIGHTMAP_RESOLUTION,
                 x_min: float = cell.WORKSPACE_X[0], y_min: float = cell.WORKSPACE_Y[0],

@@ -40,7 +40,16 @@ from impurity_common import cell
 
 from . import tcdd
 from .network import GRASP, PUSH, NetworkConfig
-from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy, allowed_primitives
+from .policy import (
+    MODE_NONE,
+    MODE_OCCLUDED_REGION,
+    MODE_TARGET,
+    NO_FILTERS,
+    ActionFilters,
+    Observation,
+    Policy,
+    allowed_primitives,
+)
 from .pose import PoseRules
 from .replay import RankedReplay, Transition
 from .trainer import Trainer, TrainerConfig
@@ -73,9 +82,9 @@ class TrainConfig:
     replay_capacity: int = 20000
     threads: int = 2
     max_hours: float = 0.0  # > 0: stop (and save) after this much wall time in this invocation
-    # Rule out grasps whose fingers would land on something (pose.grasp_clearance). Off by default: the
-    # shipped checkpoint was trained without it, and evaluation and the node apply it at test time.
-    finger_clearance: bool = False
+    # policy.ActionFilters while training. Off by default: the shipped checkpoint was trained without
+    # them; evaluation and the policy node apply them at test time.
+    action_filters: bool = False
     progress: bool = True
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
 
@@ -171,7 +180,7 @@ class TrainingRun:
         self.plot_path = self.dir / "success.png"
         self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed)
         self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object,
-                             config.finger_clearance)
+                             ActionFilters() if config.action_filters else NO_FILTERS)
         self.replay = RankedReplay(config.replay_capacity)
         self.rng = np.random.default_rng(config.seed)
         self.iteration = 0

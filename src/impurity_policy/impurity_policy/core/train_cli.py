@@ -29,8 +29,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads (1 on a shared machine)")
     p.add_argument("--max-hours", type=float, default=0.0,
                    help="stop and save after this much wall time (0: no limit); rerun to resume")
-    p.add_argument("--finger-clearance", action="store_true",
-                   help="rule out grasps whose open fingers would land on something (test time does)")
+    p.add_argument("--action-filters", action="store_true",
+                   help="apply the test-time action filters (policy.ActionFilters) while training too")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--export", metavar="PATH", nargs="?", const=str(SHIPPED_CHECKPOINT),
                    help=f"after training, write the network-only checkpoint (default {SHIPPED_CHECKPOINT})")
@@ -62,7 +62,7 @@ def main(argv=None) -> int:
                          num_targets=args.num_targets, num_objects=args.num_objects,
                          replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
                          threads=args.threads, max_hours=args.max_hours, progress=not args.no_progress,
-                         finger_clearance=args.finger_clearance,
+                         action_filters=args.action_filters,
                          trainer=TrainerConfig(learning_rate=args.lr))
     run = TrainingRun(config)
     if run.resumed:
