@@ -36,6 +36,7 @@ from impurity_policy.core.pose import (
     heap_top,
     pose_to_action,
     push_end,
+    pushes_ending_inside,
     pushes_passing,
     yaw_to_rotation,
 )
@@ -402,6 +403,15 @@ def test_pushes_passing_a_point_and_the_heap_top():
     _block(height, (30, 80), 4, 0.05)  # a pile: its top is the highest point
     _block(height, (2, 2), 1, 0.2)  # a tall speck outside the action disk does not count
     assert heap_top(height, valid_action_mask(112), 6.0) == (30, 80)
+
+
+def test_pushes_ending_inside_the_workspace():
+    inside = pushes_ending_inside((0, 0), 224, margin=0.06)  # the whole heightmap = the workspace
+    push_px, margin_px = 50, 30  # 10 cm push, 6 cm margin at 2 mm / px
+    assert inside[0, 112, 112] and inside[8, 112, 112]  # from the centre, any direction
+    assert not inside[0, 112, 224 - push_px - margin_px + 2]  # +x: ends within 6 cm of the edge
+    assert inside[0, 112, 224 - push_px - margin_px - 2] and inside[8, 112, 224 - push_px - margin_px + 2]
+    assert not inside[4, 224 - push_px - margin_px + 2, 112]  # +y likewise
 
 
 def test_policy_filters_grasps_off_the_target_and_pushes_away_from_the_heap():

@@ -80,6 +80,8 @@ def parameter_table() -> dict:
         "occluded_push_radius_px": (filters.occluded_push_radius_px, "No target in view: pushes pass this "
                                                                      "close (px) to the crop's highest "
                                                                      "pile (0: any push)"),
+        "push_end_margin": (filters.push_end_margin, "Pushes end at least this far inside the workspace "
+                                                     "(m; negative: no limit)"),
         "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
                                       "the scene is unchanged (same place and direction; grasps also the "
                                       "opposite rotation); executed actions from /episode/steps"),
@@ -102,9 +104,11 @@ class PolicyNode(Node):
         rules = PoseRules(grasp_depth=self._param("grasp_depth"), grasp_min_tip=self._param("grasp_min_tip"),
                           push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"),
                           finger_overlap=self._param("finger_overlap"))
+        margin = float(self._param("push_end_margin"))
         filters = ActionFilters(finger_clearance=bool(self._param("finger_clearance")),
                                 grasp_on_target=bool(self._param("grasp_on_target")),
-                                occluded_push_radius_px=int(self._param("occluded_push_radius_px")))
+                                occluded_push_radius_px=int(self._param("occluded_push_radius_px")),
+                                push_end_margin=margin if margin >= 0 else None)
         self.policy = Policy(self._network(), rules, filters=filters)
         self._last_answered_ns = -1
         self._last_warning = {}

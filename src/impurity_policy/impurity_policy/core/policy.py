@@ -35,7 +35,7 @@ MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
 FAILED_GRASPS_BEFORE_PUSH = 2  # TriedActionMemory: failed grasps in a row before a push is forced
 OCCLUDED_PUSH_RADIUS_PX = 10  # ActionFilters: occluded-region pushes pass this close to the heap top
 HEAP_SIGMA_PX = 6.0  # ActionFilters: smoothing (px) of the height crop before its top is taken
-PUSH_END_MARGIN = None  # ActionFilters: pushes end at least this far (m) inside the workspace
+PUSH_END_MARGIN = 0.06  # m, ActionFilters: pushes end at least this far inside the workspace
 
 
 class NoActionError(ValueError):
@@ -103,7 +103,10 @@ class ActionFilters:
         grasp beside a blocked target otherwise lifts its neighbour (a false reject);
       - occluded_push_radius_px: with no target in view, a push whose path does not pass within this
         many pixels of the crop's highest pile (pose.heap_top): scatter the heap that can hide a target
-        (paper section 4) instead of trimming its rim. 0 turns it off.
+        (paper section 4) instead of trimming its rim. 0 turns it off;
+      - push_end_margin: a push that ends less than this (m) inside the workspace: what the fingers
+        shove ahead lands beyond the end, and a target pushed out of the workspace is lost to the
+        cell (invisible scenes lost 11 of 40 targets that way). None turns it off.
     """
 
     finger_clearance: bool = True
