@@ -17,6 +17,8 @@ import cv2
 import numpy as np
 import torch
 
+from impurity_common import cell
+
 from .network import GRASP, PUSH, QNetwork, network_inputs, valid_action_mask
 from .pose import (
     ActionPose,
@@ -151,7 +153,7 @@ class Policy:
             raise NoActionError(f"crops are {size} px, the network takes {self.network.config.crop_size}")
         q = self.q_maps(obs) if q is None else q
         masks = self.masks(obs)
-        q = self.filtered(q, obs)
+        q = self.filtered(q, obs, grid or {})
         if restrict is not None:
             masks = np.stack([m & restrict if (m & restrict).any() else m for m in masks])
         if epsilon > 0.0 and rng is not None:
@@ -162,21 +164,27 @@ class Policy:
                            obs.height, self.rules, **(grid or {}))
         return Choice(decision, pose, q, masks)
 
-    def filtered(self, q: np.ndarray, obs: Observation) -> np.ndarray:
-        """The Q maps with the actions that `self.filters` rules out at -inf (a copy when any is)."""
+    def filtered(self, q: np.ndarray, obs: Observation, grid: dict | None = None) -> np.ndarray:
+        """The Q maps with the actions that `self.filters` rules out at -inf (a copy when any is);
+        `grid` as in `decide`."""
         filters, size, rotations = self.filters, obs.mask.shape[0], q.shape[0]
+        grid = grid or {}
+        resolution = grid.get("resolution", cell.HEIGHTMAP_RESOLUTION)
         ruled_out = np.zeros(q.shape, dtype=bool)
         if obs.mode == MODE_TARGET:
             if filters.finger_clearance:
-                clear = grasp_clearance(obs.height, obs.crop_origin, size, self.rules, rotations)
+                clear = grasp_clearance(obs.height, obs.crop_origin, size, self.rules, rotations, resolution)
                 ruled_out[:, GRASP] |= ~clear
             if filters.grasp_on_target and (obs.mask > 0).any():
                 ruled_out[:, GRASP] |= ~(obs.mask > 0)[None]
         elif obs.mode == MODE_OCCLUDED_REGION and filters.occluded_push_radius_px > 0:
             top = heap_top(obs.height_crop, valid_action_mask(size), filters.heap_sigma_px)
-            ruled_out[:, PUSH] |= ~pushes_passing(top, size, filters.occluded_push_radius_px, rotations)
+            ruled_out[:, PUSH] |= ~pushes_passing(top, size, filters.occluded_push_radius_px, rotations,
+                                                  resolution)
         if filters.push_end_margin is not None and PUSH in allowed_primitives(obs.mode):
-            inside = pushes_ending_inside(obs.crop_origin, size, filters.push_end_margin, rotations)
+            origin = {k: v for k, v in grid.items() if k in ("x_min", "y_min")}
+            inside = pushes_ending_inside(obs.crop_origin, size, filters.push_end_margin, rotations,
+                                          resolution, **origin)
             ruled_out[:, PUSH] |= ~inside
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
