@@ -390,6 +390,17 @@ def test_policy_pushes_when_no_grasp_is_clear_and_clearance_can_be_turned_off():
     assert Policy(QNetwork(SMALL)).decide(obs, q=q).decision.primitive == PUSH
 
 
+def test_grasp_clearance_keeps_the_palm_off_tall_piles():
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 6, 0.026)  # a 26 mm cube
+    _block(height, (112, 142), 3, 0.08)  # an 80 mm pile 54-66 mm away along +x: past the pads' reach
+    clear = grasp_clearance(height, (56, 56), 112)
+    assert not clear[0, 56, 56]  # closing along x, the palm (140 mm long) comes down on the pile
+    assert clear[4, 56, 56]  # closing along y, the palm (40 mm wide) passes beside it
+    _block(height, (112, 142), 3, 0.055)  # lower than the fingers are long: the tips still get down
+    assert grasp_clearance(height, (56, 56), 112)[0, 56, 56]
+
+
 def test_pushes_passing_a_point_and_the_heap_top():
     passing = pushes_passing((56, 56), 112, radius_px=5)
     push_px = round(cell.PUSH_LENGTH / cell.HEIGHTMAP_RESOLUTION)  # 50 px

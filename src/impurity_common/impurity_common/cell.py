@@ -32,9 +32,11 @@ GRIPPER_MAX_OPENING = 0.110  # m, RG2-like stroke
 # 55 % at 80 mm).
 # TCDD's eta: a neighbour closer than this is in the fingers' way.
 GRASP_OPENING = 0.080  # m
-# Finger pads (RG2-like), shared by the simulated gripper and the policy's finger-clearance check.
+# Gripper geometry (RG2-like), shared by the simulated gripper and the policy's clearance check.
 FINGER_THICKNESS = 0.008  # m, along the closing axis
 FINGER_WIDTH = 0.02  # m, across it
+FINGER_LENGTH = 0.05  # m, fingertips to the palm's underside
+PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)  # m: along the closing axis, across it, vertical
 
 # Simulated RealSense colour stream (aligned depth shares the intrinsics).
 CAMERA_WIDTH = 640

@@ -38,11 +38,11 @@ SETTLE_CHECK_EVERY = 20
 
 # Gripper (RG2-like), shared by the floating gripper and the arm's end effector. Gripper frame: origin
 # at the TCP (centre between the fingertips' lower ends), z up along the wrist, fingers close along x.
-FINGER_LENGTH = 0.05  # m, z extent of a finger pad
+FINGER_LENGTH = cell.FINGER_LENGTH  # m, z extent of a finger pad
 FINGER_THICKNESS = cell.FINGER_THICKNESS  # m, x extent
 FINGER_WIDTH = cell.FINGER_WIDTH  # m, y extent
 FINGER_MAX_TRAVEL = cell.GRIPPER_MAX_OPENING / 2.0  # inner face distance from the centre when open
-PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)
+PALM_HALF_EXTENTS = cell.PALM_HALF_EXTENTS
 PALM_MASS = 0.6
 FINGER_MASS = 0.05
 FINGER_FORCE = 10.0  # N per finger (30 N squeezes light cylinders out through the solver)
