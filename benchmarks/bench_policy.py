@@ -56,11 +56,16 @@ def main():
 
     state = scene()
     policy = Policy(QNetwork().eval())
-    obs = Observation(MODE_TARGET, state.color, state.height, state.mask, (50, 50),
-                      np.zeros((224, 224), np.float32))
+    full_height = np.zeros((224, 224), np.float32)
+    size = state.height.shape[0]
+    full_height[50:50 + size, 50:50 + size] = state.height
+    obs = Observation(MODE_TARGET, state.color, state.height, state.mask, (50, 50), full_height)
     p50, p95 = p50_p95(timed(lambda: policy.decide(obs), args.repeats)[0])
-    print(f"\ndecision (Q maps + masks + argmax + pose): p50 {p50:.1f} ms  p95 {p95:.1f} ms")
+    print(f"\ndecision (Q maps + action filters + masks + argmax + pose): p50 {p50:.1f} ms  p95 {p95:.1f} ms")
     choice = policy.decide(obs)
+    wall, _ = timed(lambda: policy.filtered(choice.q_maps, obs), args.repeats)
+    p50, _ = p50_p95(wall)
+    print(f"action filters alone (grasp clearance, target mask): p50 {p50:.1f} ms")
     wall, _ = timed(lambda: q_maps_picture(choice.q_maps, choice.masks, choice.decision), args.repeats)
     p50, _ = p50_p95(wall)
     print(f"Q-map debug picture: p50 {p50:.1f} ms")
