@@ -8,6 +8,8 @@ these defaults.
 
 import math
 
+import numpy as np
+
 BASE_FRAME = "base_link"
 CAMERA_OPTICAL_FRAME = "camera_color_optical_frame"
 
@@ -69,6 +71,19 @@ def base_to_pixel(x: float, y: float, resolution: float = HEIGHTMAP_RESOLUTION,
                   x_min: float = WORKSPACE_X[0], y_min: float = WORKSPACE_Y[0]) -> tuple:
     """(x, y) in base_link -> heightmap (row, col), integer, unclipped."""
     return int(math.floor((y - y_min) / resolution)), int(math.floor((x - x_min) / resolution))
+
+
+def crop_centered(image: np.ndarray, center_row: int, center_col: int, size: int) -> tuple:
+    """size x size window of a heightmap-aligned `image` centred on (center_row, center_col), zero
+    outside the image (outside the workspace nothing was seen: black, height 0). Returns (crop,
+    (row0, col0))."""
+    row0, col0 = int(center_row) - size // 2, int(center_col) - size // 2
+    crop = np.zeros((size, size) + image.shape[2:], dtype=image.dtype)
+    r_from, c_from = max(row0, 0), max(col0, 0)
+    r_to, c_to = min(row0 + size, image.shape[0]), min(col0 + size, image.shape[1])
+    if r_to > r_from and c_to > c_from:
+        crop[r_from - row0:r_to - row0, c_from - col0:c_to - col0] = image[r_from:r_to, c_from:c_to]
+    return crop, (row0, col0)
 
 
 def in_workspace(x: float, y: float) -> bool:

@@ -35,6 +35,7 @@ import cv2
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
 from .heightmap import HeightmapGrid
@@ -102,18 +103,6 @@ class AttentionOutput:
     target_mask: np.ndarray | None = None  # (rows, cols) bool: m_t grown to the whole target object(s)
     cluster: Cluster | None = None
     reason: str = ""  # one line: why this mode
-
-
-def crop_centered(image: np.ndarray, center_row: int, center_col: int, size: int) -> tuple:
-    """size x size window of `image` centred on (center_row, center_col), zero outside the image
-    (outside the workspace nothing was seen: black, height 0). Returns (crop, (row0, col0))."""
-    row0, col0 = int(center_row) - size // 2, int(center_col) - size // 2
-    crop = np.zeros((size, size) + image.shape[2:], dtype=image.dtype)
-    r_from, c_from = max(row0, 0), max(col0, 0)
-    r_to, c_to = min(row0 + size, image.shape[0]), min(col0 + size, image.shape[1])
-    if r_to > r_from and c_to > c_from:
-        crop[r_from - row0:r_to - row0, c_from - col0:c_to - col0] = image[r_from:r_to, c_from:c_to]
-    return crop, (row0, col0)
 
 
 def sanitize(color: np.ndarray, height: np.ndarray) -> tuple:

@@ -153,7 +153,7 @@ class Policy:
             raise NoActionError(f"crops are {size} px, the network takes {self.network.config.crop_size}")
         q = self.q_maps(obs) if q is None else q
         masks = self.masks(obs)
-        q = self.filtered(q, obs, grid or {})
+        q = self.filtered(q, obs, grid)
         if restrict is not None:
             masks = np.stack([m & restrict if (m & restrict).any() else m for m in masks])
         if epsilon > 0.0 and rng is not None:

@@ -20,6 +20,7 @@ apart, cell.FINGER_THICKNESS by cell.FINGER_WIDTH) lies that low, and under the 
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -85,10 +86,11 @@ def action_z(primitive: int, height: np.ndarray, row: int, col: int, rules: Pose
     raise ValueError(f"unknown primitive {primitive}")
 
 
+@functools.lru_cache(maxsize=64)
 def footprint_kernel(yaw: float, along: tuple, across: float, resolution: float) -> np.ndarray:
     """uint8 footprint around a grasp pixel of the gripper parts whose distance from the centre along
     the closing axis `yaw` (+col = +x) lies within `along` (m, both sides) and across it within
-    `across` (m)."""
+    `across` (m). Cached: every decision asks for the same 16 kernels; treat the array as read-only."""
     half = int(math.ceil(along[1] / resolution)) + 1
     rows, cols = np.mgrid[-half:half + 1, -half:half + 1] * resolution
     distance_along = np.abs(cols * math.cos(yaw) + rows * math.sin(yaw))
@@ -128,14 +130,10 @@ def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules
     palm_kernels = [palm_kernel(yaw, 2 * resolution) for yaw in yaws]
     margin = 2 * (palm_kernels[0].shape[0] // 2) + rules.local_radius_px + 2
     margin += margin % 2  # even, so the pooled map lines up with the crop
-    row0, col0 = int(crop_origin[0]) - margin, int(crop_origin[1]) - margin
     span = size + 2 * margin + size % 2
-    region = np.zeros((span, span), dtype=np.float32)
-    r0, c0 = max(row0, 0), max(col0, 0)
-    r1, c1 = min(row0 + span, height.shape[0]), min(col0 + span, height.shape[1])
-    if r1 > r0 and c1 > c0:
-        region[r0 - row0:r1 - row0, c0 - col0:c1 - col0] = np.nan_to_num(height[r0:r1, c0:c1], nan=0.0)
-    region = np.maximum(region, 0.0)
+    heights = np.maximum(np.nan_to_num(height, nan=0.0), 0.0).astype(np.float32)
+    region, _ = cell.crop_centered(heights, int(crop_origin[0]) - margin + span // 2,
+                                   int(crop_origin[1]) - margin + span // 2, span)
     pooled = _max_pool2(region)
     window = np.ones((2 * rules.local_radius_px + 1,) * 2, dtype=np.uint8)
     reachable = cv2.dilate(region, window) - rules.finger_overlap  # the tips must get this low
@@ -179,8 +177,8 @@ def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: i
     """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw ends at least
     `margin` (m) inside the workspace (what the fingers shove ahead of them lands beyond the end)."""
     rows, cols = np.mgrid[:size, :size].astype(np.float64)
-    x = x_min + (cols + int(crop_origin[1]) + 0.5) * resolution
-    y = y_min + (rows + int(crop_origin[0]) + 0.5) * resolution
+    x, y = cell.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]), resolution,
+                              x_min, y_min)
     inside = np.empty((num_rotations, size, size), dtype=bool)
     for r in range(num_rotations):
         yaw = cell.rotation_yaw(r)
