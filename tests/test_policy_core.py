@@ -23,6 +23,7 @@ from impurity_policy.core.policy import (
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
     NO_FILTERS,
+    ActionFilters,
     NoActionError,
     Observation,
     Policy,
@@ -38,6 +39,7 @@ from impurity_policy.core.pose import (
     push_end,
     pushes_ending_inside,
     pushes_passing,
+    pushes_starting_on_flank,
     yaw_to_rotation,
 )
 from impurity_policy.core.replay import RankedReplay, State, Transition
@@ -447,6 +449,41 @@ def test_policy_filters_grasps_off_the_target_and_pushes_away_from_the_heap():
     assert push.primitive == PUSH
     assert pushes_passing(heap_top(occluded.height_crop, valid_action_mask(112), 6.0), 112, 10)[
         push.rotation][push.pixel]
+
+
+def _covered_heap(top=0.09):
+    """A 50 mm slab 41 px wide with a pile on its middle, centred in a 224 px map (crop origin 56, 56)."""
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 20, 0.05)
+    _block(height, (112, 112), 5, top)
+    return height
+
+
+def test_pushes_starting_on_the_heap_flank():
+    crop = _covered_heap()[56:168, 56:168]
+    flank = pushes_starting_on_flank(crop, (56, 56), (0.5, 0.8), radius_px=3)
+    assert flank[56, 40] and flank[40, 70]  # on the slab beside the pile: 50 mm of 90
+    assert not flank[56, 56] and not flank[56, 52]  # on the pile, or within 3 px of it
+    assert not flank[56, 10]  # on the table
+    assert not pushes_starting_on_flank(crop, (56, 56), (0.6, 0.8), radius_px=3).any()  # 56 % is below
+
+
+def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
+    height = _covered_heap()
+    occluded = Observation(MODE_OCCLUDED_REGION, np.full((112, 112, 3), 150, np.uint8),
+                           height[56:168, 56:168].copy(), np.full((112, 112), 255, np.uint8), (56, 56), height)
+    q = np.zeros((16, 2, 112, 112), np.float32)
+    q[0, PUSH, 56, 56] = 1.0  # the network prefers to push from the top of the pile
+    q[0, PUSH, 56, 40] = 0.5  # from the slab, through the pile
+    assert Policy(QNetwork(SMALL)).decide(occluded, q=q).decision.pixel == (56, 40)
+    no_band = ActionFilters(occluded_push_start_band=None)
+    assert Policy(QNetwork(SMALL), filters=no_band).decide(occluded, q=q).decision.pixel == (56, 56)
+    # a heap without a flank in the band (a flat block): the rule gives way instead of leaving no push
+    flat = np.zeros((224, 224), np.float32)
+    _block(flat, (112, 112), 20, 0.05)
+    flat_obs = Observation(MODE_OCCLUDED_REGION, occluded.color_crop, flat[56:168, 56:168].copy(),
+                           occluded.mask, (56, 56), flat)
+    assert Policy(QNetwork(SMALL)).decide(flat_obs, q=q).decision.primitive == PUSH
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():

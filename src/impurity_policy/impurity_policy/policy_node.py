@@ -82,6 +82,11 @@ def parameter_table() -> dict:
                                                                      "pile (0: any push)"),
         "push_end_margin": (filters.push_end_margin, "Pushes end at least this far inside the workspace "
                                                      "(m; negative: no limit)"),
+        "occluded_push_start_low": (filters.occluded_push_start_band[0], "No target in view: pushes start "
+                                                                         "where the local top is at least "
+                                                                         "this fraction of the pile's top"),
+        "occluded_push_start_high": (filters.occluded_push_start_band[1], "... and below this fraction "
+                                                                          "(not above low: no such rule)"),
         "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
                                       "the scene is unchanged (same place and direction; grasps also the "
                                       "opposite rotation); executed actions from /episode/steps"),
@@ -105,10 +110,12 @@ class PolicyNode(Node):
                           push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"),
                           finger_overlap=self._param("finger_overlap"))
         margin = float(self._param("push_end_margin"))
+        band = (float(self._param("occluded_push_start_low")), float(self._param("occluded_push_start_high")))
         filters = ActionFilters(finger_clearance=bool(self._param("finger_clearance")),
                                 grasp_on_target=bool(self._param("grasp_on_target")),
                                 occluded_push_radius_px=int(self._param("occluded_push_radius_px")),
-                                push_end_margin=margin if margin >= 0 else None)
+                                push_end_margin=margin if margin >= 0 else None,
+                                occluded_push_start_band=band if band[1] > band[0] else None)
         self.policy = Policy(self._network(), rules, filters=filters)
         self._last_answered_ns = -1
         self._last_warning = {}

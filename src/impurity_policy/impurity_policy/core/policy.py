@@ -28,6 +28,7 @@ from .pose import (
     heap_top,
     pushes_ending_inside,
     pushes_passing,
+    pushes_starting_on_flank,
 )
 from .replay import State
 from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
@@ -38,6 +39,8 @@ FAILED_GRASPS_BEFORE_PUSH = 2  # TriedActionMemory: failed grasps in a row befor
 OCCLUDED_PUSH_RADIUS_PX = 10  # ActionFilters: occluded-region pushes pass this close to the heap top
 HEAP_SIGMA_PX = 6.0  # ActionFilters: smoothing (px) of the height crop before its top is taken
 PUSH_END_MARGIN = 0.06  # m, ActionFilters: pushes end at least this far inside the workspace
+OCCLUDED_PUSH_START_BAND = (0.5, 0.7)  # ActionFilters: occluded-region pushes start at this fraction of the
+# heap top's height (pose.pushes_starting_on_flank)
 
 
 class NoActionError(ValueError):
@@ -106,6 +109,10 @@ class ActionFilters:
       - occluded_push_radius_px: with no target in view, a push whose path does not pass within this
         many pixels of the crop's highest pile (pose.heap_top): scatter the heap that can hide a target
         (paper section 4) instead of trimming its rim. 0 turns it off;
+      - occluded_push_start_band: with no target in view, a push that does not start on the heap's
+        flank, where the local top is (low, high) times the heap top's height
+        (pose.pushes_starting_on_flank): from the top a push only sweeps off what lies on the heap.
+        Kept only where it leaves a push; None turns it off;
       - push_end_margin: a push that ends less than this (m) inside the workspace: what the fingers
         shove ahead lands beyond the end, and a target pushed out of the workspace is lost to the
         cell (invisible scenes lost 11 of 40 targets that way). None turns it off.
@@ -116,10 +123,11 @@ class ActionFilters:
     occluded_push_radius_px: int = OCCLUDED_PUSH_RADIUS_PX
     heap_sigma_px: float = HEAP_SIGMA_PX
     push_end_margin: float | None = PUSH_END_MARGIN
+    occluded_push_start_band: tuple | None = OCCLUDED_PUSH_START_BAND
 
 
 NO_FILTERS = ActionFilters(finger_clearance=False, grasp_on_target=False, occluded_push_radius_px=0,
-                           push_end_margin=None)
+                           push_end_margin=None, occluded_push_start_band=None)
 
 
 class Policy:
@@ -177,15 +185,21 @@ class Policy:
                 ruled_out[:, GRASP] |= ~clear
             if filters.grasp_on_target and (obs.mask > 0).any():
                 ruled_out[:, GRASP] |= ~(obs.mask > 0)[None]
-        elif obs.mode == MODE_OCCLUDED_REGION and filters.occluded_push_radius_px > 0:
+        elif obs.mode == MODE_OCCLUDED_REGION:
             top = heap_top(obs.height_crop, valid_action_mask(size), filters.heap_sigma_px)
-            ruled_out[:, PUSH] |= ~pushes_passing(top, size, filters.occluded_push_radius_px, rotations,
-                                                  resolution)
+            if filters.occluded_push_radius_px > 0:
+                ruled_out[:, PUSH] |= ~pushes_passing(top, size, filters.occluded_push_radius_px, rotations,
+                                                      resolution)
         if filters.push_end_margin is not None and PUSH in allowed_primitives(obs.mode):
             origin = {k: v for k, v in grid.items() if k in ("x_min", "y_min")}
             inside = pushes_ending_inside(obs.crop_origin, size, filters.push_end_margin, rotations,
                                           resolution, **origin)
             ruled_out[:, PUSH] |= ~inside
+        if obs.mode == MODE_OCCLUDED_REGION and filters.occluded_push_start_band is not None:
+            flank = pushes_starting_on_flank(obs.height_crop, top, filters.occluded_push_start_band,
+                                             self.rules.local_radius_px)
+            if (~ruled_out[:, PUSH] & (flank & self.masks(obs)[PUSH])[None]).any():
+                ruled_out[:, PUSH] |= ~flank[None]
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
 

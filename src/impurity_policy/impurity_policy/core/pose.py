@@ -154,6 +154,18 @@ def heap_top(height_crop: np.ndarray, valid: np.ndarray, sigma_px: float) -> tup
     return int(row), int(col)
 
 
+def pushes_starting_on_flank(height_crop: np.ndarray, point, band: tuple, radius_px: int) -> np.ndarray:
+    """(S, S) bool: True where a push would start on the flank of the pile whose top is `point` (row,
+    col): the local top there (within `radius_px`, as in action_z) lies within `band` (low, high) times
+    the height at `point`. Started on the pile's top a push only sweeps what lies on it, started on the
+    table it shoves the pile's base as a whole; from mid-height it breaks the pile open."""
+    height = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
+    top = float(height[int(point[0]), int(point[1])])
+    window = np.ones((2 * radius_px + 1, 2 * radius_px + 1), np.uint8)
+    local = cv2.dilate(height, window)
+    return (local >= band[0] * top) & (local < band[1] * top)
+
+
 def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell.NUM_ROTATIONS,
                    resolution: float = cell.HEIGHTMAP_RESOLUTION,
                    length: float = cell.PUSH_LENGTH) -> np.ndarray:
