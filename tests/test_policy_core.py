@@ -471,7 +471,8 @@ def test_pushes_starting_on_the_heap_flank():
 def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
     height = _covered_heap()
     occluded = Observation(MODE_OCCLUDED_REGION, np.full((112, 112, 3), 150, np.uint8),
-                           height[56:168, 56:168].copy(), np.full((112, 112), 255, np.uint8), (56, 56), height)
+                           height[56:168, 56:168].copy(), np.full((112, 112), 255, np.uint8), (56, 56),
+                           height)
     q = np.zeros((16, 2, 112, 112), np.float32)
     q[0, PUSH, 56, 56] = 1.0  # the network prefers to push from the top of the pile
     q[0, PUSH, 56, 40] = 0.5  # from the slab, through the pile
