@@ -35,11 +35,13 @@ from impurity_policy.core.pose import (
     finger_kernel,
     grasp_clearance,
     heap_top,
+    pixels_near,
     pose_to_action,
     push_end,
     pushes_ending_inside,
     pushes_passing,
     pushes_starting_on_flank,
+    target_on_top,
     yaw_to_rotation,
 )
 from impurity_policy.core.replay import RankedReplay, State, Transition
@@ -485,6 +487,42 @@ def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
     flat_obs = Observation(MODE_OCCLUDED_REGION, occluded.color_crop, flat[56:168, 56:168].copy(),
                            occluded.mask, (56, 56), flat)
     assert Policy(QNetwork(SMALL)).decide(flat_obs, q=q).decision.primitive == PUSH
+
+
+def test_target_on_top_and_pixels_near_a_mask():
+    height = np.zeros((112, 112), np.float32)
+    _block(height, (56, 56), 6, 0.026)  # the target
+    _block(height, (56, 70), 6, 0.045)  # a taller block lying against it (+col side)
+    mask = np.zeros((112, 112), np.uint8)
+    mask[50:63, 50:63] = 255
+    on_top = target_on_top(height, mask, radius_px=3, tolerance=0.005)
+    assert on_top[56, 52] and on_top[56, 56]  # the grasp height would come from the target
+    assert not on_top[56, 61]  # within 3 px of the taller block: the grasp would close on that
+    assert target_on_top(height, mask, radius_px=3, tolerance=0.03)[56, 61]
+    near = pixels_near(mask, 10)
+    assert near[56, 72] and near[40, 56] and not near[56, 74] and not near[30, 30]
+    assert (pixels_near(mask, 0) == (mask > 0)).all()
+
+
+def test_policy_pushes_next_to_the_target_and_grasps_where_it_is_on_top():
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 6, 0.026)  # the target, free
+    _block(height, (112, 126), 6, 0.045)  # a taller block against its +col side
+    mask = np.zeros((112, 112), np.uint8)
+    mask[50:63, 50:63] = 255
+    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
+                      (56, 56), height)
+    no_clearance = ActionFilters(finger_clearance=False)
+    q = np.full((16, 2, 112, 112), -1.0, np.float32)
+    q[4, GRASP, 56, 61] = 1.0  # the net's grasp: by the taller block, which it would lift
+    q[4, GRASP, 56, 54] = 0.5
+    assert Policy(QNetwork(SMALL), filters=no_clearance).decide(obs, q=q).decision.pixel == (56, 54)
+    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 61)
+    q[:, GRASP] = -2.0
+    q[8, PUSH, 56, 100] = 1.0  # the net's push: far from the target
+    q[8, PUSH, 56, 66] = 0.5  # from beside the target
+    assert Policy(QNetwork(SMALL), filters=no_clearance).decide(obs, q=q).decision.pixel == (56, 66)
+    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 100)
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():

@@ -26,9 +26,11 @@ from .pose import (
     action_pose,
     grasp_clearance,
     heap_top,
+    pixels_near,
     pushes_ending_inside,
     pushes_passing,
     pushes_starting_on_flank,
+    target_on_top,
 )
 from .replay import State
 from .tcdd import CHANGE_PIXELS_TAU, changed_pixels
@@ -41,6 +43,8 @@ HEAP_SIGMA_PX = 6.0  # ActionFilters: smoothing (px) of the height crop before i
 PUSH_END_MARGIN = 0.06  # m, ActionFilters: pushes end at least this far inside the workspace
 OCCLUDED_PUSH_START_BAND = (0.5, 0.7)  # ActionFilters: occluded-region pushes start at this fraction of the
 # heap top's height (pose.pushes_starting_on_flank)
+TARGET_PUSH_RADIUS_PX = 10  # ActionFilters: with a target in view, pushes start this close to its mask
+TARGET_ON_TOP_TOLERANCE = 0.005  # m, ActionFilters: grasps where the target is the local top
 
 
 class NoActionError(ValueError):
@@ -113,6 +117,13 @@ class ActionFilters:
         flank, where the local top is (low, high) times the heap top's height
         (pose.pushes_starting_on_flank): from the top a push only sweeps off what lies on the heap.
         Kept only where it leaves a push; None turns it off;
+      - target_push_radius_px: with a target in view, a push that starts farther than this from its
+        mask (pose.pixels_near): the pushes that free a target start at it; the net, trained on random
+        scenes only, also values pushes across the rest of the crop. Kept only where it leaves a push;
+        None turns it off;
+      - target_on_top_tolerance: a grasp where something other than the target is the local top
+        (pose.target_on_top): the grasp closes at that height and lifts the object lying on the target.
+        Kept only where it leaves a grasp; None turns it off.
       - push_end_margin: a push that ends less than this (m) inside the workspace: what the fingers
         shove ahead lands beyond the end, and a target pushed out of the workspace is lost to the
         cell (invisible scenes lost 11 of 40 targets that way). None turns it off.
@@ -124,10 +135,13 @@ class ActionFilters:
     heap_sigma_px: float = HEAP_SIGMA_PX
     push_end_margin: float | None = PUSH_END_MARGIN
     occluded_push_start_band: tuple | None = OCCLUDED_PUSH_START_BAND
+    target_push_radius_px: int | None = TARGET_PUSH_RADIUS_PX
+    target_on_top_tolerance: float | None = TARGET_ON_TOP_TOLERANCE
 
 
 NO_FILTERS = ActionFilters(finger_clearance=False, grasp_on_target=False, occluded_push_radius_px=0,
-                           push_end_margin=None, occluded_push_start_band=None)
+                           push_end_margin=None, occluded_push_start_band=None, target_push_radius_px=None,
+                           target_on_top_tolerance=None)
 
 
 class Policy:
@@ -195,11 +209,24 @@ class Policy:
             inside = pushes_ending_inside(obs.crop_origin, size, filters.push_end_margin, rotations,
                                           resolution, **origin)
             ruled_out[:, PUSH] |= ~inside
+        # Preferences: each narrows a primitive's actions only where it leaves one (counting those
+        # already at -inf in `q`, e.g. by TriedActionMemory).
+        preferred = []
         if obs.mode == MODE_OCCLUDED_REGION and filters.occluded_push_start_band is not None:
-            flank = pushes_starting_on_flank(obs.height_crop, top, filters.occluded_push_start_band,
-                                             self.rules.local_radius_px)
-            if (~ruled_out[:, PUSH] & (flank & self.masks(obs)[PUSH])[None]).any():
-                ruled_out[:, PUSH] |= ~flank[None]
+            band = filters.occluded_push_start_band
+            preferred.append((PUSH, pushes_starting_on_flank(obs.height_crop, top, band,
+                                                             self.rules.local_radius_px)))
+        if obs.mode == MODE_TARGET and (obs.mask > 0).any():
+            if filters.target_on_top_tolerance is not None:
+                preferred.append((GRASP, target_on_top(obs.height_crop, obs.mask, self.rules.local_radius_px,
+                                                       filters.target_on_top_tolerance)))
+            if filters.target_push_radius_px is not None:
+                preferred.append((PUSH, pixels_near(obs.mask, filters.target_push_radius_px)))
+        valid = self.masks(obs) if preferred else None
+        for primitive, pixels in preferred:
+            left = ~ruled_out[:, primitive] & np.isfinite(q[:, primitive])
+            if (left & (pixels & valid[primitive])[None]).any():
+                ruled_out[:, primitive] |= ~pixels[None]
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
 

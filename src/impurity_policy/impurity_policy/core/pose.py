@@ -166,6 +166,25 @@ def pushes_starting_on_flank(height_crop: np.ndarray, point, band: tuple, radius
     return (local >= band[0] * top) & (local < band[1] * top)
 
 
+def target_on_top(height_crop: np.ndarray, mask: np.ndarray, radius_px: int, tolerance: float) -> np.ndarray:
+    """(S, S) bool: True where the highest point within `radius_px` (as in action_z) is the target's
+    (mask > 0), give or take `tolerance` m. A grasp's height comes from that local top, so a grasp on a
+    sliver of target under a slab closes on the slab and lifts it instead."""
+    height = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
+    window = np.ones((2 * radius_px + 1, 2 * radius_px + 1), np.uint8)
+    top_of_target = cv2.dilate(np.where(mask > 0, height, 0.0).astype(np.float32), window)
+    return cv2.dilate(height, window) <= top_of_target + tolerance
+
+
+def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:
+    """(S, S) bool: within `radius_px` of the mask (mask > 0)."""
+    region = (mask > 0).astype(np.uint8)
+    if radius_px > 0:
+        disk = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * radius_px + 1, 2 * radius_px + 1))
+        region = cv2.dilate(region, disk)
+    return region > 0
+
+
 def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell.NUM_ROTATIONS,
                    resolution: float = cell.HEIGHTMAP_RESOLUTION,
                    length: float = cell.PUSH_LENGTH) -> np.ndarray:
