@@ -41,6 +41,7 @@ from impurity_policy.core.pose import (
     pushes_ending_inside,
     pushes_passing,
     pushes_starting_on_flank,
+    target_core,
     target_on_top,
     yaw_to_rotation,
 )
@@ -512,7 +513,7 @@ def test_policy_pushes_next_to_the_target_and_grasps_where_it_is_on_top():
     mask[50:63, 50:63] = 255
     obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
                       (56, 56), height)
-    no_clearance = ActionFilters(finger_clearance=False)
+    no_clearance = ActionFilters(finger_clearance=False, grasp_core_depth_px=None)
     q = np.full((16, 2, 112, 112), -1.0, np.float32)
     q[4, GRASP, 56, 61] = 1.0  # the net's grasp: by the taller block, which it would lift
     q[4, GRASP, 56, 54] = 0.5
@@ -523,6 +524,33 @@ def test_policy_pushes_next_to_the_target_and_grasps_where_it_is_on_top():
     q[8, PUSH, 56, 66] = 0.5  # from beside the target
     assert Policy(QNetwork(SMALL), filters=no_clearance).decide(obs, q=q).decision.pixel == (56, 66)
     assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 100)
+
+
+def test_target_core_is_the_middle_of_the_mask():
+    mask = np.zeros((112, 112), np.uint8)
+    mask[50:63, 50:63] = 255  # 13 px square: 7 px deep at its centre
+    core = target_core(mask, 1.0)
+    assert core[56, 56] and not core[56, 52] and not core[40, 40]
+    assert core.sum() < 13 * 13 / 4
+    assert (target_core(mask, 100.0) == (mask > 0)).all()
+
+
+def test_policy_grasps_the_middle_of_a_free_target():
+    height = np.zeros((224, 224), np.float32)
+    _block(height, (112, 112), 6, 0.026)  # the target, free
+    mask = np.zeros((112, 112), np.uint8)
+    mask[50:63, 50:63] = 255
+    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
+                      (56, 56), height)
+    q = np.full((16, 2, 112, 112), -1.0, np.float32)
+    q[:, PUSH] = -2.0
+    q[4, GRASP, 56, 51] = 1.0  # the net's grasp: at the target's edge
+    q[4, GRASP, 56, 56] = 0.5
+    middle = ActionFilters(finger_clearance=False)
+    assert Policy(QNetwork(SMALL), filters=middle).decide(obs, q=q).decision.pixel == (56, 56)
+    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 51)
+    q[:, GRASP, 55:58, 55:58] = -np.inf  # e.g. tried already: the rule gives way, the edge is left
+    assert Policy(QNetwork(SMALL), filters=middle).decide(obs, q=q).decision.pixel == (56, 51)
 
 
 def test_a_greedy_policy_does_not_repeat_a_failed_grasp():

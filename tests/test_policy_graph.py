@@ -118,7 +118,8 @@ def test_policy_node_does_not_repeat_an_executed_grasp_in_an_unchanged_scene(ros
     # The memory alone: without the action filters the seeded network grasps first in this scene.
     no_filters = {"finger_clearance": False, "grasp_on_target": False, "occluded_push_radius_px": 0,
                   "push_end_margin": -1.0, "occluded_push_start_high": 0.0,
-                  "target_push_radius_px": -1, "target_on_top_tolerance": -1.0}
+                  "target_push_radius_px": -1, "target_on_top_tolerance": -1.0,
+                  "grasp_core_depth_px": -1.0}
     proc = launch("impurity_policy", "policy_node",
                   ros_args({"checkpoint": str(checkpoint), "threads": 1, **no_filters}))
     publisher = ros_node.create_publisher(AttentionResult, "/attention/result", RELIABLE)

@@ -92,6 +92,9 @@ def parameter_table() -> dict:
         "target_on_top_tolerance": (filters.target_on_top_tolerance, "Grasps where the target is the local "
                                                                      "top, give or take this (m; negative: "
                                                                      "anywhere on the target)"),
+        "grasp_core_depth_px": (filters.grasp_core_depth_px, "Grasps where the target's mask is this close "
+                                                             "(px) to its deepest (the middle; negative: "
+                                                             "anywhere on the target)"),
         "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
                                       "the scene is unchanged (same place and direction; grasps also the "
                                       "opposite rotation); executed actions from /episode/steps"),
@@ -118,13 +121,15 @@ class PolicyNode(Node):
         band = (float(self._param("occluded_push_start_low")), float(self._param("occluded_push_start_high")))
         push_radius = int(self._param("target_push_radius_px"))
         on_top = float(self._param("target_on_top_tolerance"))
+        core = float(self._param("grasp_core_depth_px"))
         filters = ActionFilters(finger_clearance=bool(self._param("finger_clearance")),
                                 grasp_on_target=bool(self._param("grasp_on_target")),
                                 occluded_push_radius_px=int(self._param("occluded_push_radius_px")),
                                 push_end_margin=margin if margin >= 0 else None,
                                 occluded_push_start_band=band if band[1] > band[0] else None,
                                 target_push_radius_px=push_radius if push_radius >= 0 else None,
-                                target_on_top_tolerance=on_top if on_top >= 0 else None)
+                                target_on_top_tolerance=on_top if on_top >= 0 else None,
+                                grasp_core_depth_px=core if core >= 0 else None)
         self.policy = Policy(self._network(), rules, filters=filters)
         self._last_answered_ns = -1
         self._last_warning = {}

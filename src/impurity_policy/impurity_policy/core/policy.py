@@ -30,6 +30,7 @@ from .pose import (
     pushes_ending_inside,
     pushes_passing,
     pushes_starting_on_flank,
+    target_core,
     target_on_top,
 )
 from .replay import State
@@ -45,6 +46,7 @@ OCCLUDED_PUSH_START_BAND = (0.5, 0.7)  # ActionFilters: occluded-region pushes s
 # heap top's height (pose.pushes_starting_on_flank)
 TARGET_PUSH_RADIUS_PX = 10  # ActionFilters: with a target in view, pushes start this close to its mask
 TARGET_ON_TOP_TOLERANCE = 0.005  # m, ActionFilters: grasps where the target is the local top
+GRASP_CORE_DEPTH_PX = 1.0  # ActionFilters: grasps this close (px) to the target mask's deepest inside
 
 
 class NoActionError(ValueError):
@@ -123,7 +125,10 @@ class ActionFilters:
         None turns it off;
       - target_on_top_tolerance: a grasp where something other than the target is the local top
         (pose.target_on_top): the grasp closes at that height and lifts the object lying on the target.
-        Kept only where it leaves a grasp; None turns it off.
+        Kept only where it leaves a grasp; None turns it off;
+      - grasp_core_depth_px: a grasp off the middle of the target, where its mask is less deep (distance
+        to the mask's edge) than this many pixels below its deepest (pose.target_core). Kept only
+        where it leaves a grasp; None turns it off.
       - push_end_margin: a push that ends less than this (m) inside the workspace: what the fingers
         shove ahead lands beyond the end, and a target pushed out of the workspace is lost to the
         cell (invisible scenes lost 11 of 40 targets that way). None turns it off.
@@ -137,11 +142,12 @@ class ActionFilters:
     occluded_push_start_band: tuple | None = OCCLUDED_PUSH_START_BAND
     target_push_radius_px: int | None = TARGET_PUSH_RADIUS_PX
     target_on_top_tolerance: float | None = TARGET_ON_TOP_TOLERANCE
+    grasp_core_depth_px: float | None = GRASP_CORE_DEPTH_PX
 
 
 NO_FILTERS = ActionFilters(finger_clearance=False, grasp_on_target=False, occluded_push_radius_px=0,
                            push_end_margin=None, occluded_push_start_band=None, target_push_radius_px=None,
-                           target_on_top_tolerance=None)
+                           target_on_top_tolerance=None, grasp_core_depth_px=None)
 
 
 class Policy:
@@ -222,6 +228,8 @@ class Policy:
                                                        filters.target_on_top_tolerance)))
             if filters.target_push_radius_px is not None:
                 preferred.append((PUSH, pixels_near(obs.mask, filters.target_push_radius_px)))
+            if filters.grasp_core_depth_px is not None:
+                preferred.append((GRASP, target_core(obs.mask, filters.grasp_core_depth_px)))
         valid = self.masks(obs) if preferred else None
         for primitive, pixels in preferred:
             left = ~ruled_out[:, primitive] & np.isfinite(q[:, primitive])
