@@ -44,7 +44,7 @@ HEAP_SIGMA_PX = 6.0  # ActionFilters: smoothing (px) of the height crop before i
 PUSH_END_MARGIN = 0.06  # m, ActionFilters: pushes end at least this far inside the workspace
 OCCLUDED_PUSH_START_BAND = (0.5, 0.7)  # ActionFilters: occluded-region pushes start at this fraction of the
 # heap top's height (pose.pushes_starting_on_flank)
-TARGET_PUSH_RADIUS_PX = 10  # ActionFilters: with a target in view, pushes start this close to its mask
+TARGET_PUSH_RADIUS_PX = 12  # ActionFilters: with a target in view, pushes start this close to its mask
 TARGET_ON_TOP_TOLERANCE = 0.005  # m, ActionFilters: grasps where the target is the local top
 GRASP_CORE_DEPTH_PX = 1.0  # ActionFilters: grasps this close (px) to the target mask's deepest inside
 
