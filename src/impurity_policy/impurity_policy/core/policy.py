@@ -127,8 +127,9 @@ class ActionFilters:
         (pose.target_on_top): the grasp closes at that height and lifts the object lying on the target.
         Kept only where it leaves a grasp; None turns it off;
       - grasp_core_depth_px: a grasp off the middle of the target, where its mask is less deep (distance
-        to the mask's edge) than this many pixels below its deepest (pose.target_core). Kept only
-        where it leaves a grasp; None turns it off.
+        to the mask's edge) than this many pixels below its deepest (pose.target_core). A rule, not a
+        preference: when no grasp is left there, the policy pushes (grasps off the middle lifted the
+        neighbour between the fingers and the target). Applied after the preferences. None turns it off.
       - push_end_margin: a push that ends less than this (m) inside the workspace: what the fingers
         shove ahead lands beyond the end, and a target pushed out of the workspace is lost to the
         cell (invisible scenes lost 11 of 40 targets that way). None turns it off.
@@ -228,13 +229,13 @@ class Policy:
                                                        filters.target_on_top_tolerance)))
             if filters.target_push_radius_px is not None:
                 preferred.append((PUSH, pixels_near(obs.mask, filters.target_push_radius_px)))
-            if filters.grasp_core_depth_px is not None:
-                preferred.append((GRASP, target_core(obs.mask, filters.grasp_core_depth_px)))
         valid = self.masks(obs) if preferred else None
         for primitive, pixels in preferred:
             left = ~ruled_out[:, primitive] & np.isfinite(q[:, primitive])
             if (left & (pixels & valid[primitive])[None]).any():
                 ruled_out[:, primitive] |= ~pixels[None]
+        if obs.mode == MODE_TARGET and filters.grasp_core_depth_px is not None and (obs.mask > 0).any():
+            ruled_out[:, GRASP] |= ~target_core(obs.mask, filters.grasp_core_depth_px)[None]
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
 

@@ -35,7 +35,7 @@ from .network import GRASP, PUSH
 @dataclass(frozen=True)
 class PoseRules:
     grasp_depth: float = 0.03  # m below the local top
-    grasp_min_tip: float = 0.01  # m above the table
+    grasp_min_tip: float = 0.005  # m above the table: low, rounded blocks slip from fingers closed higher
     push_depth: float = 0.02  # m below the local top at the start pixel
     push_min_tip: float = 0.01  # m above the table
     local_radius_px: int = 3  # window (2r+1)^2 for "local top"
