@@ -200,12 +200,14 @@ class Policy:
         grid = grid or {}
         resolution = grid.get("resolution", cell.HEIGHTMAP_RESOLUTION)
         ruled_out = np.zeros(q.shape, dtype=bool)
+        target = obs.mask > 0
+        target_in_view = obs.mode == MODE_TARGET and target.any()
         if obs.mode == MODE_TARGET:
             if filters.finger_clearance:
                 clear = grasp_clearance(obs.height, obs.crop_origin, size, self.rules, rotations, resolution)
                 ruled_out[:, GRASP] |= ~clear
-            if filters.grasp_on_target and (obs.mask > 0).any():
-                ruled_out[:, GRASP] |= ~(obs.mask > 0)[None]
+            if filters.grasp_on_target and target_in_view:
+                ruled_out[:, GRASP] |= ~target[None]
         elif obs.mode == MODE_OCCLUDED_REGION:
             top = heap_top(obs.height_crop, valid_action_mask(size), filters.heap_sigma_px)
             if filters.occluded_push_radius_px > 0:
@@ -223,7 +225,7 @@ class Policy:
             band = filters.occluded_push_start_band
             preferred.append((PUSH, pushes_starting_on_flank(obs.height_crop, top, band,
                                                              self.rules.local_radius_px)))
-        if obs.mode == MODE_TARGET and (obs.mask > 0).any():
+        if target_in_view:
             if filters.target_on_top_tolerance is not None:
                 preferred.append((GRASP, target_on_top(obs.height_crop, obs.mask, self.rules.local_radius_px,
                                                        filters.target_on_top_tolerance)))
@@ -234,7 +236,7 @@ class Policy:
             left = ~ruled_out[:, primitive] & np.isfinite(q[:, primitive])
             if (left & (pixels & valid[primitive])[None]).any():
                 ruled_out[:, primitive] |= ~pixels[None]
-        if obs.mode == MODE_TARGET and filters.grasp_core_depth_px is not None and (obs.mask > 0).any():
+        if target_in_view and filters.grasp_core_depth_px is not None:
             ruled_out[:, GRASP] |= ~target_core(obs.mask, filters.grasp_core_depth_px)[None]
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 

@@ -76,6 +76,12 @@ def local_top(height: np.ndarray, row: int, col: int, radius: int) -> float:
     return float(max(window.max(), 0.0))
 
 
+def local_top_map(height: np.ndarray, radius_px: int) -> np.ndarray:
+    """local_top at every pixel at once (float32, NaN as 0, negatives kept)."""
+    window = np.ones((2 * radius_px + 1, 2 * radius_px + 1), np.uint8)
+    return cv2.dilate(np.nan_to_num(height, nan=0.0).astype(np.float32), window)
+
+
 def action_z(primitive: int, height: np.ndarray, row: int, col: int, rules: PoseRules = PoseRules(),
              table_z: float = cell.TABLE_Z) -> float:
     top = local_top(height, row, col, rules.local_radius_px)
@@ -135,8 +141,7 @@ def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules
     region, _ = cell.crop_centered(heights, int(crop_origin[0]) - margin + span // 2,
                                    int(crop_origin[1]) - margin + span // 2, span)
     pooled = _max_pool2(region)
-    window = np.ones((2 * rules.local_radius_px + 1,) * 2, dtype=np.uint8)
-    reachable = cv2.dilate(region, window) - rules.finger_overlap  # the tips must get this low
+    reachable = local_top_map(region, rules.local_radius_px) - rules.finger_overlap  # tips must get this low
     clear = np.empty((num_rotations, size, size), dtype=bool)
     inner = (slice(margin, margin + size), slice(margin, margin + size))
     for r, (fingers, palm) in enumerate(zip(finger_kernels, palm_kernels, strict=True)):
@@ -159,10 +164,8 @@ def pushes_starting_on_flank(height_crop: np.ndarray, point, band: tuple, radius
     col): the local top there (within `radius_px`, as in action_z) lies within `band` (low, high) times
     the height at `point`. Started on the pile's top a push only sweeps what lies on it, started on the
     table it shoves the pile's base as a whole; from mid-height it breaks the pile open."""
-    height = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
-    top = float(height[int(point[0]), int(point[1])])
-    window = np.ones((2 * radius_px + 1, 2 * radius_px + 1), np.uint8)
-    local = cv2.dilate(height, window)
+    top = float(np.nan_to_num(height_crop[int(point[0]), int(point[1])], nan=0.0))
+    local = local_top_map(height_crop, radius_px)
     return (local >= band[0] * top) & (local < band[1] * top)
 
 
@@ -170,10 +173,8 @@ def target_on_top(height_crop: np.ndarray, mask: np.ndarray, radius_px: int, tol
     """(S, S) bool: True where the highest point within `radius_px` (as in action_z) is the target's
     (mask > 0), give or take `tolerance` m. A grasp's height comes from that local top, so a grasp on a
     sliver of target under a slab closes on the slab and lifts it instead."""
-    height = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
-    window = np.ones((2 * radius_px + 1, 2 * radius_px + 1), np.uint8)
-    top_of_target = cv2.dilate(np.where(mask > 0, height, 0.0).astype(np.float32), window)
-    return cv2.dilate(height, window) <= top_of_target + tolerance
+    top_of_target = local_top_map(np.where(mask > 0, height_crop, 0.0), radius_px)
+    return local_top_map(height_crop, radius_px) <= top_of_target + tolerance
 
 
 def target_core(mask: np.ndarray, depth_px: float) -> np.ndarray:
