@@ -35,13 +35,13 @@ demo: setup
 	@$(ENV) python bringup/demo.py
 
 train: setup
-	@$(ENV) python -m impurity_policy.core.train_cli $(TRAIN_ARGS)
+	@$(ENV) python -m impurity_learning.train_cli $(TRAIN_ARGS)
 
 train-baselines: setup
 	@$(ENV) scripts/train_baselines.sh
 
 eval: setup
-	@$(ENV) python -m impurity_policy.core.eval_cli $(EVAL_ARGS)
+	@$(ENV) python -m impurity_learning.eval_cli $(EVAL_ARGS)
 	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
 
 bench: setup

@@ -19,9 +19,10 @@ import torch.nn.functional as F
 from timing import timed
 
 from impurity_attention.core.attention import AttentionParams, attend
-from impurity_attention.core.heightmap import HeightmapGrid, HeightmapProjector
+from impurity_attention.core.heightmap import HeightmapProjector
+from impurity_common.grid import HeightmapGrid
 from impurity_policy.core.policy import MODE_NONE, Observation, Policy
-from impurity_policy.core.train_cli import SHIPPED_CHECKPOINT
+from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from ur5_driver_sim.core.world import CellWorld
 
 VPG_PADDED = 320  # VPG pads the 224^2 heightmap diagonally so rotations lose nothing

@@ -15,8 +15,9 @@ from timing import p50_p95, timed
 
 from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs, parameter_count
 from impurity_policy.core.policy import MODE_TARGET, Observation, Policy, q_maps_picture
-from impurity_policy.core.replay import State, Transition
-from impurity_policy.core.trainer import Trainer
+from impurity_learning.replay import Transition
+from impurity_policy.core.decision import State
+from impurity_learning.trainer import Trainer
 
 
 def scene(size=112, seed=0):

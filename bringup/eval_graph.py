@@ -3,7 +3,7 @@
 (camera/heightmap, attention, policy, episode node, UR5 arm driver), on the same held-out seeds as
 `make eval`, side by side with the fast sim's records of those seeds (docs/results.json, "ours").
 
-    python bringup/eval_graph.py --episodes 2            # after python -m impurity_policy.core.eval_cli
+    python bringup/eval_graph.py --episodes 2            # after python -m impurity_learning.eval_cli
 
 Writes docs/results_graph.md and the episode records in runs/eval_graph/.
 """
@@ -17,7 +17,7 @@ import time
 import rclpy
 
 from impurity_interfaces.action import RunEpisode
-from impurity_policy.core.evaluate import EVAL_SEED_BASE
+from impurity_learning.evaluate import EVAL_SEED_BASE
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 ROOT = BRINGUP.parent

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # `make train-baselines`: trains the networks the evaluation compares ours with (VPG, which S-VPG also
 # runs, and the ablations No-TSD, No-OI, No-T), all four at once with one torch thread each and the
-# same wall-clock budget, then exports each to src/impurity_policy/checkpoints/<method>.pt and copies
+# same wall-clock budget, then exports each to src/impurity_learning/checkpoints/<method>.pt and copies
 # its log and Fig. 9 plot to docs/training/<method>/. Rerunning resumes every run from its checkpoint.
 #   BASELINE_HOURS  wall-clock budget per run (default 1.3)
 #   BASELINE_ITERS  iteration cap per run (default 12000, the same cap as ours)
@@ -16,9 +16,9 @@ for method in $methods; do
   log="runs/train_${method}.log"
   mkdir -p runs
   echo "train-baselines: $method for up to ${hours} h / ${iterations} iterations (progress: tail -f $log)"
-  python -m impurity_policy.core.train_cli --method "$method" --run-dir "runs/$method" --seed 0 \
+  python -m impurity_learning.train_cli --method "$method" --run-dir "runs/$method" --seed 0 \
     --iterations "$iterations" --max-hours "$hours" --threads 1 \
-    --export "src/impurity_policy/checkpoints/${method}.pt" > "$log" 2>&1 &
+    --export "src/impurity_learning/checkpoints/${method}.pt" > "$log" 2>&1 &
   pids+=($!)
 done
 status=0

@@ -9,11 +9,11 @@ import pytest
 import torch
 
 from impurity_common import cell
-from impurity_policy.core.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
-from impurity_policy.core.eval_cli import aggregate, main
+from impurity_learning.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
+from impurity_learning.eval_cli import aggregate, main
 from impurity_policy.core.network import NetworkConfig, QNetwork
 from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy
-from impurity_policy.core.trainer import Trainer
+from impurity_learning.trainer import Trainer
 
 SIZE = cell.HEIGHTMAP_SIZE
 
@@ -124,7 +124,7 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     readme.write_text("intro\n<!-- results:start -->\nold table\n<!-- results:end -->\nrest\n")
     code = main(["--readme", str(readme), "--methods", "ours", "s_rgm", "vpg", "--scenarios", "random",
                  "--episodes", "1",
-                 "--checkpoint-dir", str(checkpoints), "--markdown", str(out / "results.md"),
+                 "--checkpoint-dir", str(checkpoints), "--policy-checkpoint", str(checkpoints / "policy.pt"), "--markdown", str(out / "results.md"),
                  "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
                  "--threads", "1", "--jobs", "2", "--no-progress"])
     assert code == 0

@@ -45,14 +45,10 @@ from impurity_policy.core.pose import (
     target_on_top,
     yaw_to_rotation,
 )
-from impurity_policy.core.replay import RankedReplay, State, Transition
-from impurity_policy.core.trainer import (
-    CHECKPOINT_FORMAT_VERSION,
-    CheckpointError,
-    Trainer,
-    TrainerConfig,
-    load_network,
-)
+from impurity_learning.replay import RankedReplay, Transition
+from impurity_learning.trainer import Trainer, TrainerConfig
+from impurity_policy.core.checkpoint import CHECKPOINT_FORMAT_VERSION, CheckpointError, load_network
+from impurity_policy.core.decision import State
 
 torch.set_num_threads(1)
 ETA = cell.GRASP_OPENING

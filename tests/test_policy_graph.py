@@ -12,7 +12,7 @@ from sensor_msgs.msg import Image
 from impurity_common import cell
 from impurity_common.conversions import ns_to_time, numpy_to_image, time_to_ns
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
-from impurity_policy.core.trainer import Trainer
+from impurity_learning.trainer import Trainer
 from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until, wait_for_subscribers
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)

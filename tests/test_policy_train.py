@@ -6,9 +6,9 @@ import pytest
 import torch
 
 from impurity_policy.core.network import NetworkConfig
-from impurity_policy.core.train import CSV_FIELDS, TrainConfig, TrainingRun, migrate_log, network_config_for
-from impurity_policy.core.train_cli import export_network
-from impurity_policy.core.trainer import load_network
+from impurity_learning.train import CSV_FIELDS, TrainConfig, TrainingRun, migrate_log, network_config_for
+from impurity_learning.train_cli import export_network
+from impurity_policy.core.checkpoint import load_network
 
 pytest.importorskip("ur5_driver_sim.core.world")
 torch.set_num_threads(1)
@@ -93,9 +93,9 @@ def test_full_heightmap_methods_use_224_inputs():
 
 
 def test_fast_sim_episode_counts_like_the_episode_core():
-    from impurity_policy.core.agents import NetworkAgent
+    from impurity_learning.agents import NetworkAgent
     from impurity_policy.core.episode import EpisodeRequest
-    from impurity_policy.core.evaluate import EVAL_SEED_BASE, run_episode
+    from impurity_learning.evaluate import EVAL_SEED_BASE, run_episode
     from impurity_policy.core.network import QNetwork
     from impurity_policy.core.policy import Policy
     from ur5_driver_sim.core.world import CellWorld

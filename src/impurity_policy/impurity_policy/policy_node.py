@@ -19,6 +19,7 @@ from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import describe
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
+from impurity_policy.core.checkpoint import CheckpointError, load_network
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
 from impurity_policy.core.policy import (
     FAILED_GRASPS_BEFORE_PUSH,
@@ -30,7 +31,6 @@ from impurity_policy.core.policy import (
     q_maps_picture,
 )
 from impurity_policy.core.pose import PoseRules
-from impurity_policy.core.trainer import CheckpointError, load_network
 
 ATTENTION_TOPIC = "/attention/result"
 PRIMITIVE_TOPIC = "/policy/primitive"

@@ -38,7 +38,7 @@ from impurity_common import cell
 from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
-from .heightmap import HeightmapGrid
+from impurity_common.grid import HeightmapGrid
 from .saliency import CELL_SALIENCY, SaliencyParams, normalised, opponent_colour, vocus2
 
 BACKGROUNDS = ("objects", "table")

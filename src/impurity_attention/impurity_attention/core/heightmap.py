@@ -19,51 +19,15 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
 
 # Depth encodings the camera driver may publish (realsense-ros: 16UC1 millimetres; sims: 32FC1 m).
 DEPTH_ENCODINGS = ("16UC1", "32FC1")
-MAX_HEIGHT = 0.30  # m above the table; higher points (gripper, arm, noise) are not scene content
 UNSEEN_LABEL = -1  # label of heightmap cells that no pixel reached
 
 
 class DepthFormatError(ValueError):
     """A depth image that cannot be read as metres."""
-
-
-@dataclass(frozen=True)
-class HeightmapGrid:
-    """The workspace grid: pixel (row, col) covers x = x_min + (col + 0.5) * resolution,
-    y = y_min + (row + 0.5) * resolution (base_link); heights are measured from table_z."""
-
-    x_min: float = cell.WORKSPACE_X[0]
-    x_max: float = cell.WORKSPACE_X[1]
-    y_min: float = cell.WORKSPACE_Y[0]
-    y_max: float = cell.WORKSPACE_Y[1]
-    resolution: float = cell.HEIGHTMAP_RESOLUTION
-    table_z: float = cell.TABLE_Z
-    max_height: float = MAX_HEIGHT
-
-    def __post_init__(self):
-        if not (self.resolution > 0 and self.x_max > self.x_min and self.y_max > self.y_min):
-            raise ValueError(f"degenerate heightmap grid {self}")
-
-    @property
-    def rows(self) -> int:
-        return int(round((self.y_max - self.y_min) / self.resolution))
-
-    @property
-    def cols(self) -> int:
-        return int(round((self.x_max - self.x_min) / self.resolution))
-
-    @property
-    def shape(self) -> tuple:
-        return self.rows, self.cols
-
-    def pixel_to_base(self, row: float, col: float) -> tuple:
-        return cell.pixel_to_base(row, col, self.resolution, self.x_min, self.y_min)
-
-    def base_to_pixel(self, x: float, y: float) -> tuple:
-        return cell.base_to_pixel(x, y, self.resolution, self.x_min, self.y_min)
 
 
 @dataclass

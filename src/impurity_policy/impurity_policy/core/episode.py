@@ -175,6 +175,26 @@ class EpisodeRecorder:
     def write_step(self, step: StepRecord) -> None:
         self._append_line(self.steps_path, {"event": "step", **dataclasses.asdict(step)})
 
+    def write_first_view(self, color: np.ndarray) -> None:
+        """The episode's first colour heightmap (H, W, 3) uint8 RGB, the background of its picture."""
+        import cv2
+
+        cv2.imwrite(str(self.directory / "first_heightmap.png"), np.ascontiguousarray(color[:, :, ::-1]))
+
+    def write_picture(self) -> pathlib.Path | None:
+        """episode.png: the first heightmap with every executed primitive drawn (draw_episode); None
+        when no first view was written."""
+        import cv2
+
+        first = self.directory / "first_heightmap.png"
+        if not first.exists():
+            return None
+        steps = [r for r in read_steps(self.steps_path) if r.get("event") == "step"]
+        picture = draw_episode(cv2.imread(str(first))[:, :, ::-1], steps)
+        path = self.directory / "episode.png"
+        cv2.imwrite(str(path), picture[:, :, ::-1])
+        return path
+
     def write_summary(self, metrics: dict, termination_reason: str) -> dict:
         summary = {**metrics, "termination_reason": termination_reason, "wall_time": time.time(),
                    "record_path": str(self.directory)}

@@ -28,6 +28,7 @@ import cv2
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
 
 from .network import GRASP, PUSH
 
@@ -213,39 +214,36 @@ def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell
 
 
 def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: int = cell.NUM_ROTATIONS,
-                         resolution: float = cell.HEIGHTMAP_RESOLUTION, x_min: float = cell.WORKSPACE_X[0],
-                         y_min: float = cell.WORKSPACE_Y[0], length: float = cell.PUSH_LENGTH) -> np.ndarray:
+                         grid: HeightmapGrid = HeightmapGrid(), length: float = cell.PUSH_LENGTH) -> np.ndarray:
     """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw ends at least
-    `margin` (m) inside the workspace (what the fingers shove ahead of them lands beyond the end)."""
+    `margin` (m) inside the workspace, the heightmap's `grid` (what the fingers shove ahead of them
+    lands beyond the end)."""
     rows, cols = np.mgrid[:size, :size].astype(np.float64)
-    x, y = cell.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]), resolution,
-                              x_min, y_min)
+    x, y = grid.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]))
     inside = np.empty((num_rotations, size, size), dtype=bool)
     for r in range(num_rotations):
         yaw = cell.rotation_yaw(r)
         end_x, end_y = x + length * math.cos(yaw), y + length * math.sin(yaw)
-        inside[r] = ((end_x >= cell.WORKSPACE_X[0] + margin) & (end_x <= cell.WORKSPACE_X[1] - margin)
-                     & (end_y >= cell.WORKSPACE_Y[0] + margin) & (end_y <= cell.WORKSPACE_Y[1] - margin))
+        inside[r] = ((end_x >= grid.x_min + margin) & (end_x <= grid.x_max - margin)
+                     & (end_y >= grid.y_min + margin) & (end_y <= grid.y_max - margin))
     return inside
 
 
 def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: np.ndarray,
-                rules: PoseRules = PoseRules(), resolution: float = cell.HEIGHTMAP_RESOLUTION,
-                x_min: float = cell.WORKSPACE_X[0], y_min: float = cell.WORKSPACE_Y[0],
-                table_z: float = cell.TABLE_Z) -> ActionPose:
-    """Crop pixel + rotation index -> pose in base_link; `height` is the full heightmap (m)."""
+                rules: PoseRules = PoseRules(), grid: HeightmapGrid = HeightmapGrid()) -> ActionPose:
+    """Crop pixel + rotation index -> pose in base_link; `height` is the full heightmap (m) on `grid`.
+    ValueError when the pixel lies off the heightmap."""
     row, col = crop_to_heightmap(crop_pixel, crop_origin)
     if not (0 <= row < height.shape[0] and 0 <= col < height.shape[1]):
         raise ValueError(f"action pixel {(row, col)} is outside the {height.shape} heightmap")
-    x, y = cell.pixel_to_base(row, col, resolution, x_min, y_min)
+    x, y = grid.pixel_to_base(row, col)
     return ActionPose(primitive, int(rotation) % cell.NUM_ROTATIONS, (row, col), x, y,
-                      action_z(primitive, height, row, col, rules, table_z), cell.rotation_yaw(rotation))
+                      action_z(primitive, height, row, col, rules, grid.table_z), cell.rotation_yaw(rotation))
 
 
-def pose_to_action(x: float, y: float, yaw: float, crop_origin, resolution: float = cell.HEIGHTMAP_RESOLUTION,
-                   x_min: float = cell.WORKSPACE_X[0], y_min: float = cell.WORKSPACE_Y[0]) -> tuple:
+def pose_to_action(x: float, y: float, yaw: float, crop_origin, grid: HeightmapGrid = HeightmapGrid()) -> tuple:
     """Inverse of action_pose for (x, y, yaw): (rotation index, crop pixel)."""
-    heightmap_pixel = cell.base_to_pixel(x, y, resolution, x_min, y_min)
+    heightmap_pixel = grid.base_to_pixel(x, y)
     return yaw_to_rotation(yaw), heightmap_to_crop(heightmap_pixel, crop_origin)
 
 

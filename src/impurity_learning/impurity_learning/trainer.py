@@ -21,11 +21,11 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from .network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs, valid_action_mask
-from .replay import State, Transition
+from impurity_policy.core.checkpoint import CHECKPOINT_FORMAT_VERSION, read_checkpoint
+from impurity_policy.core.decision import State, action_masks, best_action
+from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs
 
-CHECKPOINT_FORMAT_VERSION = 1
-OBJECT_HEIGHT = 0.01  # m: grasps are only considered where the height crop shows something this tall
+from .replay import Transition
 
 
 @dataclass(frozen=True)
@@ -44,73 +44,6 @@ class TrainerConfig:
 
     def epsilon(self, iteration: int) -> float:
         return max(self.epsilon_start * self.epsilon_decay ** iteration, self.epsilon_min)
-
-
-@dataclass
-class Decision:
-    """One chosen action in crop coordinates."""
-
-    primitive: int  # PUSH / GRASP
-    rotation: int
-    pixel: tuple  # (row, col) in the crop
-    q_value: float
-    explored: bool = False
-
-
-class CheckpointError(RuntimeError):
-    """A checkpoint that this code cannot use; the message says why."""
-
-
-def action_masks(state: State, crop_origin=None, heightmap_shape=None, allowed=(PUSH, GRASP),
-                 grasp_needs_object: bool = True) -> np.ndarray:
-    """(2, S, S) bool: where each primitive may act. Pixels inside the crop's inscribed disk (every
-    rotation sees them), inside the heightmap when the crop hangs over its edge, grasps only on
-    objects (optional), and no primitive that is not `allowed`."""
-    size = state.mask.shape[0]
-    base = valid_action_mask(size)
-    if crop_origin is not None and heightmap_shape is not None:
-        rows = np.arange(size)[:, None] + crop_origin[0]
-        cols = np.arange(size)[None, :] + crop_origin[1]
-        base = base & (rows >= 0) & (rows < heightmap_shape[0]) & (cols >= 0) & (cols < heightmap_shape[1])
-    masks = np.zeros((2, size, size), dtype=bool)
-    if PUSH in allowed:
-        masks[PUSH] = base
-    if GRASP in allowed:
-        masks[GRASP] = base & (np.nan_to_num(state.height) > OBJECT_HEIGHT) if grasp_needs_object else base
-        if not masks[GRASP].any():
-            masks[GRASP] = base
-    return masks
-
-
-def best_action(q: np.ndarray, masks: np.ndarray, primitives=(PUSH, GRASP)) -> Decision:
-    """Argmax of Q maps (R, 2, S, S) over the masked pixels of the given primitives."""
-    best = None
-    for primitive in primitives:
-        if not masks[primitive].any():
-            continue
-        values = np.where(masks[primitive][None], q[:, primitive], -np.inf)
-        flat = int(np.argmax(values))
-        rotation, row, col = np.unravel_index(flat, values.shape)
-        value = float(values[rotation, row, col])
-        if value == -np.inf:  # every action of this primitive ruled out (TriedActionMemory, clearance)
-            continue
-        if best is None or value > best.q_value:
-            best = Decision(primitive, int(rotation), (int(row), int(col)), value)
-    if best is None:
-        raise ValueError("no valid action: every primitive is masked out")
-    return best
-
-
-def epsilon_greedy(q: np.ndarray, masks: np.ndarray, allowed, epsilon: float,
-                   rng: np.random.Generator) -> Decision:
-    """VPG's exploration: with probability epsilon the primitive is drawn at random (among the allowed
-    ones), and its best pixel and rotation are taken; else the overall argmax."""
-    allowed = [p for p in allowed if np.isfinite(np.where(masks[p][None], q[:, p], -np.inf)).any()]
-    if len(allowed) > 1 and rng.random() < epsilon:
-        decision = best_action(q, masks, (allowed[int(rng.integers(len(allowed)))],))
-        decision.explored = True
-        return decision
-    return best_action(q, masks, allowed)
 
 
 class Trainer:
@@ -213,43 +146,3 @@ class Trainer:
         return data.get("extra", {})
 
 
-def read_checkpoint(path, expected: NetworkConfig | None = None) -> dict:
-    """Load and check a checkpoint: format version, network config and every tensor's shape."""
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise CheckpointError(f"checkpoint {path} does not exist")
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as error:  # noqa: BLE001 - any unreadable file gets the same clear message
-        raise CheckpointError(f"checkpoint {path} cannot be read: {error}") from error
-    if not isinstance(data, dict) or "format_version" not in data:
-        raise CheckpointError(f"checkpoint {path} is not an impurity_policy checkpoint (no format_version)")
-    if data["format_version"] != CHECKPOINT_FORMAT_VERSION:
-        raise CheckpointError(f"checkpoint {path} has format version {data['format_version']}, this code "
-                              f"reads version {CHECKPOINT_FORMAT_VERSION}")
-    try:
-        stored = NetworkConfig.from_dict(data["network_config"])
-    except (KeyError, TypeError) as error:
-        raise CheckpointError(f"checkpoint {path} has an unreadable network_config: {error}") from error
-    if expected is not None and stored != expected:
-        raise CheckpointError(f"checkpoint {path} was made for network {stored}, expected {expected}")
-    reference = QNetwork(stored).state_dict()
-    weights = data.get("online", {})
-    missing = sorted(set(reference) - set(weights))
-    unexpected = sorted(set(weights) - set(reference))
-    if missing or unexpected:
-        raise CheckpointError(f"checkpoint {path} does not match the network: missing {missing[:5]}, "
-                              f"unexpected {unexpected[:5]}")
-    for name, tensor in reference.items():
-        if tuple(weights[name].shape) != tuple(tensor.shape):
-            raise CheckpointError(f"checkpoint {path}: tensor '{name}' has shape "
-                                  f"{tuple(weights[name].shape)}, the network needs {tuple(tensor.shape)}")
-    return data
-
-
-def load_network(path, expected: NetworkConfig | None = None) -> QNetwork:
-    """The online network of a checkpoint, in eval mode (what the policy node runs)."""
-    data = read_checkpoint(path, expected)
-    net = QNetwork(NetworkConfig.from_dict(data["network_config"]))
-    net.load_state_dict(data["online"])
-    return net.eval()

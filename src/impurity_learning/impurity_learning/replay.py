@@ -20,18 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impurity_policy.core.decision import State
+
 REPLAY_FORMAT_VERSION = 1
 DEFAULT_CAPACITY = 20000
 DEFAULT_ALPHA = 0.7  # rank exponent (Schaul et al.)
-
-
-@dataclass
-class State:
-    """The policy's input for one decision: attention crops (112^2)."""
-
-    color: np.ndarray  # (S, S, 3) uint8
-    height: np.ndarray  # (S, S) float32 m
-    mask: np.ndarray  # (S, S) uint8
 
 
 @dataclass

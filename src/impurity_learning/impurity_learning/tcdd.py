@@ -20,13 +20,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common import cell
+from impurity_policy.core.change import CHANGE_PIXELS_TAU, changed_pixels
 
 GRASP_TARGET_REWARD = 1.0
 PUSH_TCDD_REWARD = 0.5
 TCDD_DELTA = 0.005  # paper: ignore alpha changes below this (noise)
 NO_T_PUSH_REWARD = 1.0  # paper 6.3.2: "the push reward is set to 1"
-CHANGE_PIXELS_TAU = 300  # px
-CHANGE_HEIGHT_RANGE = (0.01, 0.3)  # m: a pixel "changed" when its height moved by this much (VPG)
 
 
 def tcdd(target_xy, other_xy, eta: float = cell.GRASP_OPENING) -> float:
@@ -56,12 +55,6 @@ def grasp_reward(target_grasped: bool) -> float:
 
 def push_reward_tcdd(alpha_before: float, alpha_after: float, delta: float = TCDD_DELTA) -> float:
     return PUSH_TCDD_REWARD if alpha_after - alpha_before > delta else 0.0
-
-
-def changed_pixels(height_before: np.ndarray, height_after: np.ndarray,
-                   height_range: tuple = CHANGE_HEIGHT_RANGE) -> int:
-    diff = np.abs(np.nan_to_num(height_after) - np.nan_to_num(height_before))
-    return int(np.count_nonzero((diff > height_range[0]) & (diff < height_range[1])))
 
 
 def push_reward_change(height_before: np.ndarray, height_after: np.ndarray,

@@ -6,11 +6,11 @@ picked / grasp attempts, action efficiency = targets picked / actions; also comp
 picked) and false rejects (non-targets removed). Writes the table (docs/results.md), a Fig. 10-style
 bar chart (docs/images/results.png) and every episode's record with its seed (docs/results.json).
 
-Network methods load `<checkpoint-dir>/<trained method>.pt` ("ours" loads the shipped policy.pt); a
+Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
 
-    python -m impurity_policy.core.eval_cli --episodes 20
-    python -m impurity_policy.core.eval_cli --methods ours s_rgm --scenarios random --episodes 3
+    python -m impurity_learning.eval_cli --episodes 20
+    python -m impurity_learning.eval_cli --methods ours s_rgm --scenarios random --episodes 3
 """
 
 from __future__ import annotations
@@ -26,10 +26,13 @@ import time
 
 import numpy as np
 
-from .agents import EVAL_METHODS, TRAINED_METHOD, make_agent
-from .episode import EpisodeRequest
+from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+from impurity_policy.core.episode import EpisodeRequest
+from impurity_policy.core.rules import PRESETS
+
+from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
 from .evaluate import EVAL_SEED_BASE, run_episode
-from .train_cli import SHIPPED_CHECKPOINT
+from .train_cli import BASELINE_CHECKPOINT_DIR
 
 SCENARIOS = ("random", "challenging", "invisible")
 LABELS = {"ours": "Ours", "vpg": "VPG", "s_vpg": "S-VPG", "s_rgm": "S-RGM (heuristic)", "no_tsd": "No-TSD",
@@ -47,12 +50,13 @@ PAPER = {
 }
 
 
-def checkpoint_for(method: str, checkpoint_dir: pathlib.Path) -> pathlib.Path | None:
-    """The checkpoint a network method runs (None for the heuristic)."""
+def checkpoint_for(method: str, checkpoint_dir: pathlib.Path, ours: pathlib.Path) -> pathlib.Path | None:
+    """The checkpoint a network method runs: `ours` for Ours, `<checkpoint_dir>/<trained method>.pt`
+    for the baselines and ablations, None for the heuristic."""
     if method not in TRAINED_METHOD:
         return None
     trained = TRAINED_METHOD[method]
-    return checkpoint_dir / (SHIPPED_CHECKPOINT.name if trained == "ours" else f"{trained}.pt")
+    return ours if trained == "ours" else checkpoint_dir / f"{trained}.pt"
 
 
 def shown_path(path: pathlib.Path) -> str:
@@ -78,11 +82,25 @@ def aggregate(episodes: list) -> dict:
             "targets_total": int(sum(e["targets_total"] for e in episodes))}
 
 
+def row_key(method: str, rules: str) -> str:
+    """A results row: a network method under a rules preset ("ours@cell"); the heuristic has no rules."""
+    return method if method in HEURISTIC_METHODS else f"{method}@{rules}"
+
+
+def method_of(row: str) -> str:
+    return row.split("@")[0]
+
+
+def label(row: str) -> str:
+    method, _, rules = row.partition("@")
+    return LABELS[method] + (f" [rules: {rules}]" if rules else "")
+
+
 def percent(value) -> str:
     return "–" if value is None or not math.isfinite(value) else f"{value:.1f}"
 
 
-def results_table(results: dict, methods, scenarios) -> str:
+def results_table(results: dict, rows, scenarios) -> str:
     """Markdown, Table I style: grasp success and action efficiency per scenario (the paper's figure in
     brackets), then completion and false rejects."""
     sections = []
@@ -91,53 +109,53 @@ def results_table(results: dict, methods, scenarios) -> str:
                                ("Completion (every target picked), %", "completion", None)):
         lines = [f"**{title}**" + (" [paper]" if column is not None else ""), "",
                  "| Method | " + " | ".join(scenarios) + " |", "|---|" + "---|" * len(scenarios)]
-        for method in methods:
-            entry = results[method]
+        for row in rows:
+            entry = results[row]
             if entry.get("missing"):
                 cells = ["not trained"] * len(scenarios)
             else:
                 cells = [percent(entry["scenarios"][s][key]) for s in scenarios]
                 if column is not None:
-                    paper = PAPER[method][column]
+                    paper = PAPER[method_of(row)][column]
                     cells = [f"{c} [{percent(paper[SCENARIOS.index(s)])}]"
                              for c, s in zip(cells, scenarios, strict=True)]
-            lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
+            lines.append(f"| {label(row)} | " + " | ".join(cells) + " |")
         sections.append("\n".join(lines))
     lines = ["**False rejects (non-targets grasped) / targets picked of total**", "",
              "| Method | " + " | ".join(scenarios) + " |", "|---|" + "---|" * len(scenarios)]
-    for method in methods:
-        entry = results[method]
+    for row in rows:
+        entry = results[row]
         cells = (["not trained"] * len(scenarios) if entry.get("missing") else
                  [f"{entry['scenarios'][s]['false_rejects']} / {entry['scenarios'][s]['targets_picked']} of "
                   f"{entry['scenarios'][s]['targets_total']}" for s in scenarios])
-        lines.append(f"| {LABELS[method]} | " + " | ".join(cells) + " |")
+        lines.append(f"| {label(row)} | " + " | ".join(cells) + " |")
     sections.append("\n".join(lines))
     return "\n\n".join(sections)
 
 
-def plot_results(results: dict, methods, scenarios, path: pathlib.Path) -> None:
+def plot_results(results: dict, rows, scenarios, path: pathlib.Path) -> None:
     """Fig. 10 style: grasp success (left) and action efficiency (right), bars per method and scenario."""
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    shown = [m for m in methods if not results[m].get("missing")]
+    shown = [r for r in rows if not results[r].get("missing")]
     fig, axes = plt.subplots(1, 2, figsize=(12, 4.2))
     width = 0.8 / max(len(shown), 1)
     x = np.arange(len(scenarios))
     for axis, key, title in ((axes[0], "grasp_success", "Grasp success (%)"),
                              (axes[1], "action_efficiency", "Action efficiency (%)")):
-        for i, method in enumerate(shown):
-            values = [results[method]["scenarios"][s][key] for s in scenarios]
-            bars = axis.bar(x + (i - (len(shown) - 1) / 2) * width, values, width, label=LABELS[method])
+        for i, row in enumerate(shown):
+            values = [results[row]["scenarios"][s][key] for s in scenarios]
+            bars = axis.bar(x + (i - (len(shown) - 1) / 2) * width, values, width, label=label(row))
             axis.bar_label(bars, fmt="%.0f", fontsize=7)
         axis.set_xticks(x, scenarios)
         axis.set_ylim(0, 105)
         axis.set_title(title)
         axis.grid(axis="y", alpha=0.3)
     axes[0].legend(fontsize=8, loc="upper right")
-    missing = [LABELS[m] for m in methods if results[m].get("missing")]
+    missing = [label(r) for r in rows if results[r].get("missing")]
     note = f"not trained yet: {', '.join(missing)}" if missing else ""
     fig.suptitle(f"Fast-sim evaluation, {results['_meta']['episodes']} episodes per method and scenario "
                  f"(held-out seeds). {note}", fontsize=10)
@@ -147,7 +165,7 @@ def plot_results(results: dict, methods, scenarios, path: pathlib.Path) -> None:
     plt.close(fig)
 
 
-def write_markdown(results: dict, methods, scenarios, path: pathlib.Path, chart: pathlib.Path, command: str):
+def write_markdown(results: dict, rows, scenarios, path: pathlib.Path, chart: pathlib.Path, command: str):
     meta = results["_meta"]
     lines = ["# Evaluation results (fast sim)", "",
              f"Generated by `{command}` on {meta['date']} in {meta['seconds']:.0f} s. "
@@ -158,19 +176,19 @@ def write_markdown(results: dict, methods, scenarios, path: pathlib.Path, chart:
              "Metrics as the paper (section 6.1), averaged over episodes: grasp success = targets picked / "
              "grasp attempts; action efficiency = targets picked / actions; completion = every target "
              "picked. The paper's figures are in brackets.", "",
-             results_table(results, methods, scenarios), "",
+             results_table(results, rows, scenarios), "",
              f"![results]({os.path.relpath(chart, path.parent)})", "",
              "## Checkpoints", ""]
-    for method in methods:
-        entry = results[method]
+    for row in rows:
+        entry = results[row]
         if entry.get("missing"):
-            lines.append(f"- {LABELS[method]}: no checkpoint at `{entry['checkpoint']}` — train it with "
-                         f"`make train TRAIN_ARGS=\"--method {TRAINED_METHOD[method]} --run-dir "
-                         f"runs/{TRAINED_METHOD[method]} --export {entry['checkpoint']}\"`")
+            lines.append(f"- {label(row)}: no checkpoint at `{entry['checkpoint']}` — train it with "
+                         f"`make train TRAIN_ARGS=\"--method {TRAINED_METHOD[method_of(row)]} --run-dir "
+                         f"runs/{TRAINED_METHOD[method_of(row)]} --export {entry['checkpoint']}\"`")
         elif entry.get("checkpoint"):
-            lines.append(f"- {LABELS[method]}: `{entry['checkpoint']}` (sha256 {entry['sha256']})")
+            lines.append(f"- {label(row)}: `{entry['checkpoint']}` (sha256 {entry['sha256']})")
         else:
-            lines.append(f"- {LABELS[method]}: no network (heuristic)")
+            lines.append(f"- {label(row)}: no network (heuristic)")
     path.write_text("\n".join(lines) + "\n")
 
 
@@ -195,21 +213,22 @@ _WORKER: dict = {}  # per process: the sim world and each method's agent, built 
 
 
 def run_task(task: tuple) -> dict:
-    """One evaluation episode (method, checkpoint, scenario, seed, torch threads) -> its record; runs
-    in the main process or in a pool worker."""
+    """One evaluation episode (row, checkpoint, scenario, seed, torch threads) -> its record; runs in
+    the main process or in a pool worker. row: row_key(method, rules preset)."""
     import torch
 
     from ur5_driver_sim.core.world import CellWorld
 
-    method, checkpoint, scenario, seed, threads = task
+    row, checkpoint, scenario, seed, threads = task
+    method, _, rules = row.partition("@")
     if "world" not in _WORKER:
         torch.set_num_threads(threads)
         _WORKER["world"] = CellWorld(mode="floating")
     agents = _WORKER.setdefault("agents", {})
-    if method not in agents:
-        agents[method] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None)
-    metrics = run_episode(_WORKER["world"], agents[method], EpisodeRequest(scenario, seed=seed))
-    return {"method": method, "scenario": scenario, "seed": seed, **metrics}
+    if row not in agents:
+        agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none")
+    metrics = run_episode(_WORKER["world"], agents[row], EpisodeRequest(scenario, seed=seed))
+    return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, **metrics}
 
 
 def close_worker() -> None:
@@ -222,9 +241,14 @@ def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
     p.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
+    p.add_argument("--rules", nargs="+", default=["cell"], choices=sorted(PRESETS),
+                   help="test-time rules presets; every network method runs under each (none: the paper's "
+                        "argmax, cell: our rules)")
     p.add_argument("--episodes", type=int, default=20, help="per method and scenario")
     p.add_argument("--seed-base", type=int, default=EVAL_SEED_BASE)
-    p.add_argument("--checkpoint-dir", default=str(SHIPPED_CHECKPOINT.parent))
+    p.add_argument("--checkpoint-dir", default=str(BASELINE_CHECKPOINT_DIR),
+                   help="the baselines' and ablations' networks, <trained method>.pt")
+    p.add_argument("--policy-checkpoint", default=str(SHIPPED_CHECKPOINT), help="Ours: the shipped network")
     p.add_argument("--markdown", default="docs/results.md")
     p.add_argument("--chart", default="docs/images/results.png")
     p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
@@ -246,21 +270,22 @@ def main(argv=None) -> int:
     torch.set_num_threads(args.threads)
     checkpoint_dir = pathlib.Path(args.checkpoint_dir)
     results, runnable = {}, {}
-    for method in args.methods:
-        checkpoint = checkpoint_for(method, checkpoint_dir)
+    rows = list(dict.fromkeys(row_key(m, r) for r in args.rules for m in args.methods))
+    for row in rows:
+        method = method_of(row)
+        checkpoint = checkpoint_for(method, checkpoint_dir, pathlib.Path(args.policy_checkpoint))
         if checkpoint is not None and not checkpoint.is_file():
-            results[method] = {"missing": True, "checkpoint": shown_path(checkpoint)}
-            print(f"eval: {LABELS[method]}: no checkpoint at {checkpoint}: listed as not trained",
-                  file=sys.stderr)
+            results[row] = {"missing": True, "checkpoint": shown_path(checkpoint)}
+            print(f"eval: {label(row)}: no checkpoint at {checkpoint}: listed as not trained", file=sys.stderr)
             continue
         make_agent(method, checkpoint)  # a checkpoint that does not load fails here, before any episode
-        runnable[method] = str(checkpoint.resolve()) if checkpoint else ""  # workers need not share our cwd
-        results[method] = {"checkpoint": shown_path(checkpoint) if checkpoint else "",
-                           "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
-                           "episodes": []}
+        runnable[row] = str(checkpoint.resolve()) if checkpoint else ""  # workers need not share our cwd
+        results[row] = {"checkpoint": shown_path(checkpoint) if checkpoint else "",
+                        "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
+                        "episodes": []}
     started = time.perf_counter()
-    tasks = [(method, checkpoint, scenario, args.seed_base + k, args.threads)
-             for scenario in args.scenarios for method, checkpoint in runnable.items()
+    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads)
+             for scenario in args.scenarios for row, checkpoint in runnable.items()
              for k in range(args.episodes)]
     episodes = []
     with tqdm(total=len(tasks), desc="eval", unit="episode", disable=args.no_progress,
@@ -275,32 +300,32 @@ def main(argv=None) -> int:
                 for future in as_completed([pool.submit(run_task, task) for task in tasks]):
                     episode = future.result()
                     episodes.append(episode)
-                    bar.set_postfix_str(f"{episode['scenario']} {LABELS[episode['method']]}")
+                    bar.set_postfix_str(f"{episode['scenario']} {label(episode['row'])}")
                     bar.update(1)
         else:
             for task in tasks:
-                bar.set_postfix_str(f"{task[2]} {LABELS[task[0]]} seed {task[3]}")
+                bar.set_postfix_str(f"{task[2]} {label(task[0])} seed {task[3]}")
                 episodes.append(run_task(task))
                 bar.update(1)
     close_worker()
     episodes.sort(key=lambda e: (args.scenarios.index(e["scenario"]), e["seed"]))
-    for method in runnable:
+    for row in runnable:
         for scenario in args.scenarios:
-            mine = [e for e in episodes if e["method"] == method and e["scenario"] == scenario]
-            results[method]["scenarios"][scenario] = aggregate(mine)
-            results[method]["episodes"] += mine
+            mine = [e for e in episodes if e["row"] == row and e["scenario"] == scenario]
+            results[row]["scenarios"][scenario] = aggregate(mine)
+            results[row]["episodes"] += mine
     results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
-                        "methods": args.methods, "seconds": time.perf_counter() - started,
+                        "methods": args.methods, "rules": args.rules, "rows": rows, "seconds": time.perf_counter() - started,
                         "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs}
     arguments = argv if argv is not None else sys.argv[1:]
-    command = "python -m impurity_policy.core.eval_cli " + " ".join(arguments)
+    command = "python -m impurity_learning.eval_cli " + " ".join(arguments)
     markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
     for path in (markdown, chart, raw):
         path.parent.mkdir(parents=True, exist_ok=True)
     raw.write_text(json.dumps(results, indent=1, default=float) + "\n")
-    plot_results(results, args.methods, args.scenarios, chart)
-    write_markdown(results, args.methods, args.scenarios, markdown, chart, command.strip())
-    table = results_table(results, args.methods, args.scenarios)
+    plot_results(results, rows, args.scenarios, chart)
+    write_markdown(results, rows, args.scenarios, markdown, chart, command.strip())
+    table = results_table(results, rows, args.scenarios)
     if update_readme(pathlib.Path(args.readme), table, markdown):
         print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
     print(table)

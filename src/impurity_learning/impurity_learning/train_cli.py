@@ -1,4 +1,4 @@
-"""`make train` (python -m impurity_policy.core.train_cli [options]): train the push-grasp policy in the
+"""`make train` (python -m impurity_learning.train_cli [options]): train the push-grasp policy in the
 fast sim, resumable (same --run-dir), with a progress bar, CSV log and success plot. Then
 `--export PATH` copies the trained network to the shipped checkpoint location."""
 
@@ -9,10 +9,14 @@ import json
 import pathlib
 import sys
 
-from .train import METHODS, TrainConfig, TrainingRun
-from .trainer import Trainer, TrainerConfig, read_checkpoint
+from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT, read_checkpoint
+from impurity_policy.core.rules import PRESETS
 
-SHIPPED_CHECKPOINT = pathlib.Path(__file__).resolve().parents[2] / "checkpoints" / "policy.pt"
+from .train import METHODS, TrainConfig, TrainingRun
+from .trainer import Trainer, TrainerConfig
+
+# The baselines' and ablations' networks (make train-baselines exports them here).
+BASELINE_CHECKPOINT_DIR = pathlib.Path(__file__).resolve().parents[1] / "checkpoints"
 
 
 def parse_args(argv=None) -> argparse.Namespace:
@@ -29,8 +33,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads (1 on a shared machine)")
     p.add_argument("--max-hours", type=float, default=0.0,
                    help="stop and save after this much wall time (0: no limit); rerun to resume")
-    p.add_argument("--action-filters", action="store_true",
-                   help="apply the test-time action filters (policy.ActionFilters) while training too")
+    p.add_argument("--rules", default="none", choices=sorted(PRESETS),
+                   help="test-time rules preset applied while training too (none: the paper's argmax)")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--export", metavar="PATH", nargs="?", const=str(SHIPPED_CHECKPOINT),
                    help=f"after training, write the network-only checkpoint (default {SHIPPED_CHECKPOINT})")
@@ -40,7 +44,7 @@ def parse_args(argv=None) -> argparse.Namespace:
 def export_network(checkpoint, path) -> pathlib.Path:
     """Network-only copy (no optimizer, no loop state): what the policy node loads; small."""
     data = read_checkpoint(checkpoint)
-    from .network import NetworkConfig
+    from impurity_policy.core.network import NetworkConfig
 
     trainer = Trainer(NetworkConfig.from_dict(data["network_config"]))
     trainer.online.load_state_dict(data["online"])
@@ -62,7 +66,7 @@ def main(argv=None) -> int:
                          num_targets=args.num_targets, num_objects=args.num_objects,
                          replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
                          threads=args.threads, max_hours=args.max_hours, progress=not args.no_progress,
-                         action_filters=args.action_filters,
+                         rules=args.rules,
                          trainer=TrainerConfig(learning_rate=args.lr))
     run = TrainingRun(config)
     if run.resumed:

@@ -37,20 +37,20 @@ import numpy as np
 import torch
 
 from impurity_common import cell
-
-from . import tcdd
-from .network import GRASP, PUSH, NetworkConfig
-from .policy import (
+from impurity_common.grid import HeightmapGrid
+from impurity_policy.core.network import GRASP, PUSH, NetworkConfig
+from impurity_policy.core.policy import (
     MODE_NONE,
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
-    NO_FILTERS,
-    ActionFilters,
     Observation,
     Policy,
     allowed_primitives,
 )
-from .pose import PoseRules
+from impurity_policy.core.pose import PoseRules
+from impurity_policy.core.rules import PRESETS, RulePipeline
+
+from . import tcdd
 from .replay import RankedReplay, Transition
 from .trainer import Trainer, TrainerConfig
 
@@ -82,15 +82,17 @@ class TrainConfig:
     replay_capacity: int = 20000
     threads: int = 2
     max_hours: float = 0.0  # > 0: stop (and save) after this much wall time in this invocation
-    # policy.ActionFilters while training. Off by default: the shipped checkpoint was trained without
-    # them; evaluation and the policy node apply them at test time.
-    action_filters: bool = False
+    # Test-time rules preset while training (rules.PRESETS). "none" by default: the shipped checkpoint
+    # was trained without rules; evaluation and the policy node apply them at test time.
+    rules: str = "none"
     progress: bool = True
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
 
     def __post_init__(self):
         if self.method not in METHODS:
             raise ValueError(f"unknown method '{self.method}' (expected one of {', '.join(METHODS)})")
+        if self.rules not in PRESETS:
+            raise ValueError(f"unknown rules preset '{self.rules}' (expected one of {', '.join(PRESETS)})")
         if self.scenario != "random":
             raise ValueError("training uses the random scenario only (paper 6.2)")
 
@@ -101,13 +103,15 @@ def network_config_for(method: str) -> NetworkConfig:
 
 
 # ---- observations per method -----------------------------------------------------------------------
-def observe(method: str, attention, height: np.ndarray, color: np.ndarray) -> Observation:
-    """Attention output -> the policy's input for `method` (see the module docstring)."""
+def observe(method: str, attention, height: np.ndarray, color: np.ndarray,
+            grid: HeightmapGrid = HeightmapGrid()) -> Observation:
+    """Attention output -> the policy's input for `method` (see the module docstring); `height` and
+    `color` are the full maps on `grid`."""
     if method in ("no_tsd", "vpg"):
         mode = MODE_NONE if attention.mode == MODE_NONE and not np.any(height > 0.01) else MODE_TARGET
         return Observation(mode, color, height.astype(np.float32),
-                           np.full(height.shape, 255, np.uint8), (0, 0), height)
-    obs = Observation.from_attention(attention, height)
+                           np.full(height.shape, 255, np.uint8), (0, 0), height, grid)
+    obs = Observation.from_attention(attention, height, grid)
     if method == "no_oi" and attention.mode == MODE_OCCLUDED_REGION:
         from impurity_attention.core.attention import crop_centered
 
@@ -116,7 +120,7 @@ def observe(method: str, attention, height: np.ndarray, color: np.ndarray) -> Ob
         color_crop, origin = crop_centered(color, peak[0], peak[1], size)
         height_crop, _ = crop_centered(height, peak[0], peak[1], size)
         obs = Observation(MODE_TARGET, color_crop, height_crop.astype(np.float32),
-                          np.full((size, size), 255, np.uint8), origin, height)
+                          np.full((size, size), 255, np.uint8), origin, height, grid)
     return obs
 
 
@@ -157,7 +161,7 @@ def sense(world, projectors: dict, method: str, attention_params, grid) -> Sense
                                                   grid)
     maps = projectors["camera"].project(frame.color, frame.depth)
     attention = attend(maps.color, maps.height, attention_params, grid)
-    obs = observe(method, attention, maps.height, maps.color)
+    obs = observe(method, attention, maps.height, maps.color, grid)
     return Sensed(obs, world.ground_truth(frame), maps, attention)
 
 
@@ -167,7 +171,6 @@ class TrainingRun:
 
     def __init__(self, config: TrainConfig):
         from impurity_attention.core.attention import AttentionParams
-        from impurity_attention.core.heightmap import HeightmapGrid
         from ur5_driver_sim.core.world import CellWorld
 
         torch.set_num_threads(config.threads)
@@ -180,7 +183,7 @@ class TrainingRun:
         self.plot_path = self.dir / "success.png"
         self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed)
         self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object,
-                             ActionFilters() if config.action_filters else NO_FILTERS)
+                             RulePipeline.preset(config.rules))
         self.replay = RankedReplay(config.replay_capacity)
         self.rng = np.random.default_rng(config.seed)
         self.iteration = 0

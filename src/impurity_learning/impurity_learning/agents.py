@@ -25,11 +25,12 @@ import cv2
 import numpy as np
 
 from impurity_common import cell
-
-from .network import GRASP, PUSH
-from .policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Policy, TriedActionMemory
-from .pose import ActionPose, PoseRules, action_pose, yaw_to_rotation
-from .trainer import OBJECT_HEIGHT
+from impurity_common.grid import HeightmapGrid
+from impurity_policy.core.decision import OBJECT_HEIGHT
+from impurity_policy.core.network import GRASP, PUSH
+from impurity_policy.core.policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, Policy
+from impurity_policy.core.pose import ActionPose, PoseRules, action_pose, yaw_to_rotation
+from impurity_policy.core.rules import RulePipeline
 
 NETWORK_METHODS = ("ours", "no_tsd", "no_oi", "no_t", "vpg", "s_vpg")
 HEURISTIC_METHODS = ("s_rgm",)
@@ -61,11 +62,10 @@ class NetworkAgent:
             raise ValueError(f"'{method}' is not a network method ({', '.join(NETWORK_METHODS)})")
         self.name, self.policy = method, policy
         self.method = TRAINED_METHOD[method]  # how train.sense builds the observation
-        self.memory = TriedActionMemory()
         self._decided_on = None  # the observation of the action under way
 
     def reset(self, seed: int) -> None:
-        self.memory.clear()
+        self.policy.rules.clear()
 
     def restriction(self, sensed) -> np.ndarray | None:
         attention = sensed.attention
@@ -80,18 +80,14 @@ class NetworkAgent:
     def act(self, sensed) -> Action | None:
         if sensed.obs.mode == MODE_NONE:
             return None
-        q = self.memory.suppress(self.policy.q_maps(sensed.obs), sensed.obs)
         self._decided_on = sensed.obs
-        choice = self.policy.decide(sensed.obs, q=q, restrict=self.restriction(sensed))
+        choice = self.policy.decide(sensed.obs, restrict=self.restriction(sensed))
         return Action(primitive_name(choice.decision.primitive), choice.pose, choice.decision.q_value,
                       sensed.obs.mode)
 
     def observe_outcome(self, action: Action, outcome) -> None:
-        """No learning during evaluation; the action is remembered (TriedActionMemory)."""
-        primitive = GRASP if action.kind == "grasp" else PUSH
-        pose = action.pose
-        self.memory.record(primitive, pose.heightmap_pixel, pose.rotation, self._decided_on.height,
-                           bool(outcome.success))
+        """No learning during evaluation; the action is remembered for the stateful rules."""
+        self.policy.remember(action.pose, self._decided_on.height, bool(outcome.success))
 
 
 def grasp_rectangle(mask: np.ndarray) -> tuple | None:
@@ -124,8 +120,8 @@ class SalientGraspHeuristic:
     name = "s_rgm"
     method = "ours"  # sensing as ours: the same saliency and clusters
 
-    def __init__(self, rules: PoseRules = PoseRules(), resolution: float = cell.HEIGHTMAP_RESOLUTION):
-        self.rules, self.resolution = rules, resolution
+    def __init__(self, rules: PoseRules = PoseRules(), grid: HeightmapGrid = HeightmapGrid()):
+        self.rules, self.grid, self.resolution = rules, grid, grid.resolution
         self.failed_grasps: list = []
         self.region_pushes = 0
 
@@ -133,8 +129,7 @@ class SalientGraspHeuristic:
         self.failed_grasps, self.region_pushes = [], 0
 
     def _pose(self, primitive: int, pixel: tuple, yaw: float, height: np.ndarray) -> ActionPose:
-        return action_pose(primitive, yaw_to_rotation(yaw), pixel, (0, 0), height, self.rules,
-                           self.resolution)
+        return action_pose(primitive, yaw_to_rotation(yaw), pixel, (0, 0), height, self.rules, self.grid)
 
     def _push_through(self, height: np.ndarray, centre: tuple, yaw: float, lead_px: float) -> ActionPose:
         """A push whose start lies `lead_px` behind `centre` along yaw, so it runs through it."""
@@ -182,12 +177,13 @@ class SalientGraspHeuristic:
             self.failed_grasps = []  # the scene changed: grasp again
 
 
-def make_agent(method: str, checkpoint=None):
-    """The agent for an evaluation method; network methods need their checkpoint's path."""
+def make_agent(method: str, checkpoint=None, rules: str = "cell"):
+    """The agent for an evaluation method; network methods need their checkpoint's path and run with
+    the rules preset `rules` (rules.PRESETS: "none" is the paper's argmax, "cell" our test-time rules)."""
     if method in HEURISTIC_METHODS:
         return SalientGraspHeuristic()
     if method not in NETWORK_METHODS:
         raise ValueError(f"unknown method '{method}' (expected one of {', '.join(EVAL_METHODS)})")
     if checkpoint is None:
         raise ValueError(f"method '{method}' needs a trained checkpoint")
-    return NetworkAgent(method, Policy.from_checkpoint(checkpoint))
+    return NetworkAgent(method, Policy.from_checkpoint(checkpoint, rules=RulePipeline.preset(rules)))

@@ -1,0 +1,76 @@
+"""Fast-sim evaluation episodes (paper 6.1 metrics), no ROS: the simulator as a cell of the one picking
+loop (impurity_policy.core.picking), with the same sensing as training and greedy decisions, so the
+numbers count exactly as the episode node's.
+
+    world = CellWorld(mode="floating")
+    metrics = run_episode(world, make_agent("ours", checkpoint), EpisodeRequest("challenging", seed=7))
+
+Held-out seeds: training scenes use seed * 1_000_003 + scene index (train.SCENE_SEED_STRIDE) with
+small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
+"""
+
+from __future__ import annotations
+
+from impurity_attention.core.attention import AttentionParams
+from impurity_common.grid import HeightmapGrid
+from impurity_policy.core import picking
+from impurity_policy.core.episode import EpisodeRequest
+
+from .train import sense
+
+EVAL_SEED_BASE = 900_000_000
+
+
+class SimCell:
+    """The fast simulator (a ur5_driver_sim CellWorld) and an evaluation agent (agents.py) behind the
+    picking loop's cell interface. Ground truth counts the targets: this is the simulator's privilege,
+    and the only place where truth meets the loop."""
+
+    def __init__(self, world, agent, attention_params: AttentionParams = AttentionParams(),
+                 grid: HeightmapGrid = HeightmapGrid()):
+        self.world, self.agent, self.attention_params, self.grid = world, agent, attention_params, grid
+        self._projectors: dict = {}
+        self._sensed = None
+
+    def _sense(self):
+        self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params, self.grid)
+
+    def reset(self, request: EpisodeRequest) -> int:
+        self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
+                               num_objects=request.num_objects, scene_file=request.scene_file or None)
+        self.agent.reset(request.seed)
+        self._sense()
+        return self._sensed.truth.targets_remaining
+
+    def observe(self) -> picking.View:
+        return picking.View(self._sensed.obs.mode, self._sensed.maps.color, self._sensed)
+
+    def decide(self, view: picking.View) -> picking.Action | None:
+        action = self.agent.act(view.source)
+        if action is None:
+            return None
+        pose = action.pose
+        return picking.Action(action.kind, (pose.x, pose.y, pose.z), pose.yaw, action.q_value, pose.rotation,
+                              pose.heightmap_pixel, action.mode, source=action)
+
+    def execute(self, action: picking.Action) -> picking.Outcome:
+        x, y, z = action.position
+        outcome = self.world.execute(action.kind, x, y, z, action.yaw)
+        self.agent.observe_outcome(action.source, outcome)
+        self._sense()
+        return picking.Outcome(bool(outcome.success), bool(outcome.target_grasped), outcome.message)
+
+    def targets_remaining(self, outcome: picking.Outcome, before: int) -> int:
+        return self._sensed.truth.targets_remaining
+
+
+def _reraise(error: Exception) -> None:
+    raise error  # an evaluation episode that fails stops the run instead of counting as an episode
+
+
+def run_episode(world, agent, request: EpisodeRequest, limits: picking.EpisodeLimits = picking.EpisodeLimits(),
+                recorder=None) -> dict:
+    """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
+    loop's summary: the metrics plus termination_reason and completed (every target picked)."""
+    return picking.run_episode(SimCell(world, agent), request, f"{request.scenario}-{request.seed}", limits,
+                               recorder=recorder, on_error=_reraise)

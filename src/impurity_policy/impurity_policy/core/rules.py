@@ -1,0 +1,356 @@
+"""Test-time rules: what the cell knows about its gripper and its job that the network, trained in
+random scenes, does not. Each rule is a small named unit that keeps some actions and rules the others
+out (sets their Q value to -inf); none ever adds an action. They are applied in one place
+(`RulePipeline.apply`) in one order, `RULE_ORDER`:
+
+  1. tried_actions                 mask  an executed action that changed nothing is not tried again
+                                         (stateful: `record` after each executed action)
+  2. finger_clearance              mask  grasps whose open finger pads or palm would land on something
+  3. grasp_on_target               mask  with a target in view, grasps on its mask only
+  4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top
+  5. push_end_inside               mask  pushes that end inside the workspace, with a margin
+  6. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
+  7. grasp_where_target_on_top     pref  grasps where the target is the local top
+  8. target_push_start_near        pref  with a target in view, pushes that start next to it
+  9. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
+                                         when no grasp is left there, the policy pushes)
+
+A *mask* always applies. A *preference* applies only where it leaves at least one action of its
+primitive (counting what the rules before it and -inf Q values already took away); otherwise it
+gives way. The geometry of each rule is a pure function in `pose`; the figures that chose the
+thresholds are in docs/experiments.md.
+
+Presets (`PRESETS`, node parameter `rules`, `--rules` in evaluation and training):
+  none  the paper's method: the network's argmax over the valid actions, no rule at all;
+  cell  every rule above (the cell's default).
+
+Shapes: Q maps (R, 2, S, S) (R rotations, 0 = push, 1 = grasp, S x S crop); a rule keeps a bool
+array that broadcasts to (R, S, S) for one primitive.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+
+from impurity_common.grid import HeightmapGrid
+
+from .change import CHANGE_PIXELS_TAU, changed_pixels
+from .network import GRASP, PUSH, valid_action_mask
+from .pose import (
+    PoseRules,
+    grasp_clearance,
+    heap_top,
+    pixels_near,
+    pushes_ending_inside,
+    pushes_passing,
+    pushes_starting_on_flank,
+    target_core,
+    target_on_top,
+)
+
+MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
+MASK, PREFERENCE = "mask", "preference"
+
+
+@dataclass(frozen=True)
+class RuleParams:
+    """Every rule's thresholds, in one place (node parameters of the same names; docs/experiments.md
+    has the runs that chose them)."""
+
+    tried_action_radius_px: int = 10  # tried_actions: heightmap px around an executed action ruled out
+    changed_pixels: int = CHANGE_PIXELS_TAU  # tried_actions: a scene with at most this many changed
+    # pixels (change.changed_pixels) counts as unchanged
+    failed_grasps_before_push: int = 2  # tried_actions: failed grasps in a row after which every grasp
+    # is ruled out until a push (0: never)
+    heap_sigma_px: float = 6.0  # occluded rules: smoothing (px) of the height crop before its top is taken
+    occluded_push_radius_px: int = 10  # occluded_push_through_heap: pushes pass this close to the top
+    push_end_margin: float = 0.06  # m, push_end_inside: pushes end at least this far inside the workspace
+    occluded_push_start_band: tuple = (0.5, 0.7)  # occluded_push_start_on_flank: local top at the start,
+    # as a fraction of the heap top's height
+    target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
+    target_push_radius_px: int = 12  # target_push_start_near: px from the target's mask
+    grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
+
+    def __post_init__(self):
+        low, high = self.occluded_push_start_band
+        if not 0.0 <= low < high <= 1.0:
+            raise ValueError(f"occluded_push_start_band must be 0 <= low < high <= 1, got {(low, high)}")
+        for name in ("tried_action_radius_px", "changed_pixels", "failed_grasps_before_push",
+                     "occluded_push_radius_px", "target_push_radius_px"):
+            if getattr(self, name) < 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("heap_sigma_px", "push_end_margin", "target_on_top_tolerance", "grasp_core_depth_px"):
+            if not getattr(self, name) >= 0:
+                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+
+class RuleContext:
+    """What the rules of one decision look at; shared quantities are computed once, on first use.
+
+    obs: policy.Observation; q: (R, 2, S, S) Q maps as they reach the rules; valid: (2, S, S) the
+    primitives' valid pixels (policy.Policy.masks); grid: the heightmap's geometry."""
+
+    def __init__(self, obs, q: np.ndarray, valid: np.ndarray, pose_rules: PoseRules, params: RuleParams,
+                 grid: HeightmapGrid):
+        self.obs, self.q, self.valid, self.pose_rules, self.params, self.grid = (
+            obs, q, valid, pose_rules, params, grid)
+        self.rotations, self.size = q.shape[0], obs.mask.shape[0]
+
+    @functools.cached_property
+    def target(self) -> np.ndarray:
+        return self.obs.mask > 0
+
+    @functools.cached_property
+    def target_in_view(self) -> bool:
+        return self.obs.mode == MODE_TARGET and bool(self.target.any())
+
+    @functools.cached_property
+    def heap_top(self) -> tuple:
+        return heap_top(self.obs.height_crop, valid_action_mask(self.size), self.params.heap_sigma_px)
+
+
+@dataclass(frozen=True)
+class Keep:
+    """A rule's verdict for one primitive: the actions it keeps, bool, broadcastable to (R, S, S)."""
+
+    primitive: int
+    actions: np.ndarray
+
+
+class Rule:
+    """One named rule; `keeps` returns its verdicts, or () where it does not apply."""
+
+    name = ""
+    kind = MASK
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        raise NotImplementedError
+
+
+class TriedActions(Rule):
+    """A greedy policy repeats itself: after a grasp that closed on nothing or a push that moved
+    nothing the state is about the same, so the argmax is too (invisible scenes showed the same push
+    ten times over). Executed actions are ruled out within `tried_action_radius_px` (a push: its
+    direction; a grasp: its rotation and the opposite one, one closing axis):
+      - a failed grasp until a push rearranges the scene or a grasp lifts something;
+      - a push while the scene is unchanged since it was decided (at most `changed_pixels` height
+        pixels moved: the paper's change rule, change.changed_pixels);
+      - every grasp once `failed_grasps_before_push` grasps in a row have failed: a wedged target needs
+        a separating push, and the net under-values it in packings it rarely saw in training."""
+
+    name = "tried_actions"
+
+    def __init__(self, params: RuleParams):
+        self.params = params
+        self.tried: list = []  # (primitive, row, col, rotation, height map decided on) in heightmap pixels
+
+    def clear(self) -> None:
+        self.tried = []
+
+    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray, success: bool) -> None:
+        """An executed action, the full height map (H, W) it was decided on, and whether it succeeded (a
+        grasp: lifted something)."""
+        if primitive == GRASP and success:
+            self.clear()
+            return
+        if primitive == PUSH:
+            self.tried = [entry for entry in self.tried if entry[0] == PUSH]
+        self.tried.append((int(primitive), int(heightmap_pixel[0]), int(heightmap_pixel[1]), int(rotation),
+                           np.array(height, dtype=np.float32)))
+
+    def _unchanged(self, before: np.ndarray, now: np.ndarray) -> bool:
+        return before.shape == now.shape and changed_pixels(before, now) <= self.params.changed_pixels
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        self.tried = [entry for entry in self.tried
+                      if entry[0] == GRASP or self._unchanged(entry[4], ctx.obs.height)]
+        if not self.tried:
+            return ()
+        rotations, size = ctx.rotations, ctx.size
+        keep = np.ones((2, rotations, size, size), dtype=bool)
+        failed_grasps = sum(entry[0] == GRASP for entry in self.tried)
+        if 0 < self.params.failed_grasps_before_push <= failed_grasps:
+            keep[GRASP] = False
+        rows, cols = np.ogrid[:size, :size]
+        row0, col0 = ctx.obs.crop_origin
+        radius = self.params.tried_action_radius_px
+        for primitive, row, col, rotation, _ in self.tried:
+            near = (rows - (row - row0)) ** 2 + (cols - (col - col0)) ** 2 <= radius ** 2
+            same = (rotation,) if primitive == PUSH else (rotation, rotation + rotations // 2)
+            for r in same:
+                keep[primitive, r % rotations][near] = False
+        return Keep(PUSH, keep[PUSH]), Keep(GRASP, keep[GRASP])
+
+
+class FingerClearance(Rule):
+    """A grasp whose open finger pads would land on something (pose.grasp_clearance): the guarded
+    descent stops above the object, so only a push can help (wedged targets)."""
+
+    name = "finger_clearance"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if ctx.obs.mode != MODE_TARGET:
+            return ()
+        clear = grasp_clearance(ctx.obs.height, ctx.obs.crop_origin, ctx.size, ctx.pose_rules, ctx.rotations,
+                                ctx.grid.resolution)
+        return (Keep(GRASP, clear),)
+
+
+class GraspOnTarget(Rule):
+    """A grasp off the attended target's mask: the cell picks impurities only, and a grasp beside a
+    blocked target otherwise lifts its neighbour (a false reject)."""
+
+    name = "grasp_on_target"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        return (Keep(GRASP, ctx.target[None]),) if ctx.target_in_view else ()
+
+
+class OccludedPushThroughHeap(Rule):
+    """No target in view: a push that does not pass within `occluded_push_radius_px` of the crop's
+    highest pile (pose.heap_top) only trims the heap's rim; scatter the heap that can hide a target
+    (paper section 4)."""
+
+    name = "occluded_push_through_heap"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_radius_px <= 0:
+            return ()
+        return (Keep(PUSH, pushes_passing(ctx.heap_top, ctx.size, ctx.params.occluded_push_radius_px,
+                                          ctx.rotations, ctx.grid.resolution)),)
+
+
+class PushEndInside(Rule):
+    """A push that ends less than `push_end_margin` inside the workspace: what the fingers shove ahead
+    lands beyond the end, and a target pushed out of the workspace is lost to the cell."""
+
+    name = "push_end_inside"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if ctx.obs.mode not in (MODE_TARGET, MODE_OCCLUDED_REGION):
+            return ()
+        inside = pushes_ending_inside(ctx.obs.crop_origin, ctx.size, ctx.params.push_end_margin, ctx.rotations,
+                                      ctx.grid)
+        return (Keep(PUSH, inside),)
+
+
+class OccludedPushStartOnFlank(Rule):
+    """No target in view: a push that does not start on the heap's flank, where the local top is
+    `occluded_push_start_band` times the heap top's height (pose.pushes_starting_on_flank): from the
+    top a push only sweeps off what lies on the heap."""
+
+    name = "occluded_push_start_on_flank"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION:
+            return ()
+        return (Keep(PUSH, pushes_starting_on_flank(ctx.obs.height_crop, ctx.heap_top,
+                                                    ctx.params.occluded_push_start_band,
+                                                    ctx.pose_rules.local_radius_px)),)
+
+
+class GraspWhereTargetOnTop(Rule):
+    """A grasp where something other than the target is the local top (pose.target_on_top): the grasp
+    closes at that height and lifts the object lying on the target."""
+
+    name = "grasp_where_target_on_top"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view:
+            return ()
+        return (Keep(GRASP, target_on_top(ctx.obs.height_crop, ctx.obs.mask, ctx.pose_rules.local_radius_px,
+                                          ctx.params.target_on_top_tolerance)),)
+
+
+class TargetPushStartNear(Rule):
+    """With a target in view, a push that starts farther than `target_push_radius_px` from its mask
+    (pose.pixels_near): the pushes that free a target start at it."""
+
+    name = "target_push_start_near"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view:
+            return ()
+        return (Keep(PUSH, pixels_near(ctx.obs.mask, ctx.params.target_push_radius_px)),)
+
+
+class GraspAtTargetCore(Rule):
+    """A grasp off the middle of the target, where its mask is less deep than `grasp_core_depth_px`
+    below its deepest (pose.target_core). A mask after the preferences: when no grasp is left there,
+    the policy pushes (grasps off the middle lifted the neighbour between the fingers and the target)."""
+
+    name = "grasp_at_target_core"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view:
+            return ()
+        return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
+
+
+RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
+                                      PushEndInside, OccludedPushStartOnFlank, GraspWhereTargetOnTop,
+                                      TargetPushStartNear, GraspAtTargetCore)}
+RULE_ORDER = tuple(RULES)
+PRESETS = {"none": (), "cell": RULE_ORDER}
+
+
+class RulePipeline:
+    """The rules of one policy, applied in RULE_ORDER. Stateful rules (tried_actions) remember the
+    episode's executed actions: `record` after each, `clear` at an episode's start."""
+
+    def __init__(self, names=(), params: RuleParams = RuleParams()):
+        unknown = sorted(set(names) - set(RULES))
+        if unknown:
+            raise ValueError(f"unknown rule(s) {', '.join(unknown)} (known: {', '.join(RULE_ORDER)})")
+        self.params = params
+        self.rules = [RULES[name](params) if name == TriedActions.name else RULES[name]()
+                      for name in RULE_ORDER if name in set(names)]
+
+    @classmethod
+    def preset(cls, name: str, params: RuleParams = RuleParams(), without=()) -> RulePipeline:
+        """A named preset (PRESETS), optionally without some of its rules."""
+        if name not in PRESETS:
+            raise ValueError(f"unknown rules preset '{name}' (known: {', '.join(PRESETS)})")
+        unknown = sorted(set(without) - set(RULES))
+        if unknown:
+            raise ValueError(f"unknown rule(s) {', '.join(unknown)} (known: {', '.join(RULE_ORDER)})")
+        return cls([rule for rule in PRESETS[name] if rule not in set(without)], params)
+
+    @property
+    def names(self) -> tuple:
+        return tuple(rule.name for rule in self.rules)
+
+    def clear(self) -> None:
+        for rule in self.rules:
+            if hasattr(rule, "clear"):
+                rule.clear()
+
+    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray, success: bool) -> None:
+        """An executed action (see TriedActions.record); a no-op without stateful rules."""
+        for rule in self.rules:
+            if hasattr(rule, "record"):
+                rule.record(primitive, heightmap_pixel, rotation, height, success)
+
+    def apply(self, q: np.ndarray, obs, valid: np.ndarray, pose_rules: PoseRules,
+              grid: HeightmapGrid) -> np.ndarray:
+        """The Q maps (R, 2, S, S) with every action the rules take away at -inf (a copy when any is;
+        `q` itself otherwise). `valid` (2, S, S): where each primitive may act at all."""
+        if not self.rules:
+            return q
+        ctx = RuleContext(obs, q, valid, pose_rules, self.params, grid)
+        ruled_out = np.zeros(q.shape, dtype=bool)
+        for rule in self.rules:
+            for verdict in rule.keeps(ctx):
+                p = verdict.primitive
+                if rule.kind == PREFERENCE:
+                    left = ~ruled_out[:, p] & np.isfinite(q[:, p])
+                    if not (left & (verdict.actions & valid[p])).any():
+                        continue  # it would leave nothing: it gives way
+                ruled_out[:, p] |= ~verdict.actions
+        return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
