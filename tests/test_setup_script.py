@@ -1,0 +1,81 @@
+"""scripts/setup.sh's host check and scripts/check_torch.py's torch acceptance (no .venv is touched)."""
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+TOP = Path(__file__).resolve().parent.parent
+SETUP = TOP / "scripts" / "setup.sh"
+CHECK_TORCH = TOP / "scripts" / "check_torch.py"
+BASH = shutil.which("bash") or "/bin/bash"
+
+
+def _base_python() -> str:
+    """The CPython 3.11 this test runs on, outside any venv (what setup.sh would make .venv with)."""
+    return os.path.realpath(getattr(sys, "_base_executable", None) or sys.executable)
+
+
+def test_check_only_passes_on_this_machine():
+    run = subprocess.run([BASH, str(SETUP), "--check-only"], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "prerequisites ok" in run.stdout
+    for item in ("platform", "python", "Python.h", "cmake", "C compiler", "C++ compiler", "git", "flock"):
+        assert f"setup: {item} " in run.stdout
+
+
+def test_check_only_reports_every_missing_tool_at_once(tmp_path):
+    # A PATH with only bash and python3.11: no cmake, no compilers, no git, no flock.
+    (tmp_path / "bash").symlink_to(BASH)
+    (tmp_path / "python3.11").symlink_to(_base_python())
+    env = {"PATH": str(tmp_path), "HOME": os.environ.get("HOME", "/tmp"), "LANG": "C.UTF-8"}
+    run = subprocess.run([str(tmp_path / "bash"), str(SETUP), "--check-only"], capture_output=True,
+                         text=True, timeout=60, env=env)
+    assert run.returncode == 1, run.stdout + run.stderr
+    err = run.stderr
+    assert "missing cmake" in err
+    assert "missing C compiler" in err and "missing C++ compiler" in err
+    assert "missing git" in err and "missing flock" in err
+    assert "sudo apt-get install cmake gcc g++ git util-linux" in err
+    assert "missing CPython" not in err and "Python.h" in run.stdout  # the python itself was found
+
+
+def test_check_only_names_a_missing_python(tmp_path):
+    (tmp_path / "bash").symlink_to(BASH)
+    env = {"PATH": str(tmp_path), "PYTHON": "python3.11-nowhere"}
+    run = subprocess.run([str(tmp_path / "bash"), str(SETUP), "--check-only"], capture_output=True,
+                         text=True, timeout=60, env=env)
+    assert run.returncode == 1
+    assert "missing python3.11-nowhere" in run.stderr
+    assert "python3.11 python3.11-venv python3.11-dev" in run.stderr
+
+
+def _check_torch(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, str(CHECK_TORCH), *args], capture_output=True, text=True,
+                          timeout=60)
+
+
+def test_pin_is_read_from_requirements():
+    run = _check_torch("--print-pin")
+    assert run.returncode == 0
+    assert f"torch=={run.stdout.strip()}\n" in (TOP / "requirements.txt").read_text()
+
+
+@pytest.mark.parametrize("version", ["2.13.0", "2.13.0+cpu", "2.13.0+cu126"])
+def test_torch_check_accepts_the_pin_cpu_or_cuda(version):
+    run = _check_torch(version, "--pin", "2.13.0")
+    assert run.returncode == 0, run.stderr
+    assert f"torch {version} (the pinned 2.13.0" in run.stdout
+    if "+cu" in version:
+        assert "TORCH_INDEX_URL=https://download.pytorch.org/whl/cpu" in run.stdout
+
+
+@pytest.mark.parametrize("version", ["2.14.1", "2.13.0+rocm6.2", "2.13.0a0", "2.13"])
+def test_torch_check_refuses_other_versions(version):
+    run = _check_torch(version, "--pin", "2.13.0")
+    assert run.returncode == 1
+    assert f"torch {version} installed" in run.stderr
+    assert "pins torch==2.13.0" in run.stderr
