@@ -24,16 +24,14 @@ import time
 
 import yaml
 
+from impurity_common import names
 from impurity_common.bags import BagReader, BagWriter, cell_typestore, file_sha256
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
 DEFAULT_OUTPUT = ROOT / "tests" / "data" / "episode_bag"
-COLOR = "/camera/camera/color/image_raw"
-DEPTH = "/camera/camera/aligned_depth_to_color/image_raw"
-INFO = "/camera/camera/color/camera_info"
-PRIMITIVE = "/policy/primitive"
-STEPS = "/episode/steps"
+COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
+PRIMITIVE, STEPS = names.PRIMITIVE_TOPIC, names.EPISODE_STEPS_TOPIC
 RECORDED_TOPICS = [COLOR, DEPTH, INFO, PRIMITIVE, STEPS]
 # custom_data keys read by the regression test
 POLICY_KEY = "impurity.policy"  # "checkpoint" or "untrained"
@@ -50,7 +48,7 @@ def policy_overrides(untrained: bool, seed: int) -> tuple[dict, dict]:
     """(policy node parameters, bag notes) for the weights that will decide."""
     if untrained:
         return ({"allow_untrained": True, "seed": seed, "checkpoint": "/nonexistent/untrained.pt",
-                 "avoid_tried_actions": False},
+                 "rules_disabled": ["tried_actions"]},
                 {POLICY_KEY: "untrained", SEED_KEY: str(seed)})
     from impurity_policy.policy_node import default_checkpoint
 
@@ -60,7 +58,7 @@ def policy_overrides(untrained: bool, seed: int) -> tuple[dict, dict]:
                          "or record with --untrained")
     notes = {POLICY_KEY: "checkpoint", CHECKPOINT_SHA_KEY: file_sha256(checkpoint)}
     # Decisions must follow from the camera topics alone to replay exactly: no tried-action memory.
-    return {"checkpoint": str(checkpoint), "avoid_tried_actions": False}, notes
+    return {"checkpoint": str(checkpoint), "rules_disabled": ["tried_actions"]}, notes
 
 
 def write_config(base: pathlib.Path, policy_params: dict, path: pathlib.Path) -> pathlib.Path:

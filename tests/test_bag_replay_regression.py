@@ -12,6 +12,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Image
 
+from impurity_common import names
 from impurity_common.bags import BagReader, file_sha256
 from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until
@@ -19,11 +20,8 @@ from ros_harness import ros_args, spin_until
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 BAG = ROOT / "tests" / "data" / "episode_bag"
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
-COLOR = "/camera/camera/color/image_raw"
-DEPTH = "/camera/camera/aligned_depth_to_color/image_raw"
-INFO = "/camera/camera/color/camera_info"
-PRIMITIVE = "/policy/primitive"
-ATTENTION = "/attention/result"
+COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
+PRIMITIVE, ATTENTION = names.PRIMITIVE_TOPIC, names.ATTENTION_TOPIC
 REGENERATE = "regenerate it with `make test-bag` (scripts/record_test_bag.py)"
 
 
@@ -34,7 +32,7 @@ def stamp_ns(stamp) -> int:
 def policy_parameters(notes: dict) -> dict:
     """The same weights as in the recording; stale-input checks and the failed-grasp memory off (the
     stamps are from then; the episode's outcomes are not replayed)."""
-    parameters = {"max_age": 1e9, "avoid_tried_actions": False}
+    parameters = {"max_age": 1e9, "rules_disabled": ["tried_actions"]}
     if notes.get("impurity.policy") == "untrained":
         return {**parameters, "allow_untrained": True, "seed": int(notes["impurity.untrained_seed"]),
                 "checkpoint": "/nonexistent/untrained.pt"}
@@ -89,7 +87,7 @@ def test_replayed_frames_give_the_recorded_decisions(ros_node, launch):
     try:
         spin_until(ros_node, lambda: (ros_node.count_publishers(PRIMITIVE) >= 1
                                       and ros_node.count_subscribers(ATTENTION) >= 1
-                                      and ros_node.count_subscribers("/heightmap") >= 1),
+                                      and ros_node.count_subscribers(names.HEIGHTMAP_TOPIC) >= 1),
                    120.0, "heightmap, attention and policy nodes to connect", nodes)
         # Each colour frame waits for the previous one's attention result (same stamp), re-publishing a
         # frame that got none: the camera subscriptions are best effort, the pipeline may be slow. The

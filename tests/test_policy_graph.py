@@ -13,6 +13,7 @@ from impurity_common import cell
 from impurity_common.conversions import ns_to_time, numpy_to_image, time_to_ns
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_learning.trainer import Trainer
+from impurity_policy.core.rules import RULE_ORDER
 from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until, wait_for_subscribers
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -115,13 +116,11 @@ def test_policy_node_without_checkpoint_exits_with_a_clear_message(ros_node, lau
 
 
 def test_policy_node_does_not_repeat_an_executed_grasp_in_an_unchanged_scene(ros_node, launch, checkpoint):
-    # The memory alone: without the action filters the seeded network grasps first in this scene.
-    no_filters = {"finger_clearance": False, "grasp_on_target": False, "occluded_push_radius_px": 0,
-                  "push_end_margin": -1.0, "occluded_push_start_high": 0.0,
-                  "target_push_radius_px": -1, "target_on_top_tolerance": -1.0,
-                  "grasp_core_depth_px": -1.0}
+    # The memory alone (the cell preset without its other rules): the seeded network grasps first here.
+    only_memory = [name for name in RULE_ORDER if name != "tried_actions"]
     proc = launch("impurity_policy", "policy_node",
-                  ros_args({"checkpoint": str(checkpoint), "threads": 1, **no_filters}))
+                  ros_args({"checkpoint": str(checkpoint), "threads": 1, "rules": "cell",
+                            "rules_disabled": only_memory}))
     publisher = ros_node.create_publisher(AttentionResult, "/attention/result", RELIABLE)
     steps = ros_node.create_publisher(EpisodeStep, "/episode/steps", 10)
     primitives = TopicRecorder(ros_node, Primitive, "/policy/primitive", RELIABLE)

@@ -177,7 +177,7 @@ class SalientGraspHeuristic:
             self.failed_grasps = []  # the scene changed: grasp again
 
 
-def make_agent(method: str, checkpoint=None, rules: str = "cell"):
+def make_agent(method: str, checkpoint=None, rules: str = "cell", device: str = "cpu"):
     """The agent for an evaluation method; network methods need their checkpoint's path and run with
     the rules preset `rules` (rules.PRESETS: "none" is the paper's argmax, "cell" our test-time rules)."""
     if method in HEURISTIC_METHODS:
@@ -186,4 +186,4 @@ def make_agent(method: str, checkpoint=None, rules: str = "cell"):
         raise ValueError(f"unknown method '{method}' (expected one of {', '.join(EVAL_METHODS)})")
     if checkpoint is None:
         raise ValueError(f"method '{method}' needs a trained checkpoint")
-    return NetworkAgent(method, Policy.from_checkpoint(checkpoint, rules=RulePipeline.preset(rules)))
+    return NetworkAgent(method, Policy.from_checkpoint(checkpoint, device, rules=RulePipeline.preset(rules)))

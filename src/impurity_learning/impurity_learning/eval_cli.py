@@ -213,20 +213,21 @@ _WORKER: dict = {}  # per process: the sim world and each method's agent, built 
 
 
 def run_task(task: tuple) -> dict:
-    """One evaluation episode (row, checkpoint, scenario, seed, torch threads) -> its record; runs in
+    """One evaluation episode (row, checkpoint, scenario, seed, torch threads, device) -> its record; runs in
     the main process or in a pool worker. row: row_key(method, rules preset)."""
     import torch
 
     from ur5_driver_sim.core.world import CellWorld
 
-    row, checkpoint, scenario, seed, threads = task
+    row, checkpoint, scenario, seed, threads, device = task
     method, _, rules = row.partition("@")
     if "world" not in _WORKER:
         torch.set_num_threads(threads)
         _WORKER["world"] = CellWorld(mode="floating")
     agents = _WORKER.setdefault("agents", {})
     if row not in agents:
-        agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none")
+        agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none",
+                                 device)
     metrics = run_episode(_WORKER["world"], agents[row], EpisodeRequest(scenario, seed=seed))
     return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, **metrics}
 
@@ -254,6 +255,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
     p.add_argument("--readme", default="README.md", help="its results block is replaced with the table")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads per episode process")
+    p.add_argument("--device", default="cpu", help="cpu, cuda, cuda:N, or auto (CUDA when present)")
     p.add_argument("--jobs", type=int, default=2, help="episodes run in this many processes at once")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
@@ -284,7 +286,7 @@ def main(argv=None) -> int:
                         "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
                         "episodes": []}
     started = time.perf_counter()
-    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads)
+    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device)
              for scenario in args.scenarios for row, checkpoint in runnable.items()
              for k in range(args.episodes)]
     episodes = []

@@ -81,6 +81,7 @@ class TrainConfig:
     plot_window: int = 300
     replay_capacity: int = 20000
     threads: int = 2
+    device: str = "cpu"  # network.resolve_device: cpu, cuda, cuda:N, auto
     max_hours: float = 0.0  # > 0: stop (and save) after this much wall time in this invocation
     # Test-time rules preset while training (rules.PRESETS). "none" by default: the shipped checkpoint
     # was trained without rules; evaluation and the policy node apply them at test time.
@@ -181,7 +182,8 @@ class TrainingRun:
         self.replay_path = self.dir / "replay.pkl"
         self.log_path = self.dir / "log.csv"
         self.plot_path = self.dir / "success.png"
-        self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed)
+        self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed,
+                               device=config.device)
         self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object,
                              RulePipeline.preset(config.rules))
         self.replay = RankedReplay(config.replay_capacity)

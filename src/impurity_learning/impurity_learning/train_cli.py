@@ -31,6 +31,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--replay-per-step", type=int, default=1)
     p.add_argument("--checkpoint-every", type=int, default=100)
     p.add_argument("--threads", type=int, default=2, help="torch CPU threads (1 on a shared machine)")
+    p.add_argument("--device", default="cpu", help="cpu, cuda, cuda:N, or auto (CUDA when present)")
     p.add_argument("--max-hours", type=float, default=0.0,
                    help="stop and save after this much wall time (0: no limit); rerun to resume")
     p.add_argument("--rules", default="none", choices=sorted(PRESETS),
@@ -65,7 +66,7 @@ def main(argv=None) -> int:
     config = TrainConfig(run_dir=args.run_dir, method=args.method, iterations=args.iterations, seed=args.seed,
                          num_targets=args.num_targets, num_objects=args.num_objects,
                          replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
-                         threads=args.threads, max_hours=args.max_hours, progress=not args.no_progress,
+                         threads=args.threads, device=args.device, max_hours=args.max_hours, progress=not args.no_progress,
                          rules=args.rules,
                          trainer=TrainerConfig(learning_rate=args.lr))
     run = TrainingRun(config)

@@ -23,7 +23,7 @@ import torch.nn.functional as F
 
 from impurity_policy.core.checkpoint import CHECKPOINT_FORMAT_VERSION, read_checkpoint
 from impurity_policy.core.decision import State, action_masks, best_action
-from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs
+from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs, resolve_device
 
 from .replay import Transition
 
@@ -50,10 +50,13 @@ class Trainer:
     """Online and target networks, the optimizer and the update rule."""
 
     def __init__(self, network_config: NetworkConfig = NetworkConfig(),
-                 config: TrainerConfig = TrainerConfig(), seed: int = 0):
+                 config: TrainerConfig = TrainerConfig(), seed: int = 0, device: str = "cpu"):
+        """device: where the networks train (network.resolve_device: cpu, cuda, cuda:N, auto); the
+        weights are initialised on the CPU first, so a seed gives the same network on any device."""
         torch.manual_seed(seed)
         self.network_config, self.config = network_config, config
-        self.online = QNetwork(network_config)
+        self.device = resolve_device(device)
+        self.online = QNetwork(network_config).to(self.device)
         self.target = copy.deepcopy(self.online).eval()
         for p in self.target.parameters():
             p.requires_grad_(False)
@@ -68,7 +71,7 @@ class Trainer:
         net = self.target if use_target else self.online
         was_training = net.training
         net.eval()
-        q = net.q_maps(network_inputs(state.color, state.height, state.mask)).numpy()
+        q = net.q_maps(network_inputs(state.color, state.height, state.mask).to(self.device)).cpu().numpy()
         net.train(was_training)
         return q
 
@@ -88,7 +91,8 @@ class Trainer:
         num_rotations = self.network_config.num_rotations
         if transition.primitive == GRASP and self.config.grasp_trains_opposite:
             rotations.append((transition.rotation + num_rotations // 2) % num_rotations)
-        inputs = network_inputs(transition.state.color, transition.state.height, transition.state.mask)
+        inputs = network_inputs(transition.state.color, transition.state.height,
+                                transition.state.mask).to(self.device)
         q = self.online.q_maps(inputs, rotations=rotations, chunk=None)
         row, col = transition.pixel
         return q[:, transition.primitive, row, col]

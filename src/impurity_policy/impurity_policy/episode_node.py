@@ -1,55 +1,41 @@
-"""Episode node: runs the paper's picking loop (section 4) over the node graph.
+"""Episode node: runs the picking loop (core/picking.py, paper section 4) over the node graph.
 
-attention -> policy decision -> driver motion -> ground truth (sim) -> record, until every target is
-picked, the action limit, repeated failure, a cancel, or a node of the graph stops answering.
-Every decision it executes comes from a camera frame stamped after the previous motion finished.
+It serves /episode/start and /episode/run, and runs each episode with the one picking loop against a
+RosCell (ros_cell.py): attention -> policy decision -> driver motion -> targets left, until every target
+is picked, the action limit, repeated failure, a cancel, or a node of the graph stops answering. Every
+decision it executes comes from a camera frame stamped after the previous motion finished.
 """
 
-import collections
 import os
 import pathlib
 import threading
 import time
 import uuid
+from dataclasses import dataclass
 
-import cv2
-from rclpy.action import ActionClient, ActionServer, CancelResponse, GoalResponse
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
 
-from impurity_common.conversions import image_to_numpy, time_to_ns
+from impurity_common import names
+from impurity_common.conversions import ns_to_time
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import describe
-from impurity_interfaces.action import ExecutePrimitive, RunEpisode
-from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
-from impurity_interfaces.srv import GetGroundTruth, ResetScene, StartEpisode
+from impurity_common.parameters import declare_parameters, param
+from impurity_interfaces.action import RunEpisode
+from impurity_interfaces.msg import EpisodeStep
+from impurity_interfaces.srv import StartEpisode
 from impurity_policy.core.episode import (
     DEFAULT_ACTIONS_PER_TARGET,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
     TERMINATION_CANCELED,
-    TERMINATION_NOTHING_LEFT,
     EpisodeRecorder,
     EpisodeRequest,
-    EpisodeTracker,
     StepRecord,
-    action_limit,
-    draw_episode,
-    read_steps,
     validate_request,
 )
-
-MODE_NAMES = {AttentionResult.MODE_NONE: "NONE", AttentionResult.MODE_TARGET: "TARGET",
-              AttentionResult.MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}
-
-
-# s without the policy node's publisher, once it had been seen, before an episode gives up on it.
-POLICY_GONE_GRACE = 5.0
-
-
-class EpisodeAborted(Exception):
-    """The episode cannot go on; the message is its termination reason."""
+from impurity_policy.core.picking import EpisodeLimits, run_episode
+from impurity_policy.ros_cell import RosCell, RosCellTimeouts
 
 
 def default_record_dir() -> str:
@@ -58,62 +44,40 @@ def default_record_dir() -> str:
         pathlib.Path.home() / ".ros" / "impurity_episodes")
 
 
+@dataclass(frozen=True)
+class EpisodeParameters:
+    """Everything bringup/config/cell.yaml may set for the episode node."""
+
+    record_dir: str = param("", "Directory of episode records (JSON lines); empty: runs/episodes in the "
+                                "checkout, else ~/.ros/impurity_episodes")
+    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target when a request "
+                                    "gives max_actions 0", low=1, high=1000)
+    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES, "Failed grasps/motions in a row "
+                                          "that end the episode", low=1, high=1000)
+    decision_timeout: float = param(30.0, "s to wait for a fresh decision before giving up", low=0.1)
+    motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
+    service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
+    use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth")
+
+
 class EpisodeNode(Node):
     def __init__(self):
         super().__init__("episode")
-        self.declare_parameter("record_dir", default_record_dir(),
-                               descriptor=describe("Directory of episode records (JSON lines)"))
-        self.declare_parameter("actions_per_target", DEFAULT_ACTIONS_PER_TARGET,
-                               descriptor=describe("Action limit per target when a request gives 0"))
-        self.declare_parameter("max_consecutive_failures", DEFAULT_MAX_CONSECUTIVE_FAILURES,
-                               descriptor=describe("Failed grasps/motions in a row that end the episode"))
-        self.declare_parameter("decision_timeout", 30.0,
-                               descriptor=describe("s to wait for a fresh decision before giving up"))
-        self.declare_parameter("motion_timeout", 120.0,
-                               descriptor=describe("s to wait for the driver to finish a motion"))
-        self.declare_parameter("service_timeout", 30.0,
-                               descriptor=describe("s to wait for a service (reset, ground truth)"))
-        self.declare_parameter("use_ground_truth", True,
-                               descriptor=describe("Sim: reset scenes and count targets from ground truth"))
-
+        self.params = declare_parameters(self, EpisodeParameters)
+        self.record_dir = self.params.record_dir or default_record_dir()
         group = ReentrantCallbackGroup()
-        self._condition = threading.Condition()
-        self._attention_by_stamp: collections.OrderedDict[int, AttentionResult] = collections.OrderedDict()
-        self._latest_primitive: Primitive | None = None
-        self._policy_seen = False
         self._busy = threading.Lock()
-
-        reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
-        self.create_subscription(AttentionResult, "/attention/result", self._on_attention, reliable,
-                                 callback_group=group)
-        self.create_subscription(Primitive, "/policy/primitive", self._on_primitive, reliable,
-                                 callback_group=group)
-        self._steps_pub = self.create_publisher(EpisodeStep, "/episode/steps", 10)
-        self._driver = ActionClient(self, ExecutePrimitive, "/ur5/execute_primitive", callback_group=group)
-        self._reset = self.create_client(ResetScene, "/cell/reset_scene", callback_group=group)
-        self._ground_truth = self.create_client(GetGroundTruth, "/cell/ground_truth", callback_group=group)
-        self.create_service(StartEpisode, "/episode/start", self._on_start, callback_group=group)
+        self._cell = RosCell(self, group, RosCellTimeouts(self.params.decision_timeout,
+                                                          self.params.motion_timeout,
+                                                          self.params.service_timeout),
+                             self.params.use_ground_truth)
+        self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
+        self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self._action_server = ActionServer(
-            self, RunEpisode, "/episode/run", execute_callback=self._execute_goal,
+            self, RunEpisode, names.RUN_EPISODE_ACTION, execute_callback=self._execute_goal,
             goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
             callback_group=group)
-        self.get_logger().info(f"ready; records go to {self._param('record_dir')}")
-
-    def _param(self, name):
-        return self.get_parameter(name).value
-
-    # ---- inputs -------------------------------------------------------------------------------
-    def _on_attention(self, msg: AttentionResult) -> None:
-        with self._condition:
-            self._attention_by_stamp[time_to_ns(msg.header.stamp)] = msg
-            while len(self._attention_by_stamp) > 20:
-                self._attention_by_stamp.popitem(last=False)
-            self._condition.notify_all()
-
-    def _on_primitive(self, msg: Primitive) -> None:
-        with self._condition:
-            self._latest_primitive = msg
-            self._condition.notify_all()
+        self.get_logger().info(f"ready; records go to {self.record_dir}")
 
     # ---- requests -----------------------------------------------------------------------------
     @staticmethod
@@ -178,173 +142,40 @@ class EpisodeNode(Node):
 
     # ---- the loop -----------------------------------------------------------------------------
     def _run_episode(self, episode_id: str, request: EpisodeRequest, goal_handle) -> dict:
+        """One episode through the picking loop; the summary it recorded."""
         log = self.get_logger()
-        recorder = EpisodeRecorder(self._param("record_dir"), episode_id)
-        tracker = EpisodeTracker(episode_id, request, request.num_targets, 0,
-                                 int(self._param("max_consecutive_failures")))
-        reason = None
-        try:
-            targets_total = self._reset_scene(request)
-            tracker.targets_total = tracker.targets_remaining = targets_total
-            tracker.max_actions = action_limit(request, targets_total, int(self._param("actions_per_target")))
-            motion_finished_ns = self.get_clock().now().nanoseconds
-            recorder.write_start(request, targets_total, tracker.max_actions, motion_finished_ns)
-            log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}, "
-                     f"{targets_total} target(s), at most {tracker.max_actions} actions")
-            first_view_saved = False
-            while reason is None:
-                attention, primitive = self._fresh_decision(motion_finished_ns)
-                if not first_view_saved:
-                    self._save_first_view(recorder.directory, attention)
-                    first_view_saved = True
-                if attention.mode == AttentionResult.MODE_NONE:
-                    reason = TERMINATION_NOTHING_LEFT
-                    break
-                outcome = self._execute(primitive)
-                motion_finished_ns = time_to_ns(outcome.finished)
-                remaining = self._targets_remaining(tracker, outcome)
-                step = _step_record(tracker.actions + 1, attention, primitive, outcome, remaining)
-                tracker.record(step)
-                recorder.write_step(step)
-                self._publish_step(episode_id, step, primitive, outcome, goal_handle)
-                log.info(f"step {step.step}: {step.kind} at ({step.position[0]:.3f}, {step.position[1]:.3f}) "
-                         f"yaw {step.yaw:.2f} q {step.q_value:.3f} -> "
-                         f"{'ok' if step.success else 'failed'}; {remaining} target(s) left")
-                reason = tracker.termination()
-                if reason is None and goal_handle is not None and goal_handle.is_cancel_requested:
-                    reason = TERMINATION_CANCELED
-        except EpisodeAborted as error:
-            reason = str(error)
-        except Exception as error:  # the record must close whatever went wrong
-            log.error(f"episode {episode_id} failed: {error!r}")
-            reason = f"error: {error!r}"
-        summary = recorder.write_summary(tracker.metrics(), reason)
-        self._save_picture(recorder.directory)
-        log.info(f"episode {episode_id} ended ({reason}): picked {tracker.targets_picked}/"
-                 f"{tracker.targets_total} in {tracker.actions} actions; record {recorder.directory}")
+        recorder = EpisodeRecorder(self.record_dir, episode_id)
+        log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}")
+        summary = run_episode(
+            self._cell, request, episode_id,
+            EpisodeLimits(self.params.actions_per_target, self.params.max_consecutive_failures),
+            recorder=recorder, on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
+            should_stop=lambda: goal_handle is not None and goal_handle.is_cancel_requested,
+            clock_ns=lambda: self.get_clock().now().nanoseconds,
+            on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"))
+        log.info(f"episode {episode_id} ended ({summary['termination_reason']}): picked "
+                 f"{summary['targets_picked']}/{summary['targets_total']} in {summary['actions']} actions; "
+                 f"record {recorder.directory}")
         return summary
 
-    def _reset_scene(self, request: EpisodeRequest) -> int:
-        if not self._param("use_ground_truth"):
-            return request.num_targets
-        response = self._call(self._reset, ResetScene.Request(
-            scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
-            num_objects=request.num_objects, scene_file=request.scene_file), "/cell/reset_scene")
-        if not response.success:
-            raise EpisodeAborted(f"error: scene reset failed: {response.message}")
-        return int(response.num_targets)
-
-    def _targets_remaining(self, tracker: EpisodeTracker, outcome) -> int:
-        if self._param("use_ground_truth"):
-            return int(self._call(self._ground_truth, GetGroundTruth.Request(),
-                                  "/cell/ground_truth").targets_remaining)
-        return tracker.targets_remaining - (1 if outcome.target_grasped else 0)
-
-    def _call(self, client, request, name: str):
-        timeout = float(self._param("service_timeout"))
-        if not client.wait_for_service(timeout_sec=timeout):
-            raise EpisodeAborted(f"node_lost: service {name} not available within {timeout:.0f} s")
-        done = threading.Event()
-        future = client.call_async(request)
-        future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
-            raise EpisodeAborted(f"node_lost: no response from {name} within {timeout:.0f} s")
-        return future.result()
-
-    def _fresh_decision(self, after_ns: int):
-        """The first decision (and its attention result) from a frame stamped after `after_ns`."""
-        timeout = float(self._param("decision_timeout"))
-        deadline = time.monotonic() + timeout
-        gone_since = None
-        with self._condition:
-            while True:
-                primitive = self._latest_primitive
-                if primitive is not None and time_to_ns(primitive.header.stamp) > after_ns:
-                    attention = self._attention_by_stamp.get(time_to_ns(primitive.header.stamp))
-                    if attention is not None:
-                        return attention, primitive
-                newest = next(reversed(self._attention_by_stamp.values()), None)
-                if (newest is not None and time_to_ns(newest.header.stamp) > after_ns
-                        and newest.mode == AttentionResult.MODE_NONE):
-                    return newest, None
-                remaining = deadline - time.monotonic()
-                if self.count_publishers("/policy/primitive") > 0:
-                    self._policy_seen, gone_since = True, None
-                elif self._policy_seen:  # it was there and left; a slow start is decision_timeout's job
-                    gone_since = gone_since or time.monotonic()
-                    if time.monotonic() - gone_since > POLICY_GONE_GRACE:
-                        raise EpisodeAborted("node_lost: the policy node left /policy/primitive")
-                if remaining <= 0:
-                    raise EpisodeAborted(
-                        f"node_lost: no fresh decision on /policy/primitive within {timeout:.0f} s "
-                        "(camera, heightmap, attention or policy node not running?)")
-                self._condition.wait(min(remaining, 0.5))
-
-    def _execute(self, primitive: Primitive):
-        timeout = float(self._param("motion_timeout"))
-        if not self._driver.wait_for_server(timeout_sec=float(self._param("service_timeout"))):
-            raise EpisodeAborted("node_lost: driver action /ur5/execute_primitive not available")
-        done = threading.Event()
-        goal_future = self._driver.send_goal_async(ExecutePrimitive.Goal(primitive=primitive))
-        goal_future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
-            raise EpisodeAborted("node_lost: driver did not answer the goal")
-        handle = goal_future.result()
-        if not handle.accepted:
-            raise EpisodeAborted("error: driver rejected the primitive")
-        done.clear()
-        result_future = handle.get_result_async()
-        result_future.add_done_callback(lambda _: done.set())
-        deadline = time.monotonic() + timeout
-        while not done.wait(1.0):
-            if time.monotonic() > deadline or not self._driver.server_is_ready():
-                raise EpisodeAborted(f"node_lost: driver did not finish the motion "
-                                     f"({'timeout' if time.monotonic() > deadline else 'server gone'})")
-        return result_future.result().result
-
     # ---- outputs ------------------------------------------------------------------------------
-    def _publish_step(self, episode_id, step: StepRecord, primitive, outcome, goal_handle) -> None:
+    def _publish_step(self, episode_id: str, step: StepRecord, goal_handle) -> None:
+        """The step on /episode/steps (the policy node remembers tried actions from it) and as feedback."""
         msg = EpisodeStep(episode_id=episode_id, step=step.step, attention_mode=step.attention_mode,
-                          primitive=primitive, success=step.success, target_grasped=step.target_grasped,
-                          targets_remaining=step.targets_remaining, motion_finished=outcome.finished)
+                          primitive=self._cell.last_primitive, success=step.success,
+                          target_grasped=step.target_grasped, targets_remaining=step.targets_remaining,
+                          motion_finished=ns_to_time(step.motion_finished_ns))
         self._steps_pub.publish(msg)
         if goal_handle is not None:
             goal_handle.publish_feedback(RunEpisode.Feedback(step=msg))
-
-    def _save_first_view(self, directory: pathlib.Path, attention: AttentionResult) -> None:
-        try:
-            color = image_to_numpy(attention.heightmap.color, {"rgb8"})
-            cv2.imwrite(str(directory / "first_heightmap.png"), color[:, :, ::-1])
-        except ValueError as error:
-            self.get_logger().warning(f"first heightmap not saved: {error}")
-
-    def _save_picture(self, directory: pathlib.Path) -> None:
-        first = directory / "first_heightmap.png"
-        if not first.exists():
-            return
-        steps = [r for r in read_steps(directory / "steps.jsonl") if r.get("event") == "step"]
-        picture = draw_episode(cv2.imread(str(first))[:, :, ::-1], steps)
-        cv2.imwrite(str(directory / "episode.png"), picture[:, :, ::-1])
-
-
-def _step_record(step_index, attention, primitive, outcome, remaining) -> StepRecord:
-    return StepRecord(
-        step=step_index, attention_mode=MODE_NAMES.get(attention.mode, str(attention.mode)),
-        kind="grasp" if primitive.kind == Primitive.GRASP else "push",
-        position=(primitive.position.x, primitive.position.y, primitive.position.z),
-        yaw=float(primitive.yaw), q_value=float(primitive.q_value),
-        rotation_index=int(primitive.rotation_index),
-        pixel=(int(primitive.pixel_row), int(primitive.pixel_col)),
-        decision_stamp_ns=time_to_ns(primitive.header.stamp),
-        motion_finished_ns=time_to_ns(outcome.finished),
-        success=bool(outcome.success), target_grasped=bool(outcome.target_grasped),
-        object_grasped=bool(outcome.success and primitive.kind == Primitive.GRASP),
-        targets_remaining=remaining, message=outcome.message)
+        self.get_logger().info(
+            f"step {step.step}: {step.kind} at ({step.position[0]:.3f}, {step.position[1]:.3f}) yaw "
+            f"{step.yaw:.2f} q {step.q_value:.3f} -> {'ok' if step.success else 'failed'}; "
+            f"{step.targets_remaining} target(s) left")
 
 
 def _new_episode_id() -> str:
     return time.strftime("%Y%m%d-%H%M%S-") + uuid.uuid4().hex[:6]
-
 
 
 def main(args=None):

@@ -8,36 +8,34 @@ NONE results get one log line and no decision, never a crash.
 
 import pathlib
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
-from impurity_common import cell
-from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
+from impurity_common import names
+from impurity_common.conversions import (
+    ImageFormatError,
+    grid_from_heightmap,
+    image_to_numpy,
+    numpy_to_image,
+    time_to_ns,
+)
+from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import describe
+from impurity_common.parameters import ParameterError, declare_parameters, increasing, param
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.checkpoint import CheckpointError, load_network
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
-from impurity_policy.core.policy import (
-    FAILED_GRASPS_BEFORE_PUSH,
-    ActionFilters,
-    NoActionError,
-    Observation,
-    Policy,
-    TriedActionMemory,
-    q_maps_picture,
-)
+from impurity_policy.core.policy import NoActionError, Observation, Policy, q_maps_picture
 from impurity_policy.core.pose import PoseRules
+from impurity_policy.core.rules import PRESETS, RULE_ORDER, RuleParams, RulePipeline
 
-ATTENTION_TOPIC = "/attention/result"
-PRIMITIVE_TOPIC = "/policy/primitive"
-Q_MAPS_TOPIC = "/policy/q_maps_image"
-EPISODE_STEPS_TOPIC = "/episode/steps"
 DECISIONS_KEPT = 16  # answered attention results whose height maps wait for their episode step
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[1]  # src/impurity_policy with --symlink-install
+_RULES, _POSE = RuleParams(), PoseRules()
 
 
 def default_checkpoint() -> str:
@@ -57,111 +55,115 @@ def default_checkpoint() -> str:
     return str(candidates[-1])
 
 
-def parameter_table() -> dict:
-    """name -> (default, description): everything bringup/config/cell.yaml may set."""
-    rules, filters = PoseRules(), ActionFilters()
-    return {
-        "checkpoint": (default_checkpoint(), "Trained network (.pt)"),
-        "allow_untrained": (False, "Without a checkpoint, decide with seeded random weights (wiring tests "
-                                   "only) instead of exiting"),
-        "seed": (0, "Seed of the untrained network"),
-        "max_age": (5.0, "s: older attention results are stale and not answered"),
-        "publish_q_maps": (True, "Publish the 32 Q maps as an image"),
-        "threads": (1, "torch CPU threads (1: robust when the cell's other processes share the cores)"),
-        "grasp_depth": (rules.grasp_depth, "Grasp fingertips below the local top (m)"),
-        "grasp_min_tip": (rules.grasp_min_tip, "Lowest grasp fingertip height above the table (m)"),
-        "push_depth": (rules.push_depth, "Push fingertips below the local top (m)"),
-        "push_min_tip": (rules.push_min_tip, "Lowest push fingertip height above the table (m)"),
-        "finger_clearance": (filters.finger_clearance, "Rule out grasps whose open finger pads would land "
-                                                       "on something (the descent would stop above it)"),
-        "finger_overlap": (rules.finger_overlap, "Finger clearance: the pads must reach this far below the "
-                                                 "local top at the grasp pixel (m)"),
-        "grasp_on_target": (filters.grasp_on_target, "Rule out grasps off the attended target's mask"),
-        "occluded_push_radius_px": (filters.occluded_push_radius_px, "No target in view: pushes pass this "
-                                                                     "close (px) to the crop's highest "
-                                                                     "pile (0: any push)"),
-        "push_end_margin": (filters.push_end_margin, "Pushes end at least this far inside the workspace "
-                                                     "(m; negative: no limit)"),
-        "occluded_push_start_low": (filters.occluded_push_start_band[0], "No target in view: pushes start "
-                                                                         "where the local top is at least "
-                                                                         "this fraction of the pile's top"),
-        "occluded_push_start_high": (filters.occluded_push_start_band[1], "... and below this fraction "
-                                                                          "(not above low: no such rule)"),
-        "target_push_radius_px": (filters.target_push_radius_px, "Target in view: pushes start this close "
-                                                                 "(px) to its mask (negative: anywhere)"),
-        "target_on_top_tolerance": (filters.target_on_top_tolerance, "Grasps where the target is the local "
-                                                                     "top, give or take this (m; negative: "
-                                                                     "anywhere on the target)"),
-        "grasp_core_depth_px": (filters.grasp_core_depth_px, "Grasps where the target's mask is this close "
-                                                             "(px) to its deepest (the middle; negative: "
-                                                             "anywhere on the target)"),
-        "avoid_tried_actions": (True, "Rule out a failed grasp until a push or a lift, and a push while "
-                                      "the scene is unchanged (same place and direction; grasps also the "
-                                      "opposite rotation); executed actions from /episode/steps"),
-        "tried_action_radius_px": (TriedActionMemory().radius_px, "Heightmap pixels around a tried action "
-                                                                  "that are ruled out"),
-        "failed_grasps_before_push": (FAILED_GRASPS_BEFORE_PUSH, "Failed grasps in a row after which only "
-                                                                 "pushes are chosen (0: never)"),
-    }
+def known_rules(names) -> str | None:
+    unknown = [n for n in names if n and n not in RULE_ORDER]
+    return f"names unknown rules {', '.join(unknown)} (known: {', '.join(RULE_ORDER)})" if unknown else None
 
+
+@dataclass(frozen=True)
+class PolicyParameters:
+    """Everything bringup/config/cell.yaml may set for the policy node (rules: core/rules.py)."""
+
+    checkpoint: str = param("", "Trained network (.pt); empty: the shipped one")
+    allow_untrained: bool = param(False, "Without a checkpoint, decide with seeded random weights (wiring "
+                                         "tests only) instead of exiting")
+    seed: int = param(0, "Seed of the untrained network", low=0)
+    device: str = param("cpu", "Where the network runs: cpu, cuda, cuda:N, or auto (CUDA when present)")
+    max_age: float = param(5.0, "s: older attention results are stale and not answered", low=0.0)
+    publish_q_maps: bool = param(True, "Publish the 32 Q maps as an image")
+    threads: int = param(1, "torch CPU threads (1: robust when the cell's other processes share the cores)",
+                         low=1, high=256)
+    grasp_depth: float = param(_POSE.grasp_depth, "Grasp fingertips below the local top (m)", low=0.0, high=0.2)
+    grasp_min_tip: float = param(_POSE.grasp_min_tip, "Lowest grasp fingertip height above the table (m)",
+                                 low=0.0, high=0.2)
+    push_depth: float = param(_POSE.push_depth, "Push fingertips below the local top (m)", low=0.0, high=0.2)
+    push_min_tip: float = param(_POSE.push_min_tip, "Lowest push fingertip height above the table (m)",
+                                low=0.0, high=0.2)
+    finger_overlap: float = param(_POSE.finger_overlap, "finger_clearance: the pads must reach this far "
+                                                        "below the local top at the grasp pixel (m)",
+                                  low=0.0, high=0.1)
+    rules: str = param("cell", "Test-time rules preset: none (the paper's argmax) or cell (every rule)",
+                       choices=tuple(PRESETS))
+    rules_disabled: tuple[str, ...] = param(("",), "Rules of the preset left out (names in core/rules.py; "
+                                            "empty strings are ignored)", check=known_rules)
+    tried_action_radius_px: int = param(_RULES.tried_action_radius_px, "tried_actions: heightmap px around "
+                                        "an executed action that are ruled out", low=0, high=224)
+    failed_grasps_before_push: int = param(_RULES.failed_grasps_before_push, "tried_actions: failed grasps "
+                                           "in a row after which only pushes are chosen (0: never)", low=0)
+    occluded_push_radius_px: int = param(_RULES.occluded_push_radius_px, "occluded_push_through_heap: "
+                                         "pushes pass this close (px) to the crop's highest pile",
+                                         low=1, high=224)
+    push_end_margin: float = param(_RULES.push_end_margin, "push_end_inside: pushes end at least this far "
+                                   "inside the workspace (m)", low=0.0, high=0.2)
+    occluded_push_start_band: tuple[float, ...] = param(
+        _RULES.occluded_push_start_band, "occluded_push_start_on_flank: [low, high] local top at the push "
+        "start, as a fraction of the pile's top", length=2, low=0.0, high=1.0, check=increasing)
+    target_push_radius_px: int = param(_RULES.target_push_radius_px, "target_push_start_near: pushes start "
+                                       "this close (px) to the target's mask", low=0, high=224)
+    target_on_top_tolerance: float = param(_RULES.target_on_top_tolerance, "grasp_where_target_on_top: "
+                                           "the target is the local top give or take this (m)",
+                                           low=0.0, high=0.1)
+    grasp_core_depth_px: float = param(_RULES.grasp_core_depth_px, "grasp_at_target_core: grasps this "
+                                       "close (px) to the target mask's deepest point", low=0.0, high=56.0)
+
+    def pose_rules(self) -> PoseRules:
+        return PoseRules(grasp_depth=self.grasp_depth, grasp_min_tip=self.grasp_min_tip,
+                         push_depth=self.push_depth, push_min_tip=self.push_min_tip,
+                         finger_overlap=self.finger_overlap)
+
+    def rule_pipeline(self) -> RulePipeline:
+        params = RuleParams(tried_action_radius_px=self.tried_action_radius_px,
+                            failed_grasps_before_push=self.failed_grasps_before_push,
+                            occluded_push_radius_px=self.occluded_push_radius_px,
+                            push_end_margin=self.push_end_margin,
+                            occluded_push_start_band=tuple(self.occluded_push_start_band),
+                            target_push_radius_px=self.target_push_radius_px,
+                            target_on_top_tolerance=self.target_on_top_tolerance,
+                            grasp_core_depth_px=self.grasp_core_depth_px)
+        return RulePipeline.preset(self.rules, params, without=[n for n in self.rules_disabled if n])
 
 
 class PolicyNode(Node):
     def __init__(self):
         super().__init__("policy")
-        for name, (default, text) in parameter_table().items():
-            self.declare_parameter(name, default, describe(text))
+        self.params = declare_parameters(self, PolicyParameters)
         import torch
 
-        torch.set_num_threads(int(self._param("threads")))
-        rules = PoseRules(grasp_depth=self._param("grasp_depth"), grasp_min_tip=self._param("grasp_min_tip"),
-                          push_depth=self._param("push_depth"), push_min_tip=self._param("push_min_tip"),
-                          finger_overlap=self._param("finger_overlap"))
-        margin = float(self._param("push_end_margin"))
-        band = (float(self._param("occluded_push_start_low")), float(self._param("occluded_push_start_high")))
-        push_radius = int(self._param("target_push_radius_px"))
-        on_top = float(self._param("target_on_top_tolerance"))
-        core = float(self._param("grasp_core_depth_px"))
-        filters = ActionFilters(finger_clearance=bool(self._param("finger_clearance")),
-                                grasp_on_target=bool(self._param("grasp_on_target")),
-                                occluded_push_radius_px=int(self._param("occluded_push_radius_px")),
-                                push_end_margin=margin if margin >= 0 else None,
-                                occluded_push_start_band=band if band[1] > band[0] else None,
-                                target_push_radius_px=push_radius if push_radius >= 0 else None,
-                                target_on_top_tolerance=on_top if on_top >= 0 else None,
-                                grasp_core_depth_px=core if core >= 0 else None)
-        self.policy = Policy(self._network(), rules, filters=filters)
+        torch.set_num_threads(self.params.threads)
+        self.policy = Policy(self._network(), self.params.pose_rules(), rules=self.params.rule_pipeline())
         self._last_answered_ns = -1
         self._last_warning = {}
-        self.memory = TriedActionMemory(int(self._param("tried_action_radius_px")),
-                                        failed_grasps_before_push=int(self._param("failed_grasps_before_push")))
         self._memory_episode = ""
         self._decided_on = {}  # stamp (ns) of an answered attention result -> its full height map
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
-        self._primitive_pub = self.create_publisher(Primitive, PRIMITIVE_TOPIC, reliable)
-        self._q_maps_pub = self.create_publisher(Image, Q_MAPS_TOPIC,
+        self._primitive_pub = self.create_publisher(Primitive, names.PRIMITIVE_TOPIC, reliable)
+        self._q_maps_pub = self.create_publisher(Image, names.Q_MAPS_TOPIC,
                                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
-        self.create_subscription(AttentionResult, ATTENTION_TOPIC, self._on_attention, reliable)
-        if self._param("avoid_tried_actions"):
-            self.create_subscription(EpisodeStep, EPISODE_STEPS_TOPIC, self._on_episode_step, 10)
-        self.get_logger().info(f"ready: {ATTENTION_TOPIC} -> {PRIMITIVE_TOPIC}")
-
-    def _param(self, name):
-        return self.get_parameter(name).value
+        self.create_subscription(AttentionResult, names.ATTENTION_TOPIC, self._on_attention, reliable)
+        if "tried_actions" in self.policy.rules.names:
+            self.create_subscription(EpisodeStep, names.EPISODE_STEPS_TOPIC, self._on_episode_step, 10)
+        self.get_logger().info(f"ready: {names.ATTENTION_TOPIC} -> {names.PRIMITIVE_TOPIC}; rules "
+                               f"'{self.params.rules}': {', '.join(self.policy.rules.names) or 'none'}")
 
     def _network(self) -> QNetwork:
-        path = self._param("checkpoint")
+        """The checkpoint's network; a missing or incompatible one ends the node with one line naming
+        the parameter (or, with allow_untrained, seeded random weights)."""
+        path = self.params.checkpoint or default_checkpoint()
         try:
-            network = load_network(path)
-            self.get_logger().info(f"loaded checkpoint {path}")
+            network = load_network(path, device=self.params.device)
+            self.get_logger().info(f"loaded checkpoint {path} on {self.params.device}")
             return network
+        except ValueError as error:  # the device
+            raise ParameterError(self.get_name(), str(error), "device", self.params.device) from None
         except CheckpointError as error:
-            if not self._param("allow_untrained"):
-                raise SystemExit(f"policy: {error} (set allow_untrained:=true to run untrained)") from error
+            if not self.params.allow_untrained:
+                raise ParameterError(self.get_name(), f"cannot be used: {error}", "checkpoint", path,
+                                     "a checkpoint written by `make train` for this network, or "
+                                     "allow_untrained:=true for wiring tests") from None
             import torch
 
-            torch.manual_seed(int(self._param("seed")))
+            torch.manual_seed(self.params.seed)
             self.get_logger().warn(f"{error}: deciding with UNTRAINED seeded weights (allow_untrained)")
             return QNetwork()
 
@@ -177,46 +179,41 @@ class PolicyNode(Node):
         if stamp_ns <= 0:
             return "attention result has no stamp"
         age = (self.get_clock().now().nanoseconds - stamp_ns) * 1e-9
-        if age > self._param("max_age"):
-            return f"stale attention result: {age:.2f} s old (max_age {self._param('max_age'):.1f} s)"
+        if age > self.params.max_age:
+            return f"stale attention result: {age:.2f} s old (max_age {self.params.max_age:.1f} s)"
         if stamp_ns <= self._last_answered_ns:
             return "attention result older than one already answered"
-        if msg.header.frame_id not in ("", cell.BASE_FRAME):
-            return f"attention result in frame '{msg.header.frame_id}', expected '{cell.BASE_FRAME}'"
+        if msg.header.frame_id not in ("", names.BASE_FRAME):
+            return f"attention result in frame '{msg.header.frame_id}', expected '{names.BASE_FRAME}'"
         if msg.mode == AttentionResult.MODE_NONE:
             return "attention mode NONE: no target and no occluded region to act on"
         if msg.mode not in (AttentionResult.MODE_TARGET, AttentionResult.MODE_OCCLUDED_REGION):
             return f"unknown attention mode {msg.mode}"
         return None
 
-    def _observation(self, msg: AttentionResult) -> tuple:
+    def _observation(self, msg: AttentionResult) -> Observation:
+        """The policy's input, on the grid the Heightmap message carries. ImageFormatError or
+        ValueError for images or a grid that cannot be used."""
         color = image_to_numpy(msg.color_crop, ("rgb8",))
         height_crop = image_to_numpy(msg.height_crop, ("32FC1",))
         mask = image_to_numpy(msg.mask, ("mono8",))
         height = image_to_numpy(msg.heightmap.height, ("32FC1",))
-        resolution = float(msg.heightmap.resolution)
-        if not (np.isfinite(resolution) and resolution > 0):
-            raise ImageFormatError(f"heightmap resolution {resolution} is not usable")
-        origin = msg.heightmap.origin
-        grid = {"resolution": resolution, "x_min": float(origin.x), "y_min": float(origin.y),
-                "table_z": float(origin.z)}
-        obs = Observation(int(msg.mode), color, height_crop, mask, (int(msg.crop_row0), int(msg.crop_col0)),
-                          np.nan_to_num(height.astype(np.float32), nan=0.0))
-        return obs, grid
+        grid = grid_from_heightmap(msg.heightmap)
+        return Observation(int(msg.mode), color, height_crop, mask, (int(msg.crop_row0), int(msg.crop_col0)),
+                           np.nan_to_num(height.astype(np.float32), nan=0.0), grid)
 
     # ---- outcomes ------------------------------------------------------------------------------
     def _on_episode_step(self, step: EpisodeStep) -> None:
         if step.episode_id != self._memory_episode:
-            self.memory.clear()
+            self.policy.rules.clear()
             self._memory_episode = step.episode_id
         height = self._decided_on.get(time_to_ns(step.primitive.header.stamp))
         if height is None:
             self._warn("unknown step", f"episode step {step.step} executed a primitive this node did not "
                                        "answer recently: not remembered as tried")
             return
-        primitive = GRASP if step.primitive.kind == Primitive.GRASP else PUSH
-        self.memory.record(primitive, (step.primitive.pixel_row, step.primitive.pixel_col),
-                           step.primitive.rotation_index, height, step.success)
+        self.policy.rules.record(int(step.primitive.kind), (step.primitive.pixel_row, step.primitive.pixel_col),
+                                 step.primitive.rotation_index, height, step.success)
 
     # ---- decision ------------------------------------------------------------------------------
     def _on_attention(self, msg: AttentionResult) -> None:
@@ -226,20 +223,19 @@ class PolicyNode(Node):
             return
         started = time.perf_counter()
         try:
-            obs, grid = self._observation(msg)
-            q = self.memory.suppress(self.policy.q_maps(obs), obs)
-            choice = self.policy.decide(obs, q=q, grid=grid)
+            obs = self._observation(msg)
+            choice = self.policy.decide(obs)
         except (ImageFormatError, NoActionError, ValueError) as error:
             self._warn("malformed", f"no decision: malformed attention result: {error}")
             return
         pose = choice.pose
-        if not cell.in_workspace(pose.x, pose.y):
+        if not obs.grid.contains(pose.x, pose.y):
             self._warn("workspace", f"no decision: action ({pose.x:.3f}, {pose.y:.3f}) is outside the "
                                     "workspace")
             return
         out = Primitive()
         out.header.stamp = msg.header.stamp
-        out.header.frame_id = cell.BASE_FRAME
+        out.header.frame_id = names.BASE_FRAME
         out.kind = Primitive.GRASP if choice.decision.primitive == GRASP else Primitive.PUSH
         out.position.x, out.position.y, out.position.z = float(pose.x), float(pose.y), float(pose.z)
         out.yaw = float(pose.yaw)
@@ -255,12 +251,12 @@ class PolicyNode(Node):
         self.get_logger().info(
             f"{kind} at ({pose.x:.3f}, {pose.y:.3f}, {pose.z:.3f}) yaw {np.degrees(pose.yaw):.1f} deg, "
             f"Q {out.q_value:.3f} ({(time.perf_counter() - started) * 1000:.0f} ms)")
-        if self._param("publish_q_maps"):
+        if self.params.publish_q_maps:
             picture = q_maps_picture(choice.q_maps, choice.masks, choice.decision)
             self._q_maps_pub.publish(numpy_to_image(picture, "rgb8", out.header))
 
 
-assert PUSH == Primitive.PUSH and GRASP == Primitive.GRASP  # network indices double as message kinds
+assert PUSH == Primitive.PUSH == PrimitiveKind.PUSH and GRASP == Primitive.GRASP == PrimitiveKind.GRASP
 
 
 def main(args=None):

@@ -12,7 +12,7 @@ import pathlib
 
 import torch
 
-from .network import NetworkConfig, QNetwork
+from .network import NetworkConfig, QNetwork, resolve_device
 
 CHECKPOINT_FORMAT_VERSION = 1
 # The shipped network in the source tree (a ROS install also has it in the package's share dir:
@@ -58,9 +58,10 @@ def read_checkpoint(path, expected: NetworkConfig | None = None) -> dict:
     return data
 
 
-def load_network(path, expected: NetworkConfig | None = None) -> QNetwork:
-    """The online network of a checkpoint, in eval mode (what the policy node runs)."""
+def load_network(path, expected: NetworkConfig | None = None, device: str = "cpu") -> QNetwork:
+    """The online network of a checkpoint, in eval mode, on `device` (network.resolve_device): what the
+    policy node runs. CheckpointError as read_checkpoint; ValueError for an unusable device."""
     data = read_checkpoint(path, expected)
     net = QNetwork(NetworkConfig.from_dict(data["network_config"]))
     net.load_state_dict(data["online"])
-    return net.eval()
+    return net.to(resolve_device(device)).eval()

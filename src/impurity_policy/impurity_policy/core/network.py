@@ -192,13 +192,29 @@ class QNetwork(nn.Module):
         outputs = []
         step = chunk or len(rotations)
         for start in range(0, len(rotations), step):
-            yaws = rotation_yaws(rotations[start:start + step])
+            yaws = rotation_yaws(rotations[start:start + step]).to(compact.device)
             rotated = F.grid_sample(compact.expand(len(yaws), -1, -1, -1),
                                     rotation_grid(yaws, size, inverse=False), align_corners=False)
             q_rotated = self(rotated)
             back = rotation_grid(yaws, size, inverse=True)
             outputs.append(F.grid_sample(q_rotated, back, align_corners=False))
         return torch.cat(outputs, dim=0)
+
+
+def resolve_device(name: str = "cpu") -> torch.device:
+    """The torch device for a device option: "cpu", "cuda", "cuda:N", or "auto" (CUDA when present,
+    else the CPU). ValueError naming the option when the device is unknown or absent."""
+    if name == "auto":
+        return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+    try:
+        device = torch.device(name)
+    except RuntimeError as error:
+        raise ValueError(f"device '{name}' is not a torch device (cpu, cuda, cuda:N or auto)") from error
+    if device.type not in ("cpu", "cuda"):
+        raise ValueError(f"device '{name}': only cpu, cuda, cuda:N and auto are supported")
+    if device.type == "cuda" and not torch.cuda.is_available():
+        raise ValueError(f"device '{name}': this torch build or machine has no CUDA (use cpu or auto)")
+    return device
 
 
 def network_inputs(color_crop: np.ndarray, height_crop: np.ndarray, mask: np.ndarray) -> torch.Tensor:

@@ -96,18 +96,21 @@ class Policy:
     def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(), grasp_needs_object: bool = True,
                  rules: RulePipeline | None = None):
         self.network = network.eval()
+        self.device = next(network.parameters()).device  # the network's: load_network(device=...)
         self.pose_rules, self.grasp_needs_object = pose_rules, grasp_needs_object
         self.rules = rules if rules is not None else RulePipeline()
 
     @classmethod
-    def from_checkpoint(cls, path, **kwargs) -> Policy:
-        """CheckpointError when the file is missing or made for another network."""
-        return cls(load_network(path), **kwargs)
+    def from_checkpoint(cls, path, device: str = "cpu", **kwargs) -> Policy:
+        """The checkpoint's network on `device` (network.resolve_device). CheckpointError when the file
+        is missing or made for another network."""
+        return cls(load_network(path, device=device), **kwargs)
 
     @torch.no_grad()
     def q_maps(self, obs: Observation) -> np.ndarray:
         """(R, 2, S, S) Q maps of the observation's crops."""
-        return self.network.q_maps(network_inputs(obs.color_crop, obs.height_crop, obs.mask)).numpy()
+        inputs = network_inputs(obs.color_crop, obs.height_crop, obs.mask).to(self.device)
+        return self.network.q_maps(inputs).cpu().numpy()
 
     def masks(self, obs: Observation) -> np.ndarray:
         """(2, S, S) bool: where each primitive may act at all (decision.action_masks)."""
