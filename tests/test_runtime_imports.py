@@ -1,0 +1,79 @@
+"""What a real cell deploys imports neither the simulator nor learning code, and every package's
+package.xml names exactly the cell packages its modules import.
+
+Runtime executables are imported in a fresh interpreter each (as `ros2 run` starts them), and the
+modules they pulled in are checked; the package dependencies are read from the source with `ast`.
+"""
+
+import ast
+import json
+import pathlib
+import subprocess
+import sys
+import xml.etree.ElementTree as ElementTree
+
+import pytest
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+SRC = ROOT / "src"
+# (package, module) of every executable a real cell runs: perception, policy, episodes, bag tools.
+RUNTIME_EXECUTABLES = [
+    ("impurity_attention", "impurity_attention.heightmap_node"),
+    ("impurity_attention", "impurity_attention.attention_node"),
+    ("impurity_policy", "impurity_policy.policy_node"),
+    ("impurity_policy", "impurity_policy.episode_node"),
+    ("impurity_common", "impurity_common.bag_recorder_node"),
+    ("impurity_common", "impurity_common.bag_replay_node"),
+]
+# Never on a real cell: the simulator, its physics engine, training and evaluation.
+FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning")
+CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
+RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy")
+# Dependencies on a package's installed files rather than its modules.
+DATA_DEPENDENCIES = {"impurity_common": {"impurity_interfaces"}}  # bags.py reads its .msg files
+
+
+def imported_modules(module: str) -> list[str]:
+    code = (f"import importlib, json, sys; importlib.import_module({module!r}); "
+            "print(json.dumps(sorted(sys.modules)))")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, f"importing {module} failed:\n{done.stderr[-2000:]}"
+    return json.loads(done.stdout.strip().splitlines()[-1])
+
+
+@pytest.mark.parametrize("package,module", RUNTIME_EXECUTABLES, ids=[m for _, m in RUNTIME_EXECUTABLES])
+def test_runtime_executable_imports_no_simulator_or_learning_code(package, module):
+    loaded = imported_modules(module)
+    offending = sorted(m for m in loaded if m.split(".")[0] in FORBIDDEN)
+    assert not offending, f"{module} (deployed on a real cell) imports {offending}"
+
+
+def first_party_imports(package: str) -> set[str]:
+    """Cell packages that the modules of `package` import (at any depth of the module)."""
+    found = set()
+    for path in (SRC / package / package).rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                names = [node.module]
+            else:
+                continue
+            found |= {name.split(".")[0] for name in names if name.split(".")[0] in CELL_PACKAGES}
+    return found - {package}
+
+
+def declared_dependencies(package: str) -> set[str]:
+    root = ElementTree.parse(SRC / package / "package.xml").getroot()
+    tags = ("depend", "exec_depend", "build_depend")
+    return {element.text.strip() for tag in tags for element in root.iter(tag)} & set(CELL_PACKAGES)
+
+
+@pytest.mark.parametrize("package", [p for p in CELL_PACKAGES if p != "impurity_interfaces"])
+def test_package_xml_names_the_cell_packages_its_modules_import(package):
+    assert declared_dependencies(package) == first_party_imports(package) | DATA_DEPENDENCIES.get(package, set())
+
+
+@pytest.mark.parametrize("package", RUNTIME_PACKAGES)
+def test_runtime_packages_depend_on_no_simulator_or_learning_package(package):
+    assert not declared_dependencies(package) & set(FORBIDDEN), f"{package}/package.xml"
