@@ -11,6 +11,7 @@ import sys
 
 import rclpy
 
+from impurity_common.enums import EPISODE_SCENARIOS, Scenario
 from impurity_interfaces.action import RunEpisode
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
@@ -21,7 +22,8 @@ from episode_client import format_result, run_episode, running_cell  # noqa: E40
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default="challenging")
+    parser.add_argument("--scenario", default=Scenario.CHALLENGING.value,
+                        choices=[scenario.value for scenario in EPISODE_SCENARIOS])
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--targets", type=int, default=2)
     parser.add_argument("--objects", type=int, default=20)

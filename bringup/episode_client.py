@@ -18,11 +18,11 @@ import time
 import rclpy
 from rclpy.action import ActionClient
 
+from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
+from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
-from impurity_interfaces.msg import Primitive
 from impurity_interfaces.srv import StartEpisode
 
-KIND = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
 BRINGUP = pathlib.Path(__file__).resolve().parent
 
 
@@ -48,9 +48,16 @@ def running_cell(out: pathlib.Path):
 def format_step(step) -> str:
     p = step.primitive
     outcome = "target picked" if step.target_grasped else ("ok" if step.success else "failed")
-    return (f"step {step.step:2d}  {step.attention_mode:<15s} {KIND.get(p.kind, '?'):<5s} "
+    return (f"step {step.step:2d}  {step.attention_mode:<15s} {kind_label(p.kind):<5s} "
             f"x={p.position.x:.3f} y={p.position.y:+.3f} z={p.position.z:.3f} yaw={p.yaw:+.2f} "
             f"q={p.q_value:.3f}  -> {outcome:<13s} targets left {step.targets_remaining}")
+
+
+def kind_label(kind: int) -> str:
+    try:
+        return PrimitiveKind(kind).label
+    except ValueError:
+        return "?"
 
 
 def format_result(result) -> str:
@@ -67,9 +74,9 @@ def format_result(result) -> str:
 
 def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
     """Send the goal, print feedback as it comes; returns the result (None if rejected)."""
-    client = ActionClient(node, RunEpisode, "/episode/run")
+    client = ActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
     if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
-        raise TimeoutError("action server /episode/run not available (is the cell running?)")
+        raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
     future = client.send_goal_async(goal, feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
     rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
     handle = future.result()
@@ -87,7 +94,8 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--scenario", default="random", help="random | challenging | invisible | file")
+    parser.add_argument("--scenario", default=Scenario.RANDOM.value,
+                        choices=[scenario.value for scenario in EPISODE_SCENARIOS])
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--targets", type=int, default=2)
     parser.add_argument("--objects", type=int, default=20)
@@ -95,7 +103,7 @@ def main(argv=None) -> int:
     parser.add_argument("--scene-file", default="")
     parser.add_argument("--timeout", type=float, default=900.0, help="s for the whole episode")
     parser.add_argument("--start-only", action="store_true",
-                        help="use the /episode/start service and return at once")
+                        help=f"use the {START_EPISODE_SERVICE} service and return at once")
     args = parser.parse_args(argv)
     fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
                   max_actions=args.max_actions, scene_file=args.scene_file)
@@ -103,9 +111,10 @@ def main(argv=None) -> int:
     node = rclpy.create_node("episode_client")
     try:
         if args.start_only:
-            client = node.create_client(StartEpisode, "/episode/start")
+            client = node.create_client(StartEpisode, START_EPISODE_SERVICE)
             if not client.wait_for_service(timeout_sec=60.0):
-                print("service /episode/start not available (is the cell running?)", file=sys.stderr)
+                print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
+                      file=sys.stderr)
                 return 2
             future = client.call_async(StartEpisode.Request(**fields))
             rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)

@@ -16,6 +16,7 @@ import time
 
 import rclpy
 
+from impurity_common.enums import Scenario
 from impurity_interfaces.action import RunEpisode
 from impurity_learning.evaluate import EVAL_SEED_BASE
 
@@ -24,7 +25,7 @@ ROOT = BRINGUP.parent
 sys.path.insert(0, str(BRINGUP))
 from episode_client import run_episode, running_cell  # noqa: E402
 
-SCENARIOS = ("random", "challenging", "invisible")
+SCENARIOS = tuple(s.value for s in (Scenario.RANDOM, Scenario.CHALLENGING, Scenario.INVISIBLE))  # make eval's
 FIELDS = ("targets_picked", "targets_total", "grasp_attempts", "pushes", "actions", "false_rejects")
 
 

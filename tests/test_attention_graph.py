@@ -7,12 +7,13 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 
 from impurity_attention.core.synthetic import random_boxes, render_boxes
+from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
+from impurity_common.enums import AttentionMode
 from impurity_interfaces.msg import AttentionResult, Heightmap
 from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until, wait_for_subscribers
 
-COLOR, DEPTH, INFO = ("/camera/camera/color/image_raw", "/camera/camera/aligned_depth_to_color/image_raw",
-                      "/camera/camera/color/camera_info")
+COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
 RELIABLE = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
 
 
@@ -49,7 +50,7 @@ class FakeCamera:
 def camera_messages(frame, stamp_ns, depth_encoding="32FC1", color_encoding="rgb8"):
     header = Image().header
     header.stamp = ns_to_time(stamp_ns)
-    header.frame_id = "camera_color_optical_frame"
+    header.frame_id = names.CAMERA_OPTICAL_FRAME
     color = frame.color if color_encoding == "rgb8" else frame.color[..., 0]
     color_msg = numpy_to_image(color, color_encoding, header)
     depth = frame.depth if depth_encoding == "32FC1" else np.round(frame.depth * 1000).astype(np.uint16)
@@ -64,8 +65,8 @@ def perception(ros_node, launch):
     heightmap = launch("impurity_attention", "heightmap_node", ros_args({"log_throttle": 0.1}))
     attention = launch("impurity_attention", "attention_node")
     camera = FakeCamera(ros_node)
-    heightmaps = TopicRecorder(ros_node, Heightmap, "/heightmap", RELIABLE)
-    results = TopicRecorder(ros_node, AttentionResult, "/attention/result", RELIABLE)
+    heightmaps = TopicRecorder(ros_node, Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
+    results = TopicRecorder(ros_node, AttentionResult, names.ATTENTION_TOPIC, RELIABLE)
     processes = (heightmap, attention)
     wait_for_subscribers(ros_node, camera.color_pub, 1, 30.0, processes)
     wait_for_subscribers(ros_node, camera.depth_pub, 1, 30.0, processes)
@@ -88,10 +89,10 @@ def test_frames_in_heightmap_and_attention_out(perception):
     camera.show(*camera_messages(frame, stamp, "16UC1"))
     heightmap = heightmaps.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
     result = results.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
-    assert heightmap.header.frame_id == "base_link" and heightmap.resolution == pytest.approx(0.002)
+    assert heightmap.header.frame_id == names.BASE_FRAME and heightmap.resolution == pytest.approx(0.002)
     height = image_to_numpy(heightmap.height, ("32FC1",))
     assert height.shape == (224, 224) and 0.025 < float(height.max()) < 0.035
-    assert result.mode == AttentionResult.MODE_TARGET
+    assert result.mode == AttentionMode.TARGET
     assert result.color_crop.width == 112 and result.mask.encoding == "mono8"
     assert image_to_numpy(result.mask, ("mono8",)).max() == 255
     assert result.heightmap.header.stamp == heightmap.header.stamp
@@ -126,10 +127,10 @@ def test_bad_frames_are_dropped_with_a_reason_and_the_next_good_one_goes_through
     color, depth, _ = camera_messages(frame, 2_400_000_000)
     camera.show(color, numpy_to_image(nan_depth, "32FC1", depth.header), info)
     blind = results.wait_for(1, 30.0, with_stamp(2_400_000_000), processes)[0]
-    assert blind.mode == AttentionResult.MODE_NONE
+    assert blind.mode == AttentionMode.NONE
     camera.show(*camera_messages(frame, 2_500_000_000))
     good = results.wait_for(1, 30.0, with_stamp(2_500_000_000), processes)[0]
-    assert good.mode == AttentionResult.MODE_TARGET
+    assert good.mode == AttentionMode.TARGET
     bad_stamps = {2_000_000_000, 2_100_000_000, 2_200_000_000, 2_300_000_000}
     assert not bad_stamps & {time_to_ns(m.header.stamp) for m in heightmaps.messages}
     assert all(process.alive for process in processes)
@@ -138,7 +139,7 @@ def test_bad_frames_are_dropped_with_a_reason_and_the_next_good_one_goes_through
 def heightmap_message(stamp_ns, color, height, height_encoding="32FC1"):
     msg = Heightmap()
     msg.header.stamp = ns_to_time(stamp_ns)
-    msg.header.frame_id = "base_link"
+    msg.header.frame_id = names.BASE_FRAME
     msg.resolution = 0.002
     msg.origin.x, msg.origin.y = 0.276, -0.224
     msg.color = numpy_to_image(color, "rgb8", msg.header)
@@ -157,10 +158,10 @@ def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ro
     processes = (adapted, attention)
     frame = render_boxes(random_boxes(5, num_product=20, num_impurities=1))
     maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
-    publisher = ros_node.create_publisher(Heightmap, "/heightmap", RELIABLE)
-    results = TopicRecorder(ros_node, AttentionResult, "/attention/result", RELIABLE)
+    publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
+    results = TopicRecorder(ros_node, AttentionResult, names.ATTENTION_TOPIC, RELIABLE)
     camera = FakeCamera(ros_node)
-    heightmaps = TopicRecorder(ros_node, Heightmap, "/heightmap", RELIABLE)
+    heightmaps = TopicRecorder(ros_node, Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
     try:
         wait_for_subscribers(ros_node, publisher, 2, 30.0, processes)  # the attention node and our recorder
         # a good heightmap answered first: then both ends have matched and the next ones arrive
@@ -173,7 +174,7 @@ def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ro
         good = heightmap_message(3_100_000_000, maps.color, maps.height)
         publisher.publish(good)
         result = results.wait_for(1, 30.0, with_stamp(3_100_000_000), processes)[0]
-        assert result.mode == AttentionResult.MODE_TARGET
+        assert result.mode == AttentionMode.TARGET
         assert not [m for m in results.messages if time_to_ns(m.header.stamp) == 3_000_000_000]
 
         # the adapting heightmap node still turns frames into (recoloured) heightmaps

@@ -14,6 +14,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from std_msgs.msg import String
 
 from impurity_common.bags import BagReader, cell_typestore
+from impurity_common.names import BASE_FRAME
 from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until, wait_for_subscribers
 
@@ -35,7 +36,7 @@ def make_messages(index: int):
     text = String(data=f"message {index}")
     primitive = Primitive(kind=Primitive.GRASP, yaw=0.25 * index, q_value=0.5, rotation_index=index % 16,
                           pixel_row=index, pixel_col=2 * index)
-    primitive.header.frame_id = "base_link"
+    primitive.header.frame_id = BASE_FRAME
     primitive.header.stamp.sec = index
     primitive.position.x, primitive.position.y = 0.5, 0.001 * index
     return text, primitive

@@ -4,88 +4,116 @@ Thin shell around impurity_attention.core.attention.attend: one AttentionResult 
 heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line.
 """
 
+from dataclasses import asdict, dataclass
+
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
-from impurity_attention.core.attention import AttentionParams, attend, debug_image
-from impurity_attention.core.density import DensityParams
-from impurity_attention.core.heightmap import HeightmapGrid
+from impurity_attention.core.attention import BACKGROUNDS, AttentionParams, attend, debug_image
+from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.saliency import SaliencyParams
+from impurity_common import cell, names
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image
+from impurity_common.grid import HeightmapGrid
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import describe
+from impurity_common.parameters import InvalidParameter, declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Heightmap
 
-HEIGHTMAP_TOPIC = "/heightmap"
-RESULT_TOPIC = "/attention/result"
-DEBUG_TOPIC = "/attention/debug_image"
 DEFAULTS = AttentionParams()
 
-# parameter name -> (default, description); names group into saliency.* / density.* in cell.yaml
-SALIENCY_PARAMETERS = {
-    "center_sigma": (DEFAULTS.saliency.center_sigma, "VOCUS2 centre blur of the finest layer (px)"),
-    "surround_sigma": (DEFAULTS.saliency.surround_sigma, "VOCUS2 surround blur (px, > centre)"),
-    "n_scales": (DEFAULTS.saliency.n_scales, "VOCUS2 scales per octave"),
-    "start_layer": (DEFAULTS.saliency.start_layer, "VOCUS2 first pyramid octave"),
-    "stop_layer": (DEFAULTS.saliency.stop_layer, "VOCUS2 last pyramid octave"),
-}
-DENSITY_PARAMETERS = {
-    "occupied_height": (DEFAULTS.density.occupied_height,
-                        "Cells higher than this are objects, for DBSCAN and saliency (m)"),
-    "stride": (DEFAULTS.density.stride, "Sub-grid step of the DBSCAN points (cells)"),
-    "eps": (DEFAULTS.density.eps, "DBSCAN neighbourhood radius (m)"),
-    "min_samples": (DEFAULTS.density.min_samples, "DBSCAN points within eps that make a core point"),
-    "height_weight": (DEFAULTS.density.height_weight, "Height as a DBSCAN coordinate: m per m (0 = off)"),
-    "min_cluster_height": (DEFAULTS.density.min_cluster_height, "Lower clusters cannot hide a target (m)"),
-    "min_cluster_area": (DEFAULTS.density.min_cluster_area, "Smaller clusters cannot hide a target (m^2)"),
-    "height_percentile": (DEFAULTS.density.height_percentile, "Cluster height = this percentile (%)"),
-    "score": (DEFAULTS.density.score, "What makes a cluster the largest: area or volume"),
-}
-ATTENTION_PARAMETERS = {
-    "background": (DEFAULTS.background, "objects: paint table cells with the objects' median colour "
-                                        "before saliency; table: the plain heightmap (paper)"),
-    "region_fraction": (DEFAULTS.region_fraction, "Salient region: object cells >= this x peak saliency"),
-    "min_region_area": (DEFAULTS.min_region_area, "Smallest salient region (cells)"),
-    "min_target_contrast": (DEFAULTS.min_target_contrast,
-                            "Mean saliency of the best region below this: no visible target"),
-    "mask_chroma_tolerance": (DEFAULTS.mask_chroma_tolerance,
-                              "Target mask: object cells within this chroma distance of m_t (0 = m_t only)"),
-    "crop_size": (DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)"),
-}
+
+@dataclass(frozen=True)
+class SaliencyParameters:
+    """VOCUS2 saliency (parameters saliency.*)."""
+
+    center_sigma: float = param(DEFAULTS.saliency.center_sigma, "VOCUS2 centre blur of the finest layer (px)",
+                                low=0.1, high=50.0)
+    surround_sigma: float = param(DEFAULTS.saliency.surround_sigma, "VOCUS2 surround blur (px, > centre)",
+                                  low=0.1, high=100.0)
+    n_scales: int = param(DEFAULTS.saliency.n_scales, "VOCUS2 scales per octave", low=1, high=8)
+    start_layer: int = param(DEFAULTS.saliency.start_layer, "VOCUS2 first pyramid octave", low=0, high=6)
+    stop_layer: int = param(DEFAULTS.saliency.stop_layer, "VOCUS2 last pyramid octave", low=0, high=6)
+
+    def __post_init__(self):
+        if self.surround_sigma <= self.center_sigma:
+            raise InvalidParameter("surround_sigma", f"is not above center_sigma ({self.center_sigma})")
+        if self.stop_layer < self.start_layer:
+            raise InvalidParameter("stop_layer", f"is below start_layer ({self.start_layer})")
+
+
+@dataclass(frozen=True)
+class DensityParameters:
+    """DBSCAN clusters of the occluded-region search (parameters density.*)."""
+
+    occupied_height: float = param(DEFAULTS.density.occupied_height,
+                                   "Cells higher than this are objects, for DBSCAN and saliency (m)",
+                                   low=0.0, high=0.5)
+    stride: int = param(DEFAULTS.density.stride, "Sub-grid step of the DBSCAN points (cells)", low=1, high=32)
+    eps: float = param(DEFAULTS.density.eps, "DBSCAN neighbourhood radius (m)", low=0.001, high=0.5)
+    min_samples: int = param(DEFAULTS.density.min_samples, "DBSCAN points within eps that make a core point",
+                             low=1, high=10000)
+    height_weight: float = param(DEFAULTS.density.height_weight,
+                                 "Height as a DBSCAN coordinate: m per m (0 = off)", low=0.0, high=100.0)
+    min_cluster_height: float = param(DEFAULTS.density.min_cluster_height,
+                                      "Lower clusters cannot hide a target (m)", low=0.0, high=1.0)
+    min_cluster_area: float = param(DEFAULTS.density.min_cluster_area,
+                                    "Smaller clusters cannot hide a target (m^2)", low=0.0, high=1.0)
+    height_percentile: float = param(DEFAULTS.density.height_percentile,
+                                     "Cluster height = this percentile (%)", low=0.0, high=100.0)
+    score: str = param(DEFAULTS.density.score, "What makes a cluster the largest: area or volume",
+                       choices=CLUSTER_SCORES)
+
+
+@dataclass(frozen=True)
+class AttentionNodeParameters:
+    """Every parameter of the node (bringup/config/cell.yaml, section attention)."""
+
+    saliency: SaliencyParameters = SaliencyParameters()
+    density: DensityParameters = DensityParameters()
+    background: str = param(DEFAULTS.background, "objects: paint table cells with the objects' median colour "
+                            "before saliency; table: the plain heightmap (paper)", choices=BACKGROUNDS)
+    region_fraction: float = param(DEFAULTS.region_fraction,
+                                   "Salient region: object cells >= this x peak saliency",
+                                   low=0.01, high=0.99)
+    min_region_area: int = param(DEFAULTS.min_region_area, "Smallest salient region (cells)",
+                                 low=1, high=cell.HEIGHTMAP_SIZE ** 2)
+    min_target_contrast: float = param(DEFAULTS.min_target_contrast,
+                                       "Mean saliency of the best region below this: no visible target",
+                                       low=0.0)
+    mask_chroma_tolerance: float = param(DEFAULTS.mask_chroma_tolerance, "Target mask: object cells within "
+                                         "this chroma distance of m_t (0 = m_t only)", low=0.0)
+    crop_size: int = param(DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)",
+                           low=2, high=2 * cell.HEIGHTMAP_SIZE, step=2)
+    publish_debug_image: bool = param(True, "Publish the saliency overlay")
+    log_throttle: float = param(5.0, "s between repeated warnings", low=0.0, high=3600.0)
+
+    def attention(self) -> AttentionParams:
+        """The core's parameters."""
+        return AttentionParams(
+            saliency=SaliencyParams(**asdict(self.saliency)), density=DensityParams(**asdict(self.density)),
+            background=self.background, region_fraction=self.region_fraction,
+            min_region_area=self.min_region_area, min_target_contrast=self.min_target_contrast,
+            mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
 class AttentionNode(Node):
     def __init__(self):
         super().__init__("attention")
-        for prefix, table in (("saliency.", SALIENCY_PARAMETERS), ("density.", DENSITY_PARAMETERS),
-                              ("", ATTENTION_PARAMETERS)):
-            for name, (default, text) in table.items():
-                self.declare_parameter(prefix + name, default, describe(text))
-        self.declare_parameter("publish_debug_image", True, describe("Publish the saliency overlay"))
-        self.declare_parameter("log_throttle", 5.0, describe("s between repeated warnings"))
-        self._params = self._read_params()
+        self.params = declare_parameters(self, AttentionNodeParameters)
+        self._params = self.params.attention()
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
-        self.create_subscription(Heightmap, HEIGHTMAP_TOPIC, self._on_heightmap,
+        self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
                                  QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
-        self._result_pub = self.create_publisher(AttentionResult, RESULT_TOPIC, reliable)
-        self._debug_pub = self.create_publisher(Image, DEBUG_TOPIC,
+        self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
+        self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         self.get_logger().info(f"ready: {self._params}")
 
-    def _param(self, name):
-        return self.get_parameter(name).value
-
-    def _read_params(self) -> AttentionParams:
-        saliency = SaliencyParams(**{name: self._param("saliency." + name) for name in SALIENCY_PARAMETERS})
-        density = DensityParams(**{name: self._param("density." + name) for name in DENSITY_PARAMETERS})
-        return AttentionParams(saliency=saliency, density=density,
-                               **{name: self._param(name) for name in ATTENTION_PARAMETERS})
-
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"heightmap dropped: {reason}",
-                                  throttle_duration_sec=self._param("log_throttle"))
+                                  throttle_duration_sec=self.params.log_throttle)
 
     def _on_heightmap(self, msg: Heightmap) -> None:
         try:
@@ -101,7 +129,7 @@ class AttentionNode(Node):
             self._drop(str(error))
             return
         self._result_pub.publish(to_message(msg, output))
-        if self._param("publish_debug_image") and self._debug_pub.get_subscription_count() > 0:
+        if self.params.publish_debug_image and self._debug_pub.get_subscription_count() > 0:
             self._debug_pub.publish(numpy_to_image(debug_image(color, output), "rgb8", msg.header))
 
 

@@ -6,6 +6,8 @@ stamp, and drops bad frames with one rate-limited log line each (never raises ou
 The camera pose in base_link is a parameter: a real cell sets it from its hand-eye calibration.
 """
 
+from dataclasses import dataclass
+
 import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
@@ -14,24 +16,19 @@ from sensor_msgs.msg import CameraInfo, Image
 from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
 from impurity_attention.core.heightmap import (
     DEPTH_ENCODINGS,
-    MAX_HEIGHT,
     DepthFormatError,
-    HeightmapGrid,
     ProjectorCache,
     depth_to_meters,
     pose_matrix,
 )
 from impurity_attention.core.sync import StampPairer
-from impurity_common import cell
+from impurity_common import cell, names
 from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
+from impurity_common.grid import MAX_HEIGHT, HeightmapGrid
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import describe
+from impurity_common.parameters import InvalidParameter, declare_parameters, increasing, nonzero_norm, param
 from impurity_interfaces.msg import Heightmap
 
-COLOR_TOPIC = "/camera/camera/color/image_raw"
-DEPTH_TOPIC = "/camera/camera/aligned_depth_to_color/image_raw"
-INFO_TOPIC = "/camera/camera/color/camera_info"
-HEIGHTMAP_TOPIC = "/heightmap"
 COLOR_ENCODINGS = ("rgb8", "bgr8")
 # Lab statistics of the seen cells of sim-rendered heightmaps (70 tuning scenes): the reference of the
 # optional sim-to-real transfer. Re-measure with `scripts/calibrate_attention.py lab-reference` when
@@ -40,64 +37,73 @@ SIM_LAB_MEAN = (60.21, 1.36, -8.57)
 SIM_LAB_STD = (9.35, 5.76, 19.01)
 
 
+@dataclass(frozen=True)
+class HeightmapParameters:
+    """Every parameter of the node (bringup/config/cell.yaml, section heightmap)."""
+
+    camera_position: tuple[float, ...] = param(
+        cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye "
+        "calibration)", length=3, low=-5.0, high=5.0)
+    camera_orientation: tuple[float, ...] = param(
+        cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link: quaternion [x, y, z, w]",
+        length=4, check=nonzero_norm)
+    workspace_x: tuple[float, ...] = param(cell.WORKSPACE_X, "[x_min, x_max] in base_link (m)",
+                                           length=2, low=-5.0, high=5.0, check=increasing)
+    workspace_y: tuple[float, ...] = param(cell.WORKSPACE_Y, "[y_min, y_max] in base_link (m)",
+                                           length=2, low=-5.0, high=5.0, check=increasing)
+    resolution: float = param(cell.HEIGHTMAP_RESOLUTION, "Heightmap cell size (m)", low=0.0005, high=0.05)
+    table_z: float = param(cell.TABLE_Z, "Table top height in base_link (m)", low=-5.0, high=5.0)
+    max_height: float = param(MAX_HEIGHT, "Points higher than this above the table are dropped (arm, "
+                              "gripper, noise) (m)", low=0.001, high=5.0)
+    sync_tolerance: float = param(0.01, "Largest stamp difference (s) for a colour and a depth frame to pair",
+                                  low=0.0, high=1.0)
+    colour_adaptation: bool = param(False, "Reinhard Lab transfer of heightmap colours to the sim reference "
+                                    "statistics (real cameras)")
+    colour_reference_mean: tuple[float, ...] = param(SIM_LAB_MEAN, "Reference Lab mean [L, a, b] for colour "
+                                                     "adaptation", length=3, low=-128.0, high=128.0)
+    colour_reference_std: tuple[float, ...] = param(SIM_LAB_STD, "Reference Lab standard deviation [L, a, b] "
+                                                    "for colour adaptation", length=3, low=0.001, high=128.0)
+    log_throttle: float = param(5.0, "s between repeated warnings about bad frames", low=0.0, high=3600.0)
+
+    def __post_init__(self):
+        extent = min(self.workspace_x[1] - self.workspace_x[0], self.workspace_y[1] - self.workspace_y[0])
+        if self.resolution > extent:
+            raise InvalidParameter("resolution", f"is larger than the workspace ({extent:g} m across)")
+
+    def grid(self) -> HeightmapGrid:
+        (x_min, x_max), (y_min, y_max) = self.workspace_x, self.workspace_y
+        return HeightmapGrid(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, resolution=self.resolution,
+                             table_z=self.table_z, max_height=self.max_height)
+
+
 class HeightmapNode(Node):
     def __init__(self):
         super().__init__("heightmap")
-        self.declare_parameter("camera_position", list(cell.CAMERA_POSITION), describe(
-            "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye calibration)"))
-        self.declare_parameter("camera_orientation", list(cell.CAMERA_ORIENTATION), describe(
-            "Camera optical frame orientation in base_link: quaternion [x, y, z, w]"))
-        self.declare_parameter("workspace_x", list(cell.WORKSPACE_X),
-                               describe("[x_min, x_max] in base_link (m)"))
-        self.declare_parameter("workspace_y", list(cell.WORKSPACE_Y),
-                               describe("[y_min, y_max] in base_link (m)"))
-        self.declare_parameter("resolution", cell.HEIGHTMAP_RESOLUTION, describe("Heightmap cell size (m)"))
-        self.declare_parameter("table_z", cell.TABLE_Z, describe("Table top height in base_link (m)"))
-        self.declare_parameter("max_height", MAX_HEIGHT, describe(
-            "Points higher than this above the table are dropped (arm, gripper, noise) (m)"))
-        self.declare_parameter("sync_tolerance", 0.01, describe(
-            "Largest stamp difference (s) for a colour and a depth frame to pair"))
-        self.declare_parameter("colour_adaptation", False, describe(
-            "Reinhard Lab transfer of heightmap colours to the sim reference statistics (real cameras)"))
-        self.declare_parameter("colour_reference_mean", list(SIM_LAB_MEAN), describe(
-            "Reference Lab mean [L, a, b] for colour adaptation"))
-        self.declare_parameter("colour_reference_std", list(SIM_LAB_STD), describe(
-            "Reference Lab standard deviation [L, a, b] for colour adaptation"))
-        self.declare_parameter("log_throttle", 5.0, describe("s between repeated warnings about bad frames"))
+        params = self.params = declare_parameters(self, HeightmapParameters)
 
-        self._grid = self._read_grid()
-        self._camera_pose = pose_matrix(self._param("camera_position"), self._param("camera_orientation"))
-        self._pairer = StampPairer(tolerance_ns=int(self._param("sync_tolerance") * 1e9))
+        self._grid = params.grid()
+        self._camera_pose = pose_matrix(params.camera_position, params.camera_orientation)
+        self._pairer = StampPairer(tolerance_ns=int(params.sync_tolerance * 1e9))
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
-        self._reference = LabStatistics(tuple(self._param("colour_reference_mean")),
-                                        tuple(self._param("colour_reference_std")))
+        self._reference = LabStatistics(params.colour_reference_mean, params.colour_reference_std)
 
         sensor = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT,
                             history=qos_profile_sensor_data.history)
-        self.create_subscription(Image, COLOR_TOPIC, self._on_color, sensor)
-        self.create_subscription(Image, DEPTH_TOPIC, self._on_depth, sensor)
-        self.create_subscription(CameraInfo, INFO_TOPIC, self._on_info, sensor)
+        self.create_subscription(Image, names.COLOR_TOPIC, self._on_color, sensor)
+        self.create_subscription(Image, names.DEPTH_TOPIC, self._on_depth, sensor)
+        self.create_subscription(CameraInfo, names.CAMERA_INFO_TOPIC, self._on_info, sensor)
         self._publisher = self.create_publisher(
-            Heightmap, HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
+            Heightmap, names.HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
         grid = self._grid
         self.get_logger().info(
             f"ready: {grid.rows}x{grid.cols} cells of {grid.resolution * 1000:.1f} mm over "
             f"x {grid.x_min:.3f}..{grid.x_max:.3f}, y {grid.y_min:.3f}..{grid.y_max:.3f}; "
-            f"camera at {list(self._param('camera_position'))}")
-
-    def _param(self, name):
-        return self.get_parameter(name).value
-
-    def _read_grid(self) -> HeightmapGrid:
-        (x_min, x_max), (y_min, y_max) = self._param("workspace_x"), self._param("workspace_y")
-        return HeightmapGrid(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max,
-                             resolution=self._param("resolution"), table_z=self._param("table_z"),
-                             max_height=self._param("max_height"))
+            f"camera at {list(params.camera_position)}")
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"frame dropped: {reason}",
-                                  throttle_duration_sec=self._param("log_throttle"))
+                                  throttle_duration_sec=self.params.log_throttle)
 
     def _on_info(self, msg: CameraInfo) -> None:
         if msg.k[0] <= 0 or msg.k[4] <= 0 or msg.width == 0 or msg.height == 0:
@@ -127,7 +133,7 @@ class HeightmapNode(Node):
     def _make_heightmap(self, color_msg: Image, depth_msg: Image) -> Heightmap | None:
         info = self._camera_info
         if info is None:
-            self._drop(f"no camera_info on {INFO_TOPIC} yet")
+            self._drop(f"no camera_info on {names.CAMERA_INFO_TOPIC} yet")
             return None
         color = image_to_numpy(color_msg, COLOR_ENCODINGS)
         if color_msg.encoding == "bgr8":
@@ -143,11 +149,11 @@ class HeightmapNode(Node):
         projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
         maps = projector.project(color, depth)
         color_map = maps.color
-        if self._param("colour_adaptation"):
+        if self.params.colour_adaptation:
             color_map = reinhard_transfer(color_map, self._reference, valid=maps.seen)
         msg = Heightmap()
         msg.header.stamp = color_msg.header.stamp
-        msg.header.frame_id = cell.BASE_FRAME
+        msg.header.frame_id = names.BASE_FRAME
         msg.resolution = float(self._grid.resolution)
         msg.origin.x, msg.origin.y, msg.origin.z = self._grid.x_min, self._grid.y_min, self._grid.table_z
         msg.color = numpy_to_image(color_map, "rgb8", msg.header)

@@ -7,7 +7,8 @@ Timestamps are receive times on the node's clock, as rosbag2 records them.
 
 Stopping: SIGINT (Ctrl-C) and SIGTERM only set a flag, so a signal never interrupts a write; the
 open split is then closed and metadata.yaml written. A SIGKILL loses only the open split (at most
-`split_duration` s): earlier splits are complete files already listed in metadata.yaml.
+`split_duration` s): earlier splits are complete files already listed in metadata.yaml. Exits 1 with
+one line when the bag cannot be written, 2 with one line for a bad parameter.
 
   bag_recorder --ros-args -p output:=/tmp/episode_bag -p topics:="[/heightmap, /policy/primitive]"
 """
@@ -16,6 +17,7 @@ import signal
 import sys
 import threading
 import time
+from dataclasses import dataclass
 from functools import partial
 
 import rclpy
@@ -25,18 +27,27 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.signals import SignalHandlerOptions
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
+from impurity_common import names
 from impurity_common.bags import BagError, BagWriter, cell_typestore, ros_message_class
-from impurity_common.parameters import describe
+from impurity_common.parameters import (
+    PARAMETER_ERROR_EXIT_CODE,
+    ParameterError,
+    absolute_names,
+    declare_parameters,
+    param,
+)
 
-DEFAULT_TOPICS = [
-    "/camera/camera/color/image_raw",
-    "/camera/camera/aligned_depth_to_color/image_raw",
-    "/camera/camera/color/camera_info",
-    "/heightmap",
-    "/attention/result",
-    "/policy/primitive",
-    "/episode/steps",
-]
+
+@dataclass(frozen=True)
+class BagRecorderParameters:
+    topics: tuple[str, ...] = param(names.EPISODE_TOPICS, "Topics to record (absolute names)",
+                                    check=absolute_names)
+    output: str = param("", "Bag directory to create (must not exist); default bag_<date>_<time> in the "
+                        "working directory")
+    split_duration: float = param(5.0, "s of messages per split file: what a SIGKILL can lose at most",
+                                  low=0.01, high=3600.0)
+    qos_depth: int = param(100, "Subscription queue depth", low=1, high=100000)
+    discovery_period: float = param(0.2, "s between looks for not yet seen topics", low=0.01, high=60.0)
 
 
 
@@ -57,27 +68,14 @@ def bag_qos(profile: QoSProfile) -> Qos:
 class BagRecorderNode(Node):
     def __init__(self):
         super().__init__("bag_recorder")
-        self.declare_parameter("topics", DEFAULT_TOPICS, describe("Topics to record (absolute names)"))
-        self.declare_parameter("output", "", describe(
-            "Bag directory to create (must not exist); default bag_<date>_<time> in the working directory"))
-        self.declare_parameter("split_duration", 5.0, describe(
-            "s of messages per split file: what a SIGKILL can lose at most"))
-        self.declare_parameter("qos_depth", 100, describe("Subscription queue depth"))
-        self.declare_parameter("discovery_period", 0.2, describe("s between looks for not yet seen topics"))
-
-        output = self._param("output") or time.strftime("bag_%Y%m%d_%H%M%S")
-        self._pending = list(dict.fromkeys(self._param("topics")))
-        if not self._pending or any(not t.startswith("/") for t in self._pending):
-            raise BagError(f"parameter topics must list absolute topic names, got {self._pending}")
-        self._depth = int(self._param("qos_depth"))
-        self.writer = BagWriter(output, cell_typestore(),
-                                split_duration_ns=int(float(self._param("split_duration")) * 1e9))
-        self.create_timer(float(self._param("discovery_period")), self._subscribe_new_topics)
+        params = self.params = declare_parameters(self, BagRecorderParameters)
+        output = params.output or time.strftime("bag_%Y%m%d_%H%M%S")
+        self._pending = list(dict.fromkeys(params.topics))
+        self._depth = params.qos_depth
+        self.writer = BagWriter(output, cell_typestore(), split_duration_ns=int(params.split_duration * 1e9))
+        self.create_timer(params.discovery_period, self._subscribe_new_topics)
         self._subscribe_new_topics()
         self.get_logger().info(f"recording {len(self._pending)} topic(s) to {self.writer.path}")
-
-    def _param(self, name):
-        return self.get_parameter(name).value
 
     def _subscribe_new_topics(self) -> None:
         if not self._pending:
@@ -129,6 +127,9 @@ def main(args=None) -> int:
     except BagError as error:
         print(f"bag_recorder: error: {error}", file=sys.stderr, flush=True)
         code = 1
+    except ParameterError as error:
+        print(error, file=sys.stderr, flush=True)
+        code = PARAMETER_ERROR_EXIT_CODE
     finally:
         if node is not None:
             node.close()

@@ -17,7 +17,8 @@ subscriptions) loses in bursts. Unless a Fast DDS profile or transport is chosen
 bag_replay gives its own participant a 32 MB segment (it is the writer's segment that matters).
 
 Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
-bag, an unknown message type or missing subscribers; every wait is bounded.
+bag, an unknown message type or missing subscribers, 2 with one line for a bad parameter; every wait
+is bounded.
 
   bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
 """
@@ -28,6 +29,7 @@ import pathlib
 import sys
 import tempfile
 import time
+from dataclasses import dataclass
 
 import rclpy
 from rclpy.duration import Duration
@@ -47,7 +49,7 @@ from impurity_common.bags import (
     ros_message_class,
     run_replay,
 )
-from impurity_common.parameters import describe
+from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
 FASTDDS_LARGE_SHM_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
 <profiles xmlns="http://www.eprosima.com/XMLSchemas/fastRTPS_Profiles">
@@ -92,40 +94,41 @@ def use_large_shm_segment() -> None:
 
 
 
+@dataclass(frozen=True)
+class BagReplayParameters:
+    bag: str = param("", "rosbag2 directory to play")
+    topics: tuple[str, ...] = param(("",), "Topics to play (default: all in the bag)")
+    rate: float = param(1.0, "Speed factor of the original timing (2.0: twice as fast)",
+                        low=0.001, high=1000.0)
+    start_offset: float = param(0.0, "s after the bag's first message to start at", low=0.0)
+    loop: bool = param(False, "Play the bag again and again (until Ctrl-C)")
+    as_fast_as_possible: bool = param(False, "Ignore the original timing (use ack_topic to let subscribers "
+                                      "set the pace)")
+    wait_for_subscribers: int = param(0, "Before playing, wait until every played topic has this many "
+                                      "subscribers", low=0, high=1000)
+    wait_timeout: float = param(10.0, "s to wait for subscribers or ack_topic", low=0.0, high=3600.0)
+    delay: float = param(0.0, "s to wait before playing (after the subscribers matched): a best-effort "
+                         "subscriber drops what arrives before it has discovered the publisher in turn",
+                         low=0.0, high=3600.0)
+    ack_topic: str = param("", "Topic whose messages acknowledge ack_before messages ('' = no pacing)")
+    ack_before: str = param("", "Played topic whose messages wait until ack_topic answered the previous ones")
+    ack_timeout: float = param(5.0, "s to wait for one acknowledgement", low=0.001, high=3600.0)
+    ack_retries: int = param(3, "Re-publications of a group that got no answer", low=0, high=1000)
+    qos_depth: int = param(100, "Publisher queue depth", low=1, high=100000)
+
+
 class BagReplayNode(Node):
     def __init__(self):
         super().__init__("bag_replay")
-        self.declare_parameter("bag", "", describe("rosbag2 directory to play"))
-        self.declare_parameter("topics", [""], describe("Topics to play (default: all in the bag)"))
-        self.declare_parameter("rate", 1.0, describe(
-            "Speed factor of the original timing (2.0: twice as fast)"))
-        self.declare_parameter("start_offset", 0.0, describe("s after the bag's first message to start at"))
-        self.declare_parameter("loop", False, describe("Play the bag again and again (until Ctrl-C)"))
-        self.declare_parameter("as_fast_as_possible", False, describe(
-            "Ignore the original timing (use ack_topic to let subscribers set the pace)"))
-        self.declare_parameter("wait_for_subscribers", 0, describe(
-            "Before playing, wait until every played topic has this many subscribers"))
-        self.declare_parameter("wait_timeout", 10.0, describe("s to wait for subscribers or ack_topic"))
-        self.declare_parameter("delay", 0.0, describe(
-            "s to wait before playing (after the subscribers matched): a best-effort subscriber drops "
-            "what arrives before it has discovered the publisher in turn"))
-        self.declare_parameter("ack_topic", "", describe(
-            "Topic whose messages acknowledge ack_before messages ('' = no pacing)"))
-        self.declare_parameter("ack_before", "", describe(
-            "Played topic whose messages wait until ack_topic answered the previous ones"))
-        self.declare_parameter("ack_timeout", 5.0, describe("s to wait for one acknowledgement"))
-        self.declare_parameter("ack_retries", 3, describe("Re-publications of a group that got no answer"))
-        self.declare_parameter("qos_depth", 100, describe("Publisher queue depth"))
+        params = self.params = declare_parameters(self, BagReplayParameters)
 
-        path = self._param("bag")
+        path = params.bag
         if not path:
             raise BagError("parameter bag is empty: give the bag directory (-p bag:=<dir>)")
-        self.timing = ReplayTiming(rate=float(self._param("rate")),
-                                   start_offset=float(self._param("start_offset")),
-                                   loop=bool(self._param("loop")),
-                                   as_fast_as_possible=bool(self._param("as_fast_as_possible")))
+        self.timing = ReplayTiming(rate=params.rate, start_offset=params.start_offset, loop=params.loop,
+                                   as_fast_as_possible=params.as_fast_as_possible)
         self.reader = BagReader(path, cell_typestore())
-        wanted = [t for t in self._param("topics") if t] or list(self.reader.topics)
+        wanted = [t for t in params.topics if t] or list(self.reader.topics)
         missing = sorted(set(wanted) - set(self.reader.topics))
         if missing:
             raise BagError(f"bag {path} has no topic(s) {missing}; it has {sorted(self.reader.topics)}")
@@ -134,19 +137,16 @@ class BagReplayNode(Node):
         self._acked_stamps: set[int] = set()
         self._pending_stamp: int | None = None  # of the last ack_before message, until answered
         self._unanswered: list[BagMessage] = []  # played since, for re-publication
-        self._ack_before = self._param("ack_before")
-        self._pacing = bool(self._param("ack_topic"))
+        self._ack_before = params.ack_before
+        self._pacing = bool(params.ack_topic)
         if self._pacing:
-            self._subscribe_acks(self._param("ack_topic"))
-
-    def _param(self, name):
-        return self.get_parameter(name).value
+            self._subscribe_acks(params.ack_topic)
 
     def _publisher(self, topic: str):
         info = self.reader.topics[topic]
         latched = bool(info.qos) and all(q.durability == QosDurability.TRANSIENT_LOCAL for q in info.qos)
         durability = DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE
-        qos = QoSProfile(depth=int(self._param("qos_depth")), reliability=ReliabilityPolicy.RELIABLE,
+        qos = QoSProfile(depth=self.params.qos_depth, reliability=ReliabilityPolicy.RELIABLE,
                          durability=durability)
         return self.create_publisher(ros_message_class(info.msgtype, topic), topic, qos)
 
@@ -155,10 +155,10 @@ class BagReplayNode(Node):
         if self._ack_before not in self.topics:
             raise BagError(f"ack_before '{self._ack_before}' is not one of the played topics {self.topics}")
         resolved = self.resolve_topic_name(topic)
-        deadline = time.monotonic() + float(self._param("wait_timeout"))
+        deadline = time.monotonic() + self.params.wait_timeout
         while not (types := dict(self.get_topic_names_and_types()).get(resolved)):
             if time.monotonic() > deadline:
-                raise BagError(f"ack_topic {resolved} has no publisher after {self._param('wait_timeout')} s")
+                raise BagError(f"ack_topic {resolved} has no publisher after {self.params.wait_timeout} s")
             time.sleep(0.05)  # graph queries need no spinning; nothing else runs yet
         self.create_subscription(ros_message_class(types[0], resolved), resolved, self._on_ack,
                                  QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE), raw=True)
@@ -172,7 +172,7 @@ class BagReplayNode(Node):
         """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
         self._spin_once = spin_once
         self._wait_for_subscribers(should_stop)
-        deadline = time.monotonic() + float(self._param("delay"))
+        deadline = time.monotonic() + self.params.delay
         while not should_stop() and (remaining := deadline - time.monotonic()) > 0:
             spin_once(min(remaining, 0.05))
         plan = replay_plan(lambda start_ns: self.reader.messages(self.topics, start_ns), self.reader.start_ns,
@@ -181,17 +181,17 @@ class BagReplayNode(Node):
         if self._pacing and not should_stop():
             self._settle_group()
         for publisher in self._topic_publishers.values():  # reliable subscribers get the last messages too
-            publisher.wait_for_all_acked(Duration(seconds=float(self._param("wait_timeout"))))
+            publisher.wait_for_all_acked(Duration(seconds=self.params.wait_timeout))
         return count
 
     def _wait_for_subscribers(self, should_stop) -> None:
-        wanted = int(self._param("wait_for_subscribers"))
-        deadline = time.monotonic() + float(self._param("wait_timeout"))
+        wanted = self.params.wait_for_subscribers
+        deadline = time.monotonic() + self.params.wait_timeout
         for publisher in self._topic_publishers.values():
             while publisher.get_subscription_count() < wanted and not should_stop():
                 if time.monotonic() > deadline:
                     raise BagError(f"{publisher.topic_name} has {publisher.get_subscription_count()} "
-                                   f"subscriber(s) after {self._param('wait_timeout')} s, wanted {wanted}")
+                                   f"subscriber(s) after {self.params.wait_timeout} s, wanted {wanted}")
                 self._spin_once(0.02)
 
     def _publish(self, message: BagMessage) -> None:
@@ -210,8 +210,8 @@ class BagReplayNode(Node):
         if stamp is None:
             return
         frame = [m for m in self._unanswered if header_stamp_ns(m.data) == stamp]
-        timeout = float(self._param("ack_timeout"))
-        retries = int(self._param("ack_retries"))
+        timeout = self.params.ack_timeout
+        retries = self.params.ack_retries
         for attempt in range(retries + 1):
             deadline = time.monotonic() + timeout
             while stamp not in self._acked_stamps and rclpy.ok() and time.monotonic() < deadline:
@@ -219,7 +219,7 @@ class BagReplayNode(Node):
             if stamp in self._acked_stamps or not rclpy.ok():
                 break
             if attempt < retries:
-                self.get_logger().warn(f"no answer on {self._param('ack_topic')} for stamp {stamp} within "
+                self.get_logger().warn(f"no answer on {self.params.ack_topic} for stamp {stamp} within "
                                        f"{timeout} s: publishing its {len(frame)} message(s) again")
                 for message in frame:
                     self._topic_publishers[message.topic].publish(message.data)
@@ -245,6 +245,9 @@ def main(args=None) -> int:
     except (BagError, ValueError) as error:
         print(f"bag_replay: error: {error}", file=sys.stderr, flush=True)
         code = 1
+    except ParameterError as error:
+        print(error, file=sys.stderr, flush=True)
+        code = PARAMETER_ERROR_EXIT_CODE
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:

@@ -1,7 +1,8 @@
 """Geometry of the cell, in one place: every default for workspace, heightmap, camera and gripper.
 
 Frames follow REP-103: `base_link` is the UR5 base (x forward, y left, z up) with the table top at
-z = TABLE_Z; the camera's optical frame is `camera_color_optical_frame` (z out of the lens).
+z = TABLE_Z; the camera's optical frame is `camera_color_optical_frame` (z out of the lens). Their ids
+live in impurity_common.names with every other ROS name (re-exported here for older imports).
 Nodes expose these as parameters (bringup/config/cell.yaml); cores take them as arguments with
 these defaults.
 """
@@ -10,8 +11,7 @@ import math
 
 import numpy as np
 
-BASE_FRAME = "base_link"
-CAMERA_OPTICAL_FRAME = "camera_color_optical_frame"
+from impurity_common.names import BASE_FRAME, CAMERA_OPTICAL_FRAME  # noqa: F401  (re-exported)
 
 # Workspace: a 448 mm x 448 mm square in front of the UR5 base (paper section 3).
 WORKSPACE_X = (0.276, 0.724)  # m, base_link

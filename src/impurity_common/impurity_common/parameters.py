@@ -1,8 +1,424 @@
-"""Parameter descriptors for the cell's nodes, written once."""
+"""Node parameters declared from ONE typed structure: a frozen dataclass whose fields carry a default, a
+description and optional limits. `declare_parameters(node, Type)` declares every field (read-only, typed,
+with a FloatingPointRange/IntegerRange where a range is given), reads the values back, checks them and
+returns a populated instance. A bad value (wrong type, out of range, not a choice, failing a check)
+raises ParameterError, whose text is ONE line naming the node, the parameter, the value and what is
+allowed; `node_main.spin_node` prints that line to stderr and exits with status 2, never a traceback.
 
-from rcl_interfaces.msg import ParameterDescriptor
+    @dataclass(frozen=True)
+    class HeightmapParameters:
+        resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005, high=0.05)
+        workspace_x: tuple[float, ...] = param((0.276, 0.724), "[x_min, x_max] in base_link (m)",
+                                               length=2, check=increasing)
+        depth_encoding: str = param("16UC1", "Aligned depth encoding", choices=("16UC1", "32FC1"))
+        scenario: Scenario = param(Scenario.RANDOM, "Scene built at start")  # str enum: its values
+        saliency: SaliencyParameters = SaliencyParameters()  # nested: parameters saliency.<field>
+
+    class HeightmapNode(Node):
+        def __init__(self):
+            super().__init__("heightmap")
+            self.params = declare_parameters(self, HeightmapParameters)  # self.params.resolution ...
+
+Field types: float (ROS double), int (integer), bool, str, a str Enum (string, its values are the
+choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arrays; `length`,
+`low`/`high` apply per element), and a nested parameters dataclass (names prefixed "<field>.", as
+`saliency: {center_sigma: 2.0}` in a yaml). Ranges are inclusive, as ROS's. Rules between fields go
+in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`.
+
+The pure part (parameter_specs, check_value, build, ParameterError's line, descriptor) needs no rclpy;
+only declare_parameters talks to a node.
+"""
+
+from __future__ import annotations
+
+import array
+import dataclasses
+import enum
+import math
+import typing
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
+
+PARAMETER_ERROR_EXIT_CODE = 2  # what a node exits with when a parameter is bad (argparse's usage code)
+_METADATA_KEY = "impurity_parameter"
+_INT64 = (-(2 ** 63), 2 ** 63 - 1)
+
+# ROS parameter type name -> (ParameterType constant, Python element type, words for messages)
+_SCALARS = {
+    "double": (ParameterType.PARAMETER_DOUBLE, float, "a double"),
+    "integer": (ParameterType.PARAMETER_INTEGER, int, "an integer"),
+    "bool": (ParameterType.PARAMETER_BOOL, bool, "a bool"),
+    "string": (ParameterType.PARAMETER_STRING, str, "a string"),
+}
+_ARRAYS = {
+    "double": ParameterType.PARAMETER_DOUBLE_ARRAY,
+    "integer": ParameterType.PARAMETER_INTEGER_ARRAY,
+    "bool": ParameterType.PARAMETER_BOOL_ARRAY,
+    "string": ParameterType.PARAMETER_STRING_ARRAY,
+}
+_PLURALS = {"double": "doubles", "integer": "integers", "bool": "bools", "string": "strings"}
+_TYPE_WORDS = {float: "double", int: "integer", bool: "bool", str: "string"}
+
+
+@dataclass(frozen=True)
+class Limits:
+    """What a field allows besides its type (kept in the dataclass field's metadata by `param`)."""
+
+    description: str
+    low: float | None = None  # inclusive; per element for arrays
+    high: float | None = None  # inclusive; per element for arrays
+    step: float | None = None  # scalars: allowed values are low + k * step (needs low)
+    choices: tuple | None = None  # strings: the allowed values
+    length: int | None = None  # arrays: the number of elements
+    check: Callable[[typing.Any], str | None] | None = None  # value -> None, or what is wrong with it
+
+
+def param(default, description: str, *, low: float | None = None, high: float | None = None,
+          step: float | None = None, choices: Sequence | None = None, length: int | None = None,
+          check: Callable[[typing.Any], str | None] | None = None):
+    """A parameter field: `resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005)`.
+    `check(value)` returns None when the value is fine, else a short phrase of what is wrong with it
+    ("must be increasing"); it runs after the type, range, choices and length checks passed."""
+    if isinstance(default, list):
+        default = tuple(default)
+    limits = Limits(description, low, high, step, tuple(choices) if choices is not None else None, length,
+                    check)
+    return dataclasses.field(default=default, metadata={_METADATA_KEY: limits})
+
+
+class InvalidParameter(ValueError):
+    """Raised by a parameters dataclass's __post_init__ for a rule between fields: names the field."""
+
+    def __init__(self, field: str, problem: str):
+        super().__init__(f"{field} {problem}")
+        self.field, self.problem = field, problem
+
+
+class ParameterError(Exception):
+    """A node's parameter has a value it cannot run with; str() is the one line to show the user."""
+
+    def __init__(self, node: str, problem: str, parameter: str | None = None, value=None,
+                 allowed: str | None = None):
+        self.node, self.problem, self.parameter = node, problem, parameter
+        self.value, self.allowed = value, allowed
+        if parameter is None:
+            line = f"{node}: invalid parameters: {problem}"
+        else:
+            line = f"{node}: parameter {parameter}:={format_value(value)} {problem}"
+            if allowed:
+                line += f"; expected {allowed}"
+        super().__init__(" ".join(line.split()))  # one line, whatever a check's text holds
+
+
+@dataclass(frozen=True)
+class ParameterSpec:
+    """One ROS parameter of a parameters dataclass, flattened (nested groups prefixed)."""
+
+    name: str  # ROS name, e.g. "saliency.center_sigma"
+    path: tuple  # attribute path in the dataclass, e.g. ("saliency", "center_sigma")
+    kind: str  # "double" | "integer" | "bool" | "string"
+    array: bool
+    default: typing.Any  # as ROS takes it: float, int, bool, str or a list of those
+    limits: Limits
+    enum_type: type | None = None  # a str Enum the string value is turned into
+
+    @property
+    def description(self) -> str:
+        return self.limits.description
+
+    @property
+    def ros_type(self) -> int:
+        return _ARRAYS[self.kind] if self.array else _SCALARS[self.kind][0]
+
+    @property
+    def choices(self) -> tuple | None:
+        if self.enum_type is not None:
+            return tuple(member.value for member in self.enum_type)
+        return self.limits.choices
+
+
+# ------------------------------------------------------------------------------------ dataclass -> specs
+def parameter_specs(cls, prefix: str = "", path: tuple = ()) -> list[ParameterSpec]:
+    """Every parameter of the dataclass `cls`, nested dataclass fields flattened into "<field>.<name>"."""
+    if not dataclasses.is_dataclass(cls):
+        raise TypeError(f"{cls!r} is not a dataclass")
+    hints = typing.get_type_hints(cls)
+    specs = []
+    for field in dataclasses.fields(cls):
+        annotation = hints[field.name]
+        if dataclasses.is_dataclass(annotation):
+            specs += parameter_specs(annotation, f"{prefix}{field.name}.", path + (field.name,))
+            continue
+        limits = field.metadata.get(_METADATA_KEY)
+        if limits is None:
+            raise TypeError(f"{cls.__name__}.{field.name}: declare it with param(default, description, ...)")
+        specs.append(_spec(f"{prefix}{field.name}", path + (field.name,), annotation, field.default, limits))
+    return specs
+
+
+def _spec(name: str, path: tuple, annotation, default, limits: Limits) -> ParameterSpec:
+    where = f"parameter {name}"
+    enum_type = None
+    array = typing.get_origin(annotation) in (tuple, list)
+    if array:
+        args = [a for a in typing.get_args(annotation) if a is not Ellipsis]
+        if len(set(args)) != 1:
+            raise TypeError(f"{where}: arrays are tuple[<one type>, ...], got {annotation}")
+        element = args[0]
+    else:
+        element = annotation
+    if isinstance(element, type) and issubclass(element, enum.Enum) and not array:
+        if not issubclass(element, str):
+            raise TypeError(f"{where}: only str enums can be parameters, got {element.__name__}")
+        enum_type, element = element, str
+    kind = next((k for k, (_, py_type, _) in _SCALARS.items() if element is py_type), None)
+    if kind is None:
+        raise TypeError(f"{where}: unsupported type {annotation}")
+    if default is dataclasses.MISSING:
+        raise TypeError(f"{where}: needs a default")
+    if array:
+        default = [_ros_scalar(kind, v) for v in default]
+    else:
+        default = _ros_scalar(kind, default.value if isinstance(default, enum.Enum) else default)
+    return ParameterSpec(name, path, kind, array, default, limits, enum_type)
+
+
+def _ros_scalar(kind: str, value):
+    if kind == "double" and isinstance(value, int) and not isinstance(value, bool):
+        return float(value)
+    return value
+
+
+# ------------------------------------------------------------------------------------ descriptor
+def allowed(spec: ParameterSpec) -> str:
+    """What the parameter accepts, in words: "a double in [0.0005, 0.05]", "one of: arm, floating"."""
+    limits = spec.limits
+    if spec.choices is not None and not spec.array:
+        return "one of: " + ", ".join(str(c) for c in spec.choices)
+    if spec.kind == "bool" and not spec.array:
+        return "true or false"
+    if spec.array:
+        count = f"{limits.length} " if limits.length is not None else ""
+        text = f"a list of {count}{_PLURALS[spec.kind]}"
+        bounds = _bounds_text(limits)
+        return f"{text}, each {bounds}" if bounds else text
+    text = _SCALARS[spec.kind][2]
+    bounds = _bounds_text(limits)
+    if bounds:
+        text += f" {bounds}"
+    if limits.step:
+        text += f" in steps of {limits.step}"
+    return text
+
+
+def _bounds_text(limits: Limits) -> str:
+    if limits.low is not None and limits.high is not None:
+        return f"in [{limits.low}, {limits.high}]"
+    if limits.low is not None:
+        return f">= {limits.low}"
+    if limits.high is not None:
+        return f"<= {limits.high}"
+    return ""
+
+
+def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
+    """The read-only, typed ROS descriptor: description, the allowed values in words
+    (additional_constraints) and, for scalar doubles and integers with bounds, the ROS range."""
+    result = ParameterDescriptor(name=spec.name, type=spec.ros_type, description=spec.description,
+                                 additional_constraints=allowed(spec), read_only=True)
+    limits = spec.limits
+    if spec.array or (limits.low is None and limits.high is None):
+        return result
+    if spec.kind == "double":
+        result.floating_point_range = [FloatingPointRange(
+            from_value=float(limits.low if limits.low is not None else -math.inf),
+            to_value=float(limits.high if limits.high is not None else math.inf),
+            step=float(limits.step or 0.0))]
+    elif spec.kind == "integer":
+        result.integer_range = [IntegerRange(
+            from_value=int(limits.low if limits.low is not None else _INT64[0]),
+            to_value=int(limits.high if limits.high is not None else _INT64[1]),
+            step=int(limits.step or 1))]
+    return result
+
+
+# ------------------------------------------------------------------------------------ checking
+def format_value(value) -> str:
+    """A value as a user would write it after `-p name:=`: 0.002, 'abc', [0.5, 0.0], true."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, enum.Enum):
+        value = value.value
+    if isinstance(value, str):
+        return repr(value)
+    if _is_list(value):
+        return "[" + ", ".join(format_value(v) for v in value) + "]"
+    return repr(value)
+
+
+def _is_list(value) -> bool:
+    return isinstance(value, list | tuple | array.array)
+
+
+def _kind_of(value) -> str:
+    """The ROS words for a value's type, e.g. "a string", "a list of integers"."""
+    kind = _TYPE_WORDS.get(type(value))
+    if kind is not None:
+        return _SCALARS[kind][2]
+    if _is_list(value):
+        kinds = {_TYPE_WORDS.get(type(v)) for v in value}
+        if len(kinds) == 1 and None not in kinds:
+            return f"a list of {_PLURALS[kinds.pop()]}"
+        return "a list"
+    return f"a {type(value).__name__}"
+
+
+def _is_kind(kind: str, value) -> bool:
+    if kind == "double":
+        return isinstance(value, float)
+    if kind == "integer":
+        return isinstance(value, int) and not isinstance(value, bool)
+    return isinstance(value, _SCALARS[kind][1])
+
+
+def _in_bounds(limits: Limits, value) -> bool:
+    tolerance = 1e-9 * max(1.0, abs(value))
+    if limits.low is not None and value < limits.low - tolerance:
+        return False
+    return not (limits.high is not None and value > limits.high + tolerance)
+
+
+def check_value(spec: ParameterSpec, value) -> str | None:
+    """None when `value` (as ROS gives it) is allowed, else what is wrong, e.g. "is out of range"."""
+    limits = spec.limits
+    if spec.array:
+        if not _is_list(value) or not all(_is_kind(spec.kind, v) for v in value):
+            return f"is {_kind_of(value)}"
+        if limits.length is not None and len(value) != limits.length:
+            return f"has {len(value)} element{'s' if len(value) != 1 else ''}"
+        if spec.kind in ("double", "integer") and not all(_in_bounds(limits, v) for v in value):
+            return "has an element out of range"
+    else:
+        if not _is_kind(spec.kind, value):
+            hint = f" (write {float(value)} for a double)" if spec.kind == "double" and _is_kind(
+                "integer", value) else ""
+            return f"is {_kind_of(value)}{hint}"
+        if spec.kind in ("double", "integer"):
+            if (isinstance(value, float) and not math.isfinite(value)
+                    and (limits.low is not None or limits.high is not None)):
+                return "is out of range"
+            if not _in_bounds(limits, value):
+                return "is out of range"
+            if limits.step and limits.low is not None:
+                steps = (value - limits.low) / limits.step
+                if abs(steps - round(steps)) > 1e-6:
+                    return "is not on a step"
+        if spec.choices is not None and value not in spec.choices:
+            return "is not one of the choices"
+    if limits.check is not None:
+        return limits.check(tuple(value) if spec.array else value)
+    return None
+
+
+def error(node_name: str, spec: ParameterSpec, value, problem: str) -> ParameterError:
+    return ParameterError(node_name, problem, spec.name, value, allowed(spec))
+
+
+def build(node_name: str, cls, values: dict):
+    """The dataclass instance for `values` ({ROS name: value as ROS gives it}); ParameterError (one
+    line) for a value `check_value` refuses or a rule of the dataclass's __post_init__."""
+    specs = parameter_specs(cls)
+    for spec in specs:
+        problem = check_value(spec, values[spec.name])
+        if problem is not None:
+            raise error(node_name, spec, values[spec.name], problem)
+    return _construct(node_name, cls, {spec.path: _python_value(spec, values[spec.name]) for spec in specs},
+                      specs, ())
+
+
+def _python_value(spec: ParameterSpec, value):
+    if spec.array:
+        return tuple(value)
+    if spec.enum_type is not None:
+        return spec.enum_type(value)
+    return value
+
+
+def _construct(node_name: str, cls, values: dict, specs: list, path: tuple):
+    hints = typing.get_type_hints(cls)
+    kwargs = {}
+    for field in dataclasses.fields(cls):
+        field_path = path + (field.name,)
+        if dataclasses.is_dataclass(hints[field.name]):
+            kwargs[field.name] = _construct(node_name, hints[field.name], values, specs, field_path)
+        else:
+            kwargs[field.name] = values[field_path]
+    try:
+        return cls(**kwargs)
+    except InvalidParameter as rule:
+        spec = next((s for s in specs if s.path == path + (rule.field,)), None)
+        if spec is None:
+            raise ParameterError(node_name, str(rule)) from None
+        raise error(node_name, spec, values[spec.path], rule.problem) from None
+    except ValueError as failure:
+        raise ParameterError(node_name, str(failure)) from None
+
+
+# ------------------------------------------------------------------------------------ the node side
+def declare_parameters(node, cls):
+    """Declare every parameter of the dataclass `cls` on `node` (read-only, typed, described, ranged),
+    read the values (defaults, yaml, -p) back and return the `cls` instance. ParameterError (one line:
+    node, parameter, value, what is allowed) for a value of the wrong type, out of range, not a choice,
+    or refused by a check or by the dataclass's rules."""
+    from rclpy.exceptions import ParameterException, ParameterUninitializedException
+    from rclpy.parameter import Parameter
+
+    values = {}
+    for spec in parameter_specs(cls):
+        # an empty list tells rclpy no element type: declare those by type, their value stays unset
+        default = spec.default if spec.default != [] else Parameter.Type(spec.ros_type)
+        try:
+            node.declare_parameter(spec.name, default, descriptor(spec))
+        except ParameterException as refused:  # rclpy: wrong type, or outside the descriptor's range
+            value = _override(node, spec.name)
+            raise error(node.get_name(), spec, value,
+                        check_value(spec, value) or str(refused)) from None
+        try:
+            values[spec.name] = node.get_parameter(spec.name).value
+        except ParameterUninitializedException:  # declared by type, not overridden
+            values[spec.name] = spec.default
+    return build(node.get_name(), cls, values)
+
+
+def _override(node, name: str):
+    """The value a yaml or -p gave `name` (what rclpy refused). rclpy keeps the overrides in this
+    attribute (since Dashing) and has no public getter for them."""
+    override = getattr(node, "_parameter_overrides", {}).get(name)
+    return override.value if override is not None else None
+
+
+# ------------------------------------------------------------------------------------ common checks
+def increasing(values) -> str | None:
+    """check= for [min, max] pairs (workspace bounds)."""
+    if any(b <= a for a, b in zip(values, values[1:], strict=False)):
+        return "is not increasing ([min, max] with min < max)"
+    return None
+
+
+def nonzero_norm(values) -> str | None:
+    """check= for quaternions: they are normalised, but a zero (or non-finite) one has no rotation."""
+    norm = math.sqrt(sum(v * v for v in values))
+    return None if math.isfinite(norm) and norm > 1e-9 else "has no rotation (norm 0)"
+
+
+def absolute_names(values) -> str | None:
+    """check= for lists of ROS topic names."""
+    bad = [v for v in values if not v.startswith("/")]
+    return f"has names that are not absolute: {', '.join(repr(v) for v in bad)}" if bad else None
 
 
 def describe(text: str) -> ParameterDescriptor:
-    """Read-only: every node reads its parameters once at start-up and never re-reads them."""
+    """Legacy (policy and episode nodes until they move to declare_parameters): a read-only descriptor."""
     return ParameterDescriptor(description=text, read_only=True)

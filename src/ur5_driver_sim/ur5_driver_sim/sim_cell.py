@@ -16,10 +16,10 @@ from __future__ import annotations
 import sys
 import threading
 import time
+from dataclasses import dataclass
 
 import numpy as np
 from geometry_msgs.msg import Pose
-from rcl_interfaces.msg import ParameterDescriptor
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
@@ -28,51 +28,55 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
-from impurity_common import cell
+from impurity_common import cell, names
 from impurity_common.conversions import numpy_to_image
+from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import ParameterError, declare_parameters, nonzero_norm, param
 from impurity_interfaces.action import ExecutePrimitive
-from impurity_interfaces.msg import Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from ur5_driver_sim.core.camera import CameraModel
 from ur5_driver_sim.core.config import TIME_STEP
+from ur5_driver_sim.core.scenes import MAX_BLOCKS
 from ur5_driver_sim.core.ur5_model import JOINT_NAMES
 from ur5_driver_sim.core.world import MODES, CellWorld
 
-COLOR_TOPIC = "/camera/camera/color/image_raw"
-DEPTH_TOPIC = "/camera/camera/aligned_depth_to_color/image_raw"
-INFO_TOPIC = "/camera/camera/color/camera_info"
-JOINT_STATES_TOPIC = "/joint_states"
-ACTION_NAME = "/ur5/execute_primitive"
-RESET_SERVICE = "/cell/reset_scene"
-GROUND_TRUTH_SERVICE = "/cell/ground_truth"
 DEPTH_ENCODINGS = ("16UC1", "32FC1")
 MAX_CAMERA_RATE = 30.0
 SERVICE_LOCK_TIMEOUT = 30.0  # s a reset or ground-truth query waits for a running primitive
 SHUTDOWN_LOCK_TIMEOUT = 5.0  # s shutdown waits for a running primitive before leaving anyway
 GIL_YIELD_EVERY = 2  # physics steps between explicit GIL hand-overs
 GIL_SWITCH_INTERVAL = 0.001  # s (Python's default 0.005 starves the executor threads during motions)
-KIND_NAMES = {Primitive.PUSH: "push", Primitive.GRASP: "grasp"}
 
 
-# (name, default, description): every parameter of the node, for bringup/config/cell.yaml.
-PARAMETERS = (
-    ("mode", "arm", "arm: the UR5 (DH model, IK + joint motion) carries the gripper; floating: gripper only"),
-    ("camera_rate", 5.0, f"Camera frames per second, (0, {MAX_CAMERA_RATE}]; a 640x480 render costs ~60 ms"),
-    ("depth_encoding", "16UC1", "Aligned depth encoding: 16UC1 (mm, realsense default) or 32FC1 (m)"),
-    ("depth_noise_std", 0.0, "Gaussian depth noise (m); 0 = none"),
-    ("camera_position", list(cell.CAMERA_POSITION), "Camera optical frame origin in base_link (m)"),
-    ("camera_orientation", list(cell.CAMERA_ORIENTATION),
-     "Camera optical frame orientation in base_link, quaternion [x, y, z, w]"),
-    ("initial_scenario", "random", "Scene built at start: random | challenging | invisible | empty | file"),
-    ("initial_seed", 0, "Seed of the initial scene"),
-    ("initial_scene_file", "", "JSON scene when initial_scenario is file"),
-    ("num_targets", -1, "Targets in the initial scene (-1: scenario default)"),
-    ("num_objects", -1, "Basic blocks in the initial scene (-1: scenario default)"),
-    ("joint_state_rate", 50.0, "/joint_states messages per second"),
-    ("solver_iterations", 20, "PyBullet solver iterations per physics step"),
-    ("real_time_factor", 0.0, "Pace motions: 1.0 = as fast as a real arm, 0 = as fast as the CPU allows"),
-)
+@dataclass(frozen=True)
+class SimCellParameters:
+    """Every parameter of the node (bringup/config/cell.yaml, section sim_cell)."""
+
+    mode: str = param("arm", "arm: the UR5 (DH model, IK + joint motion) carries the gripper; floating: "
+                      "gripper only", choices=MODES)
+    camera_rate: float = param(5.0, "Camera frames per second; a 640x480 render costs ~60 ms",
+                               low=0.1, high=MAX_CAMERA_RATE)
+    depth_encoding: str = param("16UC1", "Aligned depth encoding: 16UC1 (mm, realsense default) or 32FC1 (m)",
+                                choices=DEPTH_ENCODINGS)
+    depth_noise_std: float = param(0.0, "Gaussian depth noise (m); 0 = none", low=0.0, high=0.1)
+    camera_position: tuple[float, ...] = param(cell.CAMERA_POSITION,
+                                               "Camera optical frame origin in base_link (m)", length=3)
+    camera_orientation: tuple[float, ...] = param(
+        cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link, quaternion [x, y, z, w]",
+        length=4, check=nonzero_norm)
+    initial_scenario: Scenario = param(Scenario.RANDOM, "Scene built at start")
+    initial_seed: int = param(0, "Seed of the initial scene", low=0)
+    initial_scene_file: str = param("", "JSON scene when initial_scenario is file")
+    num_targets: int = param(-1, "Targets in the initial scene (-1: scenario default)",
+                             low=-1, high=MAX_BLOCKS)
+    num_objects: int = param(-1, "Basic blocks in the initial scene (-1: scenario default)",
+                             low=-1, high=MAX_BLOCKS)
+    joint_state_rate: float = param(50.0, f"{names.JOINT_STATES_TOPIC} messages per second",
+                                    low=0.1, high=1000.0)
+    solver_iterations: int = param(20, "PyBullet solver iterations per physics step", low=1, high=1000)
+    real_time_factor: float = param(0.0, "Pace motions: 1.0 = as fast as a real arm, 0 = as fast as the CPU "
+                                    "allows", low=0.0, high=100.0)
 
 
 def depth_image(depth_m: np.ndarray, encoding: str) -> np.ndarray:
@@ -95,61 +99,51 @@ def camera_info_msg(camera: CameraModel, header: Header) -> CameraInfo:
 class SimCellNode(Node):
     def __init__(self):
         super().__init__("sim_cell")
-        for name, default, description in PARAMETERS:
-            self.declare_parameter(name, default, ParameterDescriptor(description=description))
+        params = self.params = declare_parameters(self, SimCellParameters)
+        mode, rate = params.mode, params.camera_rate
+        self._depth_encoding = params.depth_encoding
+        camera = CameraModel(position=params.camera_position, orientation=params.camera_orientation)
 
-        mode = self._param("mode")
-        if mode not in MODES:
-            raise ValueError(f"parameter mode must be one of {MODES}, got {mode!r}")
-        self._depth_encoding = self._param("depth_encoding")
-        if self._depth_encoding not in DEPTH_ENCODINGS:
-            raise ValueError(f"parameter depth_encoding must be one of {DEPTH_ENCODINGS}")
-        rate = float(self._param("camera_rate"))
-        if not 0.0 < rate <= MAX_CAMERA_RATE:
-            raise ValueError(f"parameter camera_rate must be in (0, {MAX_CAMERA_RATE}], got {rate}")
-        camera = CameraModel(position=tuple(self._param("camera_position")),
-                             orientation=tuple(self._param("camera_orientation")))
-
-        self._real_time_factor = float(self._param("real_time_factor"))
+        self._real_time_factor = params.real_time_factor
         self._pace_start, self._pace_steps = time.monotonic(), 0
         self._world_lock = threading.Lock()
         self._busy_lock = threading.Lock()  # guards _busy: one primitive at a time
         self._busy = False
-        self._world = CellWorld(mode=mode, camera=camera, depth_noise_std=self._param("depth_noise_std"),
-                                solver_iterations=self._param("solver_iterations"))
+        self._world = CellWorld(mode=mode, camera=camera, depth_noise_std=params.depth_noise_std,
+                                solver_iterations=params.solver_iterations)
         self._joint_snapshot = self._world.joint_positions()
         self._world.step_hook = self._on_physics_step
-        scenario = self._param("initial_scenario")
-        info = self._world.reset_scene(scenario, seed=self._param("initial_seed"),
-                                       num_targets=self._param("num_targets"),
-                                       num_objects=self._param("num_objects"),
-                                       scene_file=self._param("initial_scene_file") or None)
+        scenario = params.initial_scenario
+        try:
+            info = self._world.reset_scene(scenario, seed=params.initial_seed, num_targets=params.num_targets,
+                                           num_objects=params.num_objects,
+                                           scene_file=params.initial_scene_file or None)
+        except ValueError as refused:  # e.g. scenario file without a scene file, too many blocks
+            self._world.close()
+            raise ParameterError(self.get_name(), f"initial scene: {refused}") from None
         self._joint_snapshot = self._world.joint_positions()
 
         reliable = QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE)
-        self._color_pub = self.create_publisher(Image, COLOR_TOPIC, reliable)
-        self._depth_pub = self.create_publisher(Image, DEPTH_TOPIC, reliable)
-        self._info_pub = self.create_publisher(CameraInfo, INFO_TOPIC, reliable)
-        self._joint_pub = self.create_publisher(JointState, JOINT_STATES_TOPIC, 10)
+        self._color_pub = self.create_publisher(Image, names.COLOR_TOPIC, reliable)
+        self._depth_pub = self.create_publisher(Image, names.DEPTH_TOPIC, reliable)
+        self._info_pub = self.create_publisher(CameraInfo, names.CAMERA_INFO_TOPIC, reliable)
+        self._joint_pub = self.create_publisher(JointState, names.JOINT_STATES_TOPIC, 10)
 
         timers = MutuallyExclusiveCallbackGroup()
         self.create_timer(1.0 / rate, self._publish_frame, callback_group=timers)
-        self.create_timer(1.0 / float(self._param("joint_state_rate")), self._publish_joints,
+        self.create_timer(1.0 / params.joint_state_rate, self._publish_joints,
                           callback_group=MutuallyExclusiveCallbackGroup())
         services = MutuallyExclusiveCallbackGroup()
-        self.create_service(ResetScene, RESET_SERVICE, self._on_reset, callback_group=services)
-        self.create_service(GetGroundTruth, GROUND_TRUTH_SERVICE, self._on_ground_truth,
+        self.create_service(ResetScene, names.RESET_SCENE_SERVICE, self._on_reset, callback_group=services)
+        self.create_service(GetGroundTruth, names.GROUND_TRUTH_SERVICE, self._on_ground_truth,
                             callback_group=services)
         self._action = ActionServer(
-            self, ExecutePrimitive, ACTION_NAME, execute_callback=self._execute,
+            self, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION, execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
             callback_group=ReentrantCallbackGroup())
         self.get_logger().info(
             f"ready: mode {mode}, {scenario} scene seed {info.seed} ({info.num_targets} targets, "
             f"{info.num_objects} blocks), camera {rate:g} Hz {self._depth_encoding}")
-
-    def _param(self, name):
-        return self.get_parameter(name).value
 
     def destroy_node(self):
         if self._world_lock.acquire(timeout=SHUTDOWN_LOCK_TIMEOUT):  # let a running motion finish
@@ -200,7 +194,7 @@ class SimCellNode(Node):
             frame = self._world.render()
         finally:
             self._world_lock.release()
-        header = Header(stamp=stamp, frame_id=cell.CAMERA_OPTICAL_FRAME)
+        header = Header(stamp=stamp, frame_id=names.CAMERA_OPTICAL_FRAME)
         self._color_pub.publish(numpy_to_image(frame.color, "rgb8", header))
         self._depth_pub.publish(numpy_to_image(depth_image(frame.depth, self._depth_encoding),
                                                self._depth_encoding, header))
@@ -209,11 +203,11 @@ class SimCellNode(Node):
     # ------------------------------------------------------------------------------------ driver
     def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:
         primitive = goal.primitive
-        kind = KIND_NAMES.get(primitive.kind, f"kind {primitive.kind}")
+        kind = _kind_label(primitive.kind)
         p = primitive.position
         reason = self._world.validate_primitive(kind, p.x, p.y, p.z, primitive.yaw)
-        if primitive.header.frame_id not in ("", cell.BASE_FRAME):
-            reason = f"position must be in {cell.BASE_FRAME}, got frame '{primitive.header.frame_id}'"
+        if primitive.header.frame_id not in ("", names.BASE_FRAME):
+            reason = f"position must be in {names.BASE_FRAME}, got frame '{primitive.header.frame_id}'"
         if reason is None:
             with self._busy_lock:
                 if self._busy:
@@ -227,7 +221,7 @@ class SimCellNode(Node):
 
     def _execute(self, goal_handle) -> ExecutePrimitive.Result:
         primitive = goal_handle.request.primitive
-        kind = KIND_NAMES[primitive.kind]
+        kind = PrimitiveKind(primitive.kind).label
         p = primitive.position
         feedback = ExecutePrimitive.Feedback()
 
@@ -271,7 +265,7 @@ class SimCellNode(Node):
             response.success, response.message = False, "busy: a primitive is still running"
             return response
         try:
-            info = self._world.reset_scene(request.scenario, seed=int(request.seed),
+            info = self._world.reset_scene(Scenario.parse(request.scenario), seed=int(request.seed),
                                            num_targets=request.num_targets, num_objects=request.num_objects,
                                            scene_file=request.scene_file or None)
             self._joint_snapshot = self._world.joint_positions()
@@ -300,6 +294,14 @@ class SimCellNode(Node):
         response.visible_target_pixels = gt.visible_target_pixels
         response.target_poses = [_pose(*gt.poses[b]) for b in gt.target_ids if b in gt.poses]
         return response
+
+
+def _kind_label(kind: int) -> str:
+    """"push" / "grasp", or "kind <n>" for a value no PrimitiveKind has (the world refuses it)."""
+    try:
+        return PrimitiveKind(kind).label
+    except ValueError:
+        return f"kind {kind}"
 
 
 def _pose(position, orientation) -> Pose:

@@ -28,7 +28,6 @@ more expensive half.
 
 from __future__ import annotations
 
-import enum
 from dataclasses import dataclass, field
 
 import cv2
@@ -36,21 +35,14 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
+from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
+from impurity_common.grid import HeightmapGrid
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
-from impurity_common.grid import HeightmapGrid
 from .saliency import CELL_SALIENCY, SaliencyParams, normalised, opponent_colour, vocus2
 
 BACKGROUNDS = ("objects", "table")
 MEDIAN_SAMPLES = 2000  # object cells sampled for the objects' median colour
-
-
-class AttentionMode(enum.IntEnum):
-    """Same values as impurity_interfaces/msg/AttentionResult MODE_*."""
-
-    NONE = 0
-    TARGET = 1
-    OCCLUDED_REGION = 2
 
 
 @dataclass(frozen=True)

@@ -1,0 +1,39 @@
+"""Every ROS name of the cell, declared once: topics, services, actions and frame ids.
+
+Nodes, launchers, scripts and tests import these instead of spelling names; a real cell renames with
+ROS remapping (`-r /heightmap:=/cell_a/heightmap`), never by editing code. The camera topics are the
+realsense2_camera driver's defaults (namespace and name `camera`); frames follow REP-103.
+"""
+
+# Frames
+BASE_FRAME = "base_link"  # the UR5 base: x forward, y left, z up; the table top at cell.TABLE_Z
+CAMERA_OPTICAL_FRAME = "camera_color_optical_frame"  # z out of the lens, x right, y down
+
+# Camera (RealSense driver, or the simulated one in ur5_driver_sim)
+COLOR_TOPIC = "/camera/camera/color/image_raw"  # sensor_msgs/Image rgb8
+DEPTH_TOPIC = "/camera/camera/aligned_depth_to_color/image_raw"  # sensor_msgs/Image 16UC1 mm or 32FC1 m
+CAMERA_INFO_TOPIC = "/camera/camera/color/camera_info"  # sensor_msgs/CameraInfo
+
+# Perception
+HEIGHTMAP_TOPIC = "/heightmap"  # impurity_interfaces/Heightmap
+ATTENTION_TOPIC = "/attention/result"  # impurity_interfaces/AttentionResult
+ATTENTION_DEBUG_TOPIC = "/attention/debug_image"  # sensor_msgs/Image rgb8, the saliency overlay
+
+# Decisions and episodes
+PRIMITIVE_TOPIC = "/policy/primitive"  # impurity_interfaces/Primitive
+Q_MAPS_TOPIC = "/policy/q_maps_image"  # sensor_msgs/Image rgb8, the Q maps side by side
+EPISODE_STEPS_TOPIC = "/episode/steps"  # impurity_interfaces/EpisodeStep
+START_EPISODE_SERVICE = "/episode/start"  # impurity_interfaces/srv/StartEpisode
+RUN_EPISODE_ACTION = "/episode/run"  # impurity_interfaces/action/RunEpisode
+
+# Robot (the UR and gripper drivers, or sim_cell)
+EXECUTE_PRIMITIVE_ACTION = "/ur5/execute_primitive"  # impurity_interfaces/action/ExecutePrimitive
+JOINT_STATES_TOPIC = "/joint_states"  # sensor_msgs/JointState
+
+# Simulator only
+RESET_SCENE_SERVICE = "/cell/reset_scene"  # impurity_interfaces/srv/ResetScene
+GROUND_TRUTH_SERVICE = "/cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth
+
+# What a recording of an episode holds (bag_recorder's default): the camera in, every decision out.
+EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, ATTENTION_TOPIC,
+                  PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC)

@@ -1,0 +1,291 @@
+"""Node parameters from one dataclass: what ROS is told (type, default, description, range) and the one
+line a bad value gets (no rclpy, no node)."""
+
+import array
+import enum
+import math
+import pathlib
+from dataclasses import dataclass
+
+import pytest
+import yaml
+from rcl_interfaces.msg import ParameterType
+
+from impurity_common.parameters import (
+    InvalidParameter,
+    ParameterError,
+    allowed,
+    build,
+    check_value,
+    descriptor,
+    format_value,
+    increasing,
+    param,
+    parameter_specs,
+)
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+
+class Colour(enum.StrEnum):
+    RED = "red"
+    BLUE = "blue"
+
+
+@dataclass(frozen=True)
+class Group:
+    low_sigma: float = param(2.0, "Centre blur (px)", low=0.1, high=50.0)
+    high_sigma: float = param(6.0, "Surround blur (px)", low=0.1, high=100.0)
+
+    def __post_init__(self):
+        if self.high_sigma <= self.low_sigma:
+            raise InvalidParameter("high_sigma", f"is not above low_sigma ({self.low_sigma})")
+
+
+@dataclass(frozen=True)
+class Example:
+    resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005, high=0.05)
+    offset: float = param(0, "An int default for a double")
+    count: int = param(3, "Number of things", low=1, high=10)
+    crop: int = param(112, "Crop side (cells)", low=2, high=448, step=2)
+    enabled: bool = param(True, "Switch")
+    mode: str = param("arm", "How to move", choices=("arm", "floating"))
+    colour: Colour = param(Colour.RED, "A str enum")
+    bounds: tuple[float, ...] = param((0.2, 0.7), "[min, max] (m)", length=2, low=-5.0, high=5.0,
+                                      check=increasing)
+    topics: tuple[str, ...] = param(("/a", "/b"), "Topic names")
+    group: Group = Group()
+
+
+def specs():
+    return {spec.name: spec for spec in parameter_specs(Example)}
+
+
+def defaults() -> dict:
+    return {spec.name: spec.default for spec in parameter_specs(Example)}
+
+
+def build_with(**changes):
+    values = defaults()
+    values.update({name.replace("__", "."): value for name, value in changes.items()})
+    return build("example", Example, values)
+
+
+# ------------------------------------------------------------------------------------ dataclass -> specs
+def test_each_field_becomes_one_parameter_in_declaration_order():
+    assert list(specs()) == ["resolution", "offset", "count", "crop", "enabled", "mode", "colour", "bounds",
+                             "topics", "group.low_sigma", "group.high_sigma"]
+
+
+def test_python_types_map_to_ros_parameter_types():
+    types = {name: spec.ros_type for name, spec in specs().items()}
+    assert types["resolution"] == ParameterType.PARAMETER_DOUBLE
+    assert types["count"] == ParameterType.PARAMETER_INTEGER
+    assert types["enabled"] == ParameterType.PARAMETER_BOOL
+    assert types["mode"] == types["colour"] == ParameterType.PARAMETER_STRING
+    assert types["bounds"] == ParameterType.PARAMETER_DOUBLE_ARRAY
+    assert types["topics"] == ParameterType.PARAMETER_STRING_ARRAY
+
+
+def test_defaults_are_given_to_ros_in_its_types():
+    values = defaults()
+    assert values["offset"] == 0.0 and isinstance(values["offset"], float)  # strict ROS typing: 0.0, not 0
+    assert values["bounds"] == [0.2, 0.7]
+    assert values["colour"] == "red"
+
+
+def test_a_nested_dataclass_prefixes_its_parameters_with_the_field_name():
+    assert specs()["group.low_sigma"].path == ("group", "low_sigma")
+
+
+def test_a_field_without_param_is_refused():
+    @dataclass(frozen=True)
+    class Bare:
+        rate: float = 1.0
+
+    with pytest.raises(TypeError, match="param"):
+        parameter_specs(Bare)
+
+
+def test_an_empty_array_default_keeps_the_type_of_its_annotation():
+    @dataclass(frozen=True)
+    class Empty:
+        topics: tuple[str, ...] = param((), "Topics")
+
+    (spec,) = parameter_specs(Empty)
+    assert spec.ros_type == ParameterType.PARAMETER_STRING_ARRAY and spec.default == []
+    assert build("example", Empty, {"topics": []}) == Empty()
+
+
+# ------------------------------------------------------------------------------------ descriptors
+def test_descriptor_is_read_only_typed_and_described():
+    result = descriptor(specs()["resolution"])
+    assert result.read_only and result.type == ParameterType.PARAMETER_DOUBLE
+    assert result.description == "Heightmap cell size (m)"
+    assert result.additional_constraints == "a double in [0.0005, 0.05]"
+
+
+def test_double_bounds_become_a_floating_point_range():
+    (fp_range,) = descriptor(specs()["resolution"]).floating_point_range
+    assert (fp_range.from_value, fp_range.to_value, fp_range.step) == (0.0005, 0.05, 0.0)
+
+
+def test_integer_bounds_become_an_integer_range_with_its_step():
+    (int_range,) = descriptor(specs()["count"]).integer_range
+    assert (int_range.from_value, int_range.to_value, int_range.step) == (1, 10, 1)
+    assert descriptor(specs()["crop"]).integer_range[0].step == 2
+
+
+def test_a_single_bound_leaves_the_other_side_open():
+    @dataclass(frozen=True)
+    class OneSided:
+        delay: float = param(0.0, "s", low=0.0)
+
+    (spec,) = parameter_specs(OneSided)
+    assert descriptor(spec).floating_point_range[0].to_value == math.inf
+    assert allowed(spec) == "a double >= 0.0"
+
+
+def test_parameters_without_bounds_get_no_ros_range():
+    result = descriptor(specs()["offset"])
+    assert not result.floating_point_range and not result.integer_range
+
+
+def test_array_limits_are_described_in_words_only():
+    result = descriptor(specs()["bounds"])
+    assert not result.floating_point_range
+    assert result.additional_constraints == "a list of 2 doubles, each in [-5.0, 5.0]"
+
+
+def test_choices_and_str_enums_are_described_as_their_values():
+    assert allowed(specs()["mode"]) == "one of: arm, floating"
+    assert allowed(specs()["colour"]) == "one of: red, blue"
+
+
+# ------------------------------------------------------------------------------------ checking values
+def test_allowed_values_pass():
+    assert all(check_value(spec, spec.default) is None for spec in specs().values())
+
+
+def test_a_value_of_another_type_is_named_by_its_type():
+    assert check_value(specs()["resolution"], "abc") == "is a string"
+
+
+def test_an_integer_for_a_double_says_how_to_write_it():
+    assert check_value(specs()["resolution"], 1) == "is an integer (write 1.0 for a double)"
+
+
+def test_a_value_outside_the_bounds_is_out_of_range():
+    assert check_value(specs()["resolution"], -1.0) == "is out of range"
+    assert check_value(specs()["count"], 11) == "is out of range"
+
+
+def test_nan_is_out_of_range_of_a_bounded_double():
+    assert check_value(specs()["resolution"], math.nan) == "is out of range"
+
+
+def test_an_integer_between_steps_is_refused():
+    assert check_value(specs()["crop"], 111) == "is not on a step"
+
+
+def test_a_string_outside_the_choices_is_refused():
+    assert check_value(specs()["mode"], "wheels") == "is not one of the choices"
+    assert check_value(specs()["colour"], "green") == "is not one of the choices"
+
+
+def test_arrays_are_checked_for_length_element_type_and_element_range():
+    bounds = specs()["bounds"]
+    assert check_value(bounds, [0.2]) == "has 1 element"
+    assert check_value(bounds, ["a", "b"]) == "is a list of strings"
+    assert check_value(bounds, [0.2, 9.0]) == "has an element out of range"
+
+
+def test_arrays_as_rclpy_returns_them_are_accepted():
+    assert check_value(specs()["bounds"], array.array("d", [0.2, 0.7])) is None
+
+
+def test_a_field_check_runs_after_the_type_and_range_checks():
+    assert check_value(specs()["bounds"], [0.7, 0.2]) == "is not increasing ([min, max] with min < max)"
+
+
+# ------------------------------------------------------------------------------------ building
+def test_build_returns_the_dataclass_with_tuples_enums_and_nested_groups():
+    result = build_with(resolution=0.004, colour="blue", bounds=array.array("d", [0.1, 0.3]),
+                        group__low_sigma=1.0)
+    assert result.resolution == 0.004
+    assert result.colour is Colour.BLUE
+    assert result.bounds == (0.1, 0.3)
+    assert result.group == Group(low_sigma=1.0)
+
+
+def test_a_bad_value_is_one_line_naming_node_parameter_value_and_range():
+    with pytest.raises(ParameterError) as refused:
+        build_with(resolution=-1.0)
+    assert str(refused.value) == ("example: parameter resolution:=-1.0 is out of range; "
+                                  "expected a double in [0.0005, 0.05]")
+
+
+def test_a_wrong_type_is_one_line_with_the_value_as_given():
+    with pytest.raises(ParameterError) as refused:
+        build_with(resolution="abc")
+    assert str(refused.value) == ("example: parameter resolution:='abc' is a string; "
+                                  "expected a double in [0.0005, 0.05]")
+
+
+def test_a_rule_between_fields_names_the_field_with_its_group_prefix():
+    with pytest.raises(ParameterError) as refused:
+        build_with(group__high_sigma=1.0)
+    assert str(refused.value) == ("example: parameter group.high_sigma:=1.0 is not above low_sigma (2.0); "
+                                  "expected a double in [0.1, 100.0]")
+    assert refused.value.parameter == "group.high_sigma" and refused.value.value == 1.0
+
+
+def test_an_error_line_never_spans_lines():
+    error = ParameterError("node", "is wrong:\n  first\n  second", "name", 1.0, "a double")
+    assert "\n" not in str(error)
+
+
+def test_values_are_shown_as_written_after_colon_equals():
+    assert format_value(True) == "true"
+    assert format_value("abc") == "'abc'"
+    assert format_value(array.array("d", [0.5, 1.0])) == "[0.5, 1.0]"
+    assert format_value(Colour.RED) == "'red'"
+
+
+# ------------------------------------------------------------------------------------ the cell's nodes
+def node_parameter_classes():
+    from impurity_attention.attention_node import AttentionNodeParameters
+    from impurity_attention.heightmap_node import HeightmapParameters
+    from impurity_common.bag_recorder_node import BagRecorderParameters
+    from impurity_common.bag_replay_node import BagReplayParameters
+    from ur5_driver_sim.sim_cell import SimCellParameters
+
+    return {"heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
+            "sim_cell": SimCellParameters, "bag_recorder": BagRecorderParameters,
+            "bag_replay": BagReplayParameters}
+
+
+def flatten(section: dict, prefix: str = "") -> dict:
+    flat = {}
+    for key, value in section.items():
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{prefix}{key}."))
+        else:
+            flat[prefix + key] = value
+    return flat
+
+
+@pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell", "bag_recorder", "bag_replay"])
+def test_every_node_accepts_its_own_defaults(node):
+    cls = node_parameter_classes()[node]
+    build(node, cls, {spec.name: spec.default for spec in parameter_specs(cls)})
+
+
+@pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell"])
+def test_cell_yaml_names_only_declared_parameters_with_allowed_values(node):
+    cls = node_parameter_classes()[node]
+    config = flatten(yaml.safe_load((ROOT / "bringup" / "config" / "cell.yaml").read_text())[node]
+                     ["ros__parameters"])
+    specs_by_name = {spec.name: spec for spec in parameter_specs(cls)}
+    assert set(config) <= set(specs_by_name), f"unknown parameters {set(config) - set(specs_by_name)}"
+    build(node, cls, {**{name: spec.default for name, spec in specs_by_name.items()}, **config})
