@@ -41,7 +41,7 @@ train-baselines: setup
 	@$(ENV) scripts/train_baselines.sh
 
 eval: setup
-	@$(ENV) python -m impurity_learning.eval_cli $(EVAL_ARGS)
+	@$(ENV) python -m impurity_learning.eval_cli --rules cell none $(EVAL_ARGS)
 	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
 
 bench: setup

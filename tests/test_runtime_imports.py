@@ -71,7 +71,8 @@ def declared_dependencies(package: str) -> set[str]:
 
 @pytest.mark.parametrize("package", [p for p in CELL_PACKAGES if p != "impurity_interfaces"])
 def test_package_xml_names_the_cell_packages_its_modules_import(package):
-    assert declared_dependencies(package) == first_party_imports(package) | DATA_DEPENDENCIES.get(package, set())
+    expected = first_party_imports(package) | DATA_DEPENDENCIES.get(package, set())
+    assert declared_dependencies(package) == expected
 
 
 @pytest.mark.parametrize("package", RUNTIME_PACKAGES)

@@ -18,7 +18,7 @@ setup(
     zip_safe=True,
     maintainer="Impurity cell team",
     maintainer_email="robotics@impurity-cell.dev",
-    description="Push-grasp policy runtime: inference, test-time rules, the picking loop, policy and episode nodes.",
+    description="Push-grasp policy runtime: inference, test-time rules, the picking loop, the nodes.",
     license="Apache-2.0",
     entry_points={"console_scripts": [
         "episode_node = impurity_policy.episode_node:main",

@@ -6,7 +6,8 @@ picked / grasp attempts, action efficiency = targets picked / actions; also comp
 picked) and false rejects (non-targets removed). Writes the table (docs/results.md), a Fig. 10-style
 bar chart (docs/images/results.png) and every episode's record with its seed (docs/results.json).
 
-Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped policy.pt); a
+Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped
+policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
 
     python -m impurity_learning.eval_cli --episodes 20
@@ -278,7 +279,8 @@ def main(argv=None) -> int:
         checkpoint = checkpoint_for(method, checkpoint_dir, pathlib.Path(args.policy_checkpoint))
         if checkpoint is not None and not checkpoint.is_file():
             results[row] = {"missing": True, "checkpoint": shown_path(checkpoint)}
-            print(f"eval: {label(row)}: no checkpoint at {checkpoint}: listed as not trained", file=sys.stderr)
+            print(f"eval: {label(row)}: no checkpoint at {checkpoint}: listed as not trained",
+                  file=sys.stderr)
             continue
         make_agent(method, checkpoint)  # a checkpoint that does not load fails here, before any episode
         runnable[row] = str(checkpoint.resolve()) if checkpoint else ""  # workers need not share our cwd
@@ -317,7 +319,8 @@ def main(argv=None) -> int:
             results[row]["scenarios"][scenario] = aggregate(mine)
             results[row]["episodes"] += mine
     results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
-                        "methods": args.methods, "rules": args.rules, "rows": rows, "seconds": time.perf_counter() - started,
+                        "methods": args.methods, "rules": args.rules, "rows": rows,
+                        "seconds": time.perf_counter() - started,
                         "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_learning.eval_cli " + " ".join(arguments)

@@ -33,7 +33,8 @@ class SimCell:
         self._sensed = None
 
     def _sense(self):
-        self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params, self.grid)
+        self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params,
+                             self.grid)
 
     def reset(self, request: EpisodeRequest) -> int:
         self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
@@ -68,8 +69,8 @@ def _reraise(error: Exception) -> None:
     raise error  # an evaluation episode that fails stops the run instead of counting as an episode
 
 
-def run_episode(world, agent, request: EpisodeRequest, limits: picking.EpisodeLimits = picking.EpisodeLimits(),
-                recorder=None) -> dict:
+def run_episode(world, agent, request: EpisodeRequest,
+                limits: picking.EpisodeLimits = picking.EpisodeLimits(), recorder=None) -> dict:
     """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
     loop's summary: the metrics plus termination_reason and completed (every target picked)."""
     return picking.run_episode(SimCell(world, agent), request, f"{request.scenario}-{request.seed}", limits,

@@ -66,7 +66,8 @@ def main(argv=None) -> int:
     config = TrainConfig(run_dir=args.run_dir, method=args.method, iterations=args.iterations, seed=args.seed,
                          num_targets=args.num_targets, num_objects=args.num_objects,
                          replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
-                         threads=args.threads, device=args.device, max_hours=args.max_hours, progress=not args.no_progress,
+                         threads=args.threads, device=args.device, max_hours=args.max_hours,
+                         progress=not args.no_progress,
                          rules=args.rules,
                          trainer=TrainerConfig(learning_rate=args.lr))
     run = TrainingRun(config)

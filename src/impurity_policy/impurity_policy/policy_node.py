@@ -73,7 +73,8 @@ class PolicyParameters:
     publish_q_maps: bool = param(True, "Publish the 32 Q maps as an image")
     threads: int = param(1, "torch CPU threads (1: robust when the cell's other processes share the cores)",
                          low=1, high=256)
-    grasp_depth: float = param(_POSE.grasp_depth, "Grasp fingertips below the local top (m)", low=0.0, high=0.2)
+    grasp_depth: float = param(_POSE.grasp_depth, "Grasp fingertips below the local top (m)",
+                               low=0.0, high=0.2)
     grasp_min_tip: float = param(_POSE.grasp_min_tip, "Lowest grasp fingertip height above the table (m)",
                                  low=0.0, high=0.2)
     push_depth: float = param(_POSE.push_depth, "Push fingertips below the local top (m)", low=0.0, high=0.2)
@@ -212,7 +213,8 @@ class PolicyNode(Node):
             self._warn("unknown step", f"episode step {step.step} executed a primitive this node did not "
                                        "answer recently: not remembered as tried")
             return
-        self.policy.rules.record(int(step.primitive.kind), (step.primitive.pixel_row, step.primitive.pixel_col),
+        self.policy.rules.record(int(step.primitive.kind),
+                                 (step.primitive.pixel_row, step.primitive.pixel_col),
                                  step.primitive.rotation_index, height, step.success)
 
     # ---- decision ------------------------------------------------------------------------------

@@ -25,8 +25,8 @@ from .network import GRASP, PUSH, QNetwork, network_inputs
 from .pose import ActionPose, PoseRules, action_pose
 from .rules import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET, RulePipeline
 
-__all__ = ["MODE_NONE", "MODE_OCCLUDED_REGION", "MODE_TARGET", "Choice", "NoActionError", "Observation", "Policy",
-           "allowed_primitives", "q_maps_picture", "validate_observation"]
+__all__ = ["MODE_NONE", "MODE_OCCLUDED_REGION", "MODE_TARGET", "Choice", "NoActionError", "Observation",
+           "Policy", "allowed_primitives", "q_maps_picture", "validate_observation"]
 
 
 class NoActionError(ValueError):
@@ -93,8 +93,8 @@ class Policy:
     rules: rules.RulePipeline (default: none, the paper's method: the network's argmax over the valid
     actions)."""
 
-    def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(), grasp_needs_object: bool = True,
-                 rules: RulePipeline | None = None):
+    def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(),
+                 grasp_needs_object: bool = True, rules: RulePipeline | None = None):
         self.network = network.eval()
         self.device = next(network.parameters()).device  # the network's: load_network(device=...)
         self.pose_rules, self.grasp_needs_object = pose_rules, grasp_needs_object

@@ -214,7 +214,8 @@ def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell
 
 
 def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: int = cell.NUM_ROTATIONS,
-                         grid: HeightmapGrid = HeightmapGrid(), length: float = cell.PUSH_LENGTH) -> np.ndarray:
+                         grid: HeightmapGrid = HeightmapGrid(),
+                         length: float = cell.PUSH_LENGTH) -> np.ndarray:
     """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw ends at least
     `margin` (m) inside the workspace, the heightmap's `grid` (what the fingers shove ahead of them
     lands beyond the end)."""
@@ -241,7 +242,8 @@ def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: 
                       action_z(primitive, height, row, col, rules, grid.table_z), cell.rotation_yaw(rotation))
 
 
-def pose_to_action(x: float, y: float, yaw: float, crop_origin, grid: HeightmapGrid = HeightmapGrid()) -> tuple:
+def pose_to_action(x: float, y: float, yaw: float, crop_origin,
+                   grid: HeightmapGrid = HeightmapGrid()) -> tuple:
     """Inverse of action_pose for (x, y, yaw): (rotation index, crop pixel)."""
     heightmap_pixel = grid.base_to_pixel(x, y)
     return yaw_to_rotation(yaw), heightmap_to_crop(heightmap_pixel, crop_origin)

@@ -150,7 +150,8 @@ class TriedActions(Rule):
     def clear(self) -> None:
         self.tried = []
 
-    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray, success: bool) -> None:
+    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray,
+               success: bool) -> None:
         """An executed action, the full height map (H, W) it was decided on, and whether it succeeded (a
         grasp: lifted something)."""
         if primitive == GRASP and success:
@@ -232,8 +233,8 @@ class PushEndInside(Rule):
     def keeps(self, ctx: RuleContext) -> tuple:
         if ctx.obs.mode not in (MODE_TARGET, MODE_OCCLUDED_REGION):
             return ()
-        inside = pushes_ending_inside(ctx.obs.crop_origin, ctx.size, ctx.params.push_end_margin, ctx.rotations,
-                                      ctx.grid)
+        inside = pushes_ending_inside(ctx.obs.crop_origin, ctx.size, ctx.params.push_end_margin,
+                                      ctx.rotations, ctx.grid)
         return (Keep(PUSH, inside),)
 
 
@@ -331,7 +332,8 @@ class RulePipeline:
             if hasattr(rule, "clear"):
                 rule.clear()
 
-    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray, success: bool) -> None:
+    def record(self, primitive: int, heightmap_pixel, rotation: int, height: np.ndarray,
+               success: bool) -> None:
         """An executed action (see TriedActions.record); a no-op without stateful rules."""
         for rule in self.rules:
             if hasattr(rule, "record"):
