@@ -15,9 +15,6 @@ NAMES_FILE = ROOT / "src" / "impurity_common" / "impurity_common" / "names.py"
 FRAMES = {names.BASE_FRAME, names.CAMERA_OPTICAL_FRAME}
 GRAPH_NAMES = {value for key, value in vars(names).items()
                if key.isupper() and isinstance(value, str) and value not in FRAMES}
-# Nodes still spelling names themselves, converted with the policy/episode rework (issue 16).
-NOT_YET_CONVERTED = {"src/impurity_policy/impurity_policy/policy_node.py",
-                     "src/impurity_policy/impurity_policy/episode_node.py"}
 # URDF link names that happen to equal a frame id: the robot model, not a TF frame of the cell.
 FRAME_EXCEPTIONS = {"src/ur5_driver_sim/ur5_driver_sim/core/ur5_model.py"}
 
@@ -46,20 +43,13 @@ def test_no_two_constants_share_a_name():
 
 
 def test_no_source_outside_names_spells_a_topic_service_or_action():
-    spelled = {relative(path): sorted(string_literals(path) & GRAPH_NAMES) for path in python_sources()
-               if relative(path) not in NOT_YET_CONVERTED}
+    spelled = {relative(path): sorted(string_literals(path) & GRAPH_NAMES) for path in python_sources()}
     assert {path: found for path, found in spelled.items() if found} == {}
-
-
-@pytest.mark.xfail(reason="converted with the policy/episode rework: then empty NOT_YET_CONVERTED")
-@pytest.mark.parametrize("path", sorted(NOT_YET_CONVERTED))
-def test_nodes_not_yet_converted_spell_no_names(path):
-    assert not string_literals(ROOT / path) & GRAPH_NAMES
 
 
 def test_no_source_outside_names_spells_a_frame_id():
     spelled = {relative(path): sorted(string_literals(path) & FRAMES) for path in python_sources()
-               if relative(path) not in FRAME_EXCEPTIONS | NOT_YET_CONVERTED}
+               if relative(path) not in FRAME_EXCEPTIONS}
     assert {path: found for path, found in spelled.items() if found} == {}
 
 

@@ -417,8 +417,3 @@ def absolute_names(values) -> str | None:
     """check= for lists of ROS topic names."""
     bad = [v for v in values if not v.startswith("/")]
     return f"has names that are not absolute: {', '.join(repr(v) for v in bad)}" if bad else None
-
-
-def describe(text: str) -> ParameterDescriptor:
-    """Legacy (policy and episode nodes until they move to declare_parameters): a read-only descriptor."""
-    return ParameterDescriptor(description=text, read_only=True)
