@@ -14,8 +14,7 @@ from impurity_attention.core.attention import BACKGROUNDS, AttentionParams, atte
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_common import cell, names
-from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image
-from impurity_common.grid import HeightmapGrid
+from impurity_common.conversions import ImageFormatError, grid_from_heightmap, image_to_numpy, numpy_to_image
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import InvalidParameter, declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Heightmap
@@ -119,11 +118,7 @@ class AttentionNode(Node):
         try:
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
-            if msg.resolution <= 0:
-                raise ValueError(f"resolution {msg.resolution} is not positive")
-            grid = HeightmapGrid(x_min=msg.origin.x, x_max=msg.origin.x + msg.resolution * height.shape[1],
-                                 y_min=msg.origin.y, y_max=msg.origin.y + msg.resolution * height.shape[0],
-                                 resolution=msg.resolution, table_z=msg.origin.z)
+            grid = grid_from_heightmap(msg)
             output = attend(color, height, self._params, grid)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))

@@ -78,15 +78,15 @@ def ns_to_time(ns: int) -> Time:
     return Time(sec=int(ns // 1_000_000_000), nanosec=int(ns % 1_000_000_000))
 
 
-def grid_from_heightmap(msg) -> "HeightmapGrid":
-    """The grid an impurity_interfaces/Heightmap message lies on: its resolution and origin, its size
-    from the height image. ImageFormatError when they cannot describe a grid (resolution not a
+def grid_from_heightmap(msg):
+    """The grid.HeightmapGrid an impurity_interfaces/Heightmap message lies on: its resolution and
+    origin, its size from the height image. ImageFormatError when they cannot describe a grid (resolution not a
     positive finite number, an empty image)."""
     from impurity_common.grid import HeightmapGrid
 
     resolution = float(msg.resolution)
     if not (np.isfinite(resolution) and resolution > 0):
-        raise ImageFormatError(f"heightmap resolution {resolution} is not usable (expected > 0 m per pixel)")
+        raise ImageFormatError(f"heightmap resolution {resolution} is not usable (expected > 0 m/pixel)")
     origin = msg.origin
     try:
         return HeightmapGrid.from_origin(resolution, float(origin.x), float(origin.y), float(origin.z),

@@ -21,9 +21,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from .attention import AttentionMode, AttentionOutput
 from impurity_common.grid import HeightmapGrid
 
+from .attention import AttentionMode, AttentionOutput
 from .heightmap import rgbd_to_heightmaps
 
 MIN_VISIBLE_CELLS = 20  # 80 mm^2: a target showing less than this is "hidden"

@@ -13,7 +13,9 @@ import time
 
 import numpy as np
 
-SCENARIOS = ("random", "challenging", "invisible", "file")
+from impurity_common.enums import EPISODE_SCENARIOS
+
+SCENARIOS = tuple(scenario.value for scenario in EPISODE_SCENARIOS)  # what an episode request may ask
 # Paper section 6.4 caps real-world runs at 15 steps per group; we scale it with the target count
 # so invisible scenes (more exploratory pushes) still have room: 15 actions per target.
 DEFAULT_ACTIONS_PER_TARGET = 15

@@ -37,12 +37,14 @@ import torch.nn.functional as F
 from torch import nn
 
 from impurity_common import cell
+from impurity_common.enums import PrimitiveKind
 
 # Input normalisation: colour to about [-2, 2], heights (m) to about [0, 3] for our 2-10 cm blocks.
 COLOR_MEAN = 0.5
 COLOR_STD = 0.25
 HEIGHT_SCALE = 0.03  # m per unit
-PUSH, GRASP = 0, 1  # index of the primitive in Q-map tensors (same values as Primitive.PUSH/GRASP)
+# index of the primitive in Q-map tensors (enums.PrimitiveKind: the values of Primitive.PUSH/GRASP)
+PUSH, GRASP = int(PrimitiveKind.PUSH), int(PrimitiveKind.GRASP)
 # Rotations per forward pass: 4 measured fastest here (benchmarks/bench_policy.py: 16 at once, 4 or 1).
 INFERENCE_CHUNK = 4
 

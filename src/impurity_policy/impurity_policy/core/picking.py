@@ -28,6 +28,8 @@ from typing import Protocol
 
 import numpy as np
 
+from impurity_common.enums import AttentionMode
+
 from .episode import (
     DEFAULT_ACTIONS_PER_TARGET,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
@@ -41,7 +43,7 @@ from .episode import (
 )
 from .rules import MODE_NONE
 
-MODE_NAMES = {0: "NONE", 1: "TARGET", 2: "OCCLUDED_REGION"}  # AttentionResult.MODE_*
+MODE_NAMES = {int(mode): mode.name for mode in AttentionMode}  # 1 -> "TARGET", as the records spell it
 
 
 class EpisodeAborted(Exception):

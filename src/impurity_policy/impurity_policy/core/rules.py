@@ -35,6 +35,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 
 from .change import CHANGE_PIXELS_TAU, changed_pixels
@@ -51,7 +52,8 @@ from .pose import (
     target_on_top,
 )
 
-MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = 0, 1, 2  # AttentionResult.MODE_*
+MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = (AttentionMode.NONE, AttentionMode.TARGET,
+                                                AttentionMode.OCCLUDED_REGION)
 MASK, PREFERENCE = "mask", "preference"
 
 
