@@ -80,8 +80,8 @@ def ns_to_time(ns: int) -> Time:
 
 def grid_from_heightmap(msg):
     """The grid.HeightmapGrid an impurity_interfaces/Heightmap message lies on: its resolution and
-    origin, its size from the height image. ImageFormatError when they cannot describe a grid (resolution not a
-    positive finite number, an empty image)."""
+    origin, its size from the height image. ImageFormatError when they cannot describe a grid
+    (resolution not a positive finite number, an empty image)."""
     from impurity_common.grid import HeightmapGrid
 
     resolution = float(msg.resolution)
