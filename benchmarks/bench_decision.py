@@ -21,8 +21,9 @@ from timing import timed
 from impurity_attention.core.attention import AttentionParams, attend
 from impurity_attention.core.heightmap import HeightmapProjector
 from impurity_common.grid import HeightmapGrid
-from impurity_policy.core.policy import MODE_NONE, Observation, Policy
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+from impurity_policy.core.policy import MODE_NONE, Observation, Policy
+from impurity_policy.core.rules import RulePipeline
 from ur5_driver_sim.core.world import CellWorld
 
 VPG_PADDED = 320  # VPG pads the 224^2 heightmap diagonally so rotations lose nothing
@@ -104,12 +105,12 @@ def main() -> None:
     grid = HeightmapGrid()
     projector = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape, grid)
     params = AttentionParams()
-    policy = Policy.from_checkpoint(SHIPPED_CHECKPOINT)
+    policy = Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=RulePipeline.preset("cell"))  # as the cell
 
     def ours():
         maps = projector.project(frame.color, frame.depth)
         attention = attend(maps.color, maps.height, params, grid)
-        obs = Observation.from_attention(attention, maps.height)
+        obs = Observation.from_attention(attention, maps.height, grid)
         if obs.mode != MODE_NONE:
             policy.decide(obs)
 

@@ -1,5 +1,6 @@
 """Policy latency: all 32 Q maps (16 rotations x push/grasp) per decision, looped vs batched rotations,
-a full decision (Q maps + masks + pose), one DQN update, one TD target, the Q-map picture.
+a full decision (Q maps + masks + the cell's rules + pose), the rules alone, one DQN update, one TD target,
+the Q-map picture.
 
     python benchmarks/bench_policy.py [--threads 2] [--repeats 30]
 
@@ -13,11 +14,12 @@ import numpy as np
 import torch
 from timing import p50_p95, timed
 
+from impurity_learning.replay import Transition
+from impurity_learning.trainer import Trainer
+from impurity_policy.core.decision import State
 from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, network_inputs, parameter_count
 from impurity_policy.core.policy import MODE_TARGET, Observation, Policy, q_maps_picture
-from impurity_learning.replay import Transition
-from impurity_policy.core.decision import State
-from impurity_learning.trainer import Trainer
+from impurity_policy.core.rules import RulePipeline
 
 
 def scene(size=112, seed=0):
@@ -56,17 +58,19 @@ def main():
             print(f"  32 Q maps, {chunk:2d} rotation(s) per pass: p50 {p50:7.1f} ms  p95 {p95:7.1f} ms")
 
     state = scene()
-    policy = Policy(QNetwork().eval())
+    policy = Policy(QNetwork().eval(), rules=RulePipeline.preset("cell"))  # as the cell runs it
     full_height = np.zeros((224, 224), np.float32)
     size = state.height.shape[0]
     full_height[50:50 + size, 50:50 + size] = state.height
     obs = Observation(MODE_TARGET, state.color, state.height, state.mask, (50, 50), full_height)
     p50, p95 = p50_p95(timed(lambda: policy.decide(obs), args.repeats)[0])
-    print(f"\ndecision (Q maps + action filters + masks + argmax + pose): p50 {p50:.1f} ms  p95 {p95:.1f} ms")
+    print(f"\ndecision (Q maps + masks + rules 'cell' + argmax + pose): p50 {p50:.1f} ms  p95 {p95:.1f} ms")
     choice = policy.decide(obs)
-    wall, _ = timed(lambda: policy.filtered(choice.q_maps, obs), args.repeats)
+    q, masks = policy.q_maps(obs), policy.masks(obs)
+    wall, _ = timed(lambda: policy.rules.apply(q, obs, masks, policy.pose_rules, obs.grid), args.repeats)
     p50, _ = p50_p95(wall)
-    print(f"action filters alone (grasp clearance, target mask): p50 {p50:.1f} ms")
+    print(f"rules 'cell' alone ({len(policy.rules.names)} rules: grasp clearance, target mask, ...): "
+          f"p50 {p50:.1f} ms")
     wall, _ = timed(lambda: q_maps_picture(choice.q_maps, choice.masks, choice.decision), args.repeats)
     p50, _ = p50_p95(wall)
     print(f"Q-map debug picture: p50 {p50:.1f} ms")

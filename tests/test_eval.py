@@ -11,9 +11,10 @@ import torch
 from impurity_common import cell
 from impurity_learning.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
 from impurity_learning.eval_cli import aggregate, main
-from impurity_policy.core.network import NetworkConfig, QNetwork
-from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy
 from impurity_learning.trainer import Trainer
+from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy
+from impurity_policy.core.rules import RulePipeline
 
 SIZE = cell.HEIGHTMAP_SIZE
 
@@ -95,12 +96,35 @@ def test_s_vpg_acts_inside_the_grown_saliency_mask_and_vpg_may_not():
     torch.manual_seed(3)
     network = QNetwork(NetworkConfig(crop_size=SIZE))
     sensed = sensed_scene()
-    s_vpg, vpg = NetworkAgent("s_vpg", Policy(network)), NetworkAgent("vpg", Policy(network))
+    s_vpg = NetworkAgent("s_vpg", Policy(network, rules=RulePipeline.preset("cell")))
+    vpg = NetworkAgent("vpg", Policy(network, rules=RulePipeline.preset("cell")))
     restricted = s_vpg.restriction(sensed)
     assert restricted[105, 110] and not restricted[105, 150] and vpg.restriction(sensed) is None
     action = s_vpg.act(sensed)
     assert restricted[action.pose.heightmap_pixel]
     assert action.kind in ("push", "grasp") and math.isfinite(action.q_value)
+
+
+def test_a_network_agent_remembers_its_outcomes_for_the_rules_and_forgets_them_at_reset():
+    torch.manual_seed(3)
+    agent = NetworkAgent("vpg", Policy(QNetwork(NetworkConfig(crop_size=SIZE)),
+                                       rules=RulePipeline.preset("cell")))
+    agent.reset(0)
+    sensed = sensed_scene()
+    policy = agent.policy
+    action = agent.act(sensed)
+
+    def ruled_out_at_the_action() -> bool:
+        q = np.zeros((16, 2, SIZE, SIZE), np.float32)
+        kept = policy.rules.apply(q, sensed.obs, policy.masks(sensed.obs), policy.pose_rules, sensed.obs.grid)
+        primitive = GRASP if action.kind == "grasp" else PUSH
+        return bool(np.isneginf(kept[action.pose.rotation, primitive][action.pose.heightmap_pixel]))
+
+    assert not ruled_out_at_the_action()
+    agent.observe_outcome(action, SimpleNamespace(success=False))  # it changed nothing
+    assert ruled_out_at_the_action()  # tried_actions: not again in the same scene
+    agent.reset(1)  # the next episode
+    assert not ruled_out_at_the_action()
 
 
 def test_aggregate_averages_per_episode_like_the_paper():
@@ -124,24 +148,28 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     readme.write_text("intro\n<!-- results:start -->\nold table\n<!-- results:end -->\nrest\n")
     code = main(["--readme", str(readme), "--methods", "ours", "s_rgm", "vpg", "--scenarios", "random",
                  "--episodes", "1",
-                 "--checkpoint-dir", str(checkpoints), "--policy-checkpoint", str(checkpoints / "policy.pt"), "--markdown", str(out / "results.md"),
+                 "--checkpoint-dir", str(checkpoints), "--policy-checkpoint", str(checkpoints / "policy.pt"),
+                 "--markdown", str(out / "results.md"),
                  "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
                  "--threads", "1", "--jobs", "2", "--no-progress"])
     assert code == 0
     records = json.loads((out / "results.json").read_text())
-    assert records["vpg"]["missing"] and records["_meta"]["seed_base"] == 900_000_000
-    for method in ("ours", "s_rgm"):
-        (episode,) = records[method]["episodes"]
+    # rows: a network method under a rules preset (--rules, default cell); the heuristic has no rules
+    assert records["_meta"]["rows"] == ["ours@cell", "s_rgm", "vpg@cell"]
+    assert records["vpg@cell"]["missing"] and records["_meta"]["seed_base"] == 900_000_000
+    for row, method, rules in (("ours@cell", "ours", "cell"), ("s_rgm", "s_rgm", "")):
+        (episode,) = records[row]["episodes"]
+        assert (episode["row"], episode["method"], episode["rules"]) == (row, method, rules)
         assert episode["seed"] == 900_000_000 and episode["scenario"] == "random"
         assert episode["actions"] == episode["grasp_attempts"] + episode["pushes"] >= 1
-        assert records[method]["scenarios"]["random"]["grasp_success"] == pytest.approx(
+        assert records[row]["scenarios"]["random"]["grasp_success"] == pytest.approx(
             100.0 * episode["grasp_success"])
     table = (out / "results.md").read_text()
-    assert "| VPG | not trained |" in table and "| S-RGM (heuristic) |" in table
+    assert "| VPG [rules: cell] | not trained |" in table and "| S-RGM (heuristic) |" in table
     assert "--method vpg" in table  # how to train the missing one
     assert (out / "images" / "results.png").stat().st_size > 10_000
     updated = readme.read_text()
-    assert "old table" not in updated and "| VPG | not trained |" in updated
+    assert "old table" not in updated and "| VPG [rules: cell] | not trained |" in updated
     assert updated.startswith("intro\n") and updated.endswith("rest\n")
 
 
@@ -151,7 +179,7 @@ def test_eval_episodes_are_the_same_in_one_process_and_in_a_pool(tmp_path):
         assert main(["--methods", "s_rgm", "--scenarios", "random", "challenging", "--episodes", "2",
                      "--jobs", str(jobs), "--markdown", str(out / "r.md"), "--chart", str(out / "r.png"),
                      "--json", str(out / "r.json"), "--readme", str(out / "README.md"), "--no-progress"]) == 0
-        return json.loads((out / "r.json").read_text())["s_rgm"]["episodes"]
+        return json.loads((out / "r.json").read_text())["s_rgm"]["episodes"]  # the heuristic's row
 
     single, pooled = records(1), records(2)
     assert [(e["scenario"], e["seed"]) for e in single] == [("random", 900_000_000), ("random", 900_000_001),

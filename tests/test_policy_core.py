@@ -1,4 +1,6 @@
-"""Policy core: TCDD and rewards, rotations and poses, replay, one training step, checkpoints."""
+"""Policy core: rotations and poses, the pose geometry behind the rules, the network and its checkpoints,
+the policy's decisions; also the learning pieces they were trained with (TCDD and rewards, replay, one
+training step). The test-time rules: test_rules.py."""
 
 import math
 
@@ -7,7 +9,12 @@ import pytest
 import torch
 
 from impurity_common import cell
-from impurity_policy.core import tcdd
+from impurity_common.grid import HeightmapGrid
+from impurity_learning import tcdd
+from impurity_learning.replay import RankedReplay, Transition
+from impurity_learning.trainer import Trainer, TrainerConfig
+from impurity_policy.core.checkpoint import CHECKPOINT_FORMAT_VERSION, CheckpointError, load_network
+from impurity_policy.core.decision import State
 from impurity_policy.core.network import (
     GRASP,
     PUSH,
@@ -22,12 +29,9 @@ from impurity_policy.core.policy import (
     MODE_NONE,
     MODE_OCCLUDED_REGION,
     MODE_TARGET,
-    NO_FILTERS,
-    ActionFilters,
     NoActionError,
     Observation,
     Policy,
-    TriedActionMemory,
     q_maps_picture,
 )
 from impurity_policy.core.pose import (
@@ -45,10 +49,7 @@ from impurity_policy.core.pose import (
     target_on_top,
     yaw_to_rotation,
 )
-from impurity_learning.replay import RankedReplay, Transition
-from impurity_learning.trainer import Trainer, TrainerConfig
-from impurity_policy.core.checkpoint import CHECKPOINT_FORMAT_VERSION, CheckpointError, load_network
-from impurity_policy.core.decision import State
+from impurity_policy.core.rules import RulePipeline
 
 torch.set_num_threads(1)
 ETA = cell.GRASP_OPENING
@@ -252,96 +253,7 @@ def test_checkpoint_round_trip_and_clear_rejections(tmp_path):
         load_network(tmp_path / "missing.pt")
 
 
-# ---- policy decisions ------------------------------------------------------------------------------
-def _observation(mode, origin=(50, 60)):
-    s = _state()
-    height = np.zeros((224, 224), np.float32)
-    return Observation(mode, s.color, s.height, s.mask, origin, height)
-
-
-def test_policy_decides_in_base_link_and_only_pushes_without_target():
-    policy = Policy(QNetwork(SMALL))
-    choice = policy.decide(_observation(MODE_TARGET))
-    assert choice.q_maps.shape == (16, 2, 112, 112)
-    assert cell.in_workspace(choice.pose.x, choice.pose.y)
-    assert choice.masks[choice.decision.primitive][choice.decision.pixel]
-    for _ in range(3):
-        assert policy.decide(_observation(MODE_OCCLUDED_REGION)).decision.primitive == PUSH
-    with pytest.raises(NoActionError):
-        policy.decide(_observation(MODE_NONE))
-    # crop hanging over the map's corner: the action stays on the map
-    corner = policy.decide(_observation(MODE_TARGET, origin=(-56, -56)))
-    assert min(corner.pose.heightmap_pixel) >= 0
-    picture = q_maps_picture(choice.q_maps, choice.masks, choice.decision)
-    assert picture.shape == (112, 16 * 56, 3) and picture.dtype == np.uint8
-
-
-def test_policy_rejects_malformed_crops():
-    policy = Policy(QNetwork(SMALL))
-    obs = _observation(MODE_TARGET)
-    obs.height_crop = obs.height_crop.copy()
-    obs.height_crop[0, 0] = np.nan
-    with pytest.raises(NoActionError, match="NaN"):
-        policy.decide(obs)
-    obs = _observation(MODE_TARGET)
-    obs.color_crop = obs.color_crop[:, :100]
-    with pytest.raises(NoActionError, match="colour crop"):
-        policy.decide(obs)
-
-
-def _scene_observation(crop_origin=(100, 50), moved_pixels: int = 0) -> Observation:
-    """A 224^2 scene with one 20x20 block; `moved_pixels` extra cells raised (the scene changed)."""
-    height = np.zeros((224, 224), np.float32)
-    height[100:120, 50:70] = 0.03
-    height.flat[len(height.flat) - moved_pixels:] = 0.05 if moved_pixels else 0.0
-    size = 20
-    return Observation(MODE_OCCLUDED_REGION, np.zeros((size, size, 3), np.uint8),
-                       np.zeros((size, size), np.float32), np.full((size, size), 255, np.uint8), crop_origin,
-                       height)
-
-
-def test_tried_action_memory_rules_out_failed_grasps_and_pushes_that_changed_nothing():
-    memory = TriedActionMemory(radius_px=3)
-    q = np.zeros((16, 2, 20, 20), np.float32)
-    obs = _scene_observation()
-    memory.record(GRASP, (110, 60), 3, obs.height, success=False)  # crop pixel (10, 10)
-    suppressed = memory.suppress(q, obs)
-    for rotation in (3, 11):  # a grasp: its rotation and the opposite one (the same closing axis)
-        assert np.isneginf(suppressed[rotation, GRASP, 10, 10])
-        assert np.isneginf(suppressed[rotation, GRASP, 13, 10])
-        assert suppressed[rotation, GRASP, 14, 10] == 0 and suppressed[rotation, GRASP, 10, 14] == 0
-    assert np.isfinite(suppressed[[r for r in range(16) if r not in (3, 11)], GRASP]).all()
-    assert np.isfinite(suppressed[:, PUSH]).all() and np.isfinite(q).all()  # pushes untouched, input kept
-    moved = _scene_observation(moved_pixels=tcdd.CHANGE_PIXELS_TAU + 1)
-    assert np.isneginf(memory.suppress(q, moved)[3, GRASP, 10, 10])  # a failed grasp stays ruled out...
-    memory.record(PUSH, (105, 55), 6, obs.height, success=True)  # crop pixel (5, 5)
-    suppressed = memory.suppress(q, _scene_observation(moved_pixels=tcdd.CHANGE_PIXELS_TAU))
-    assert np.isfinite(suppressed[:, GRASP]).all()  # ... until a push
-    assert np.isneginf(suppressed[6, PUSH, 5, 5]) and np.isneginf(suppressed[6, PUSH, 8, 5])
-    assert np.isfinite(suppressed[[r for r in range(16) if r != 6], PUSH]).all()  # a push: its direction
-    assert memory.suppress(q, moved) is q and not memory.tried  # the push moved something after all
-    memory.record(GRASP, (110, 60), 3, obs.height, success=False)
-    memory.record(GRASP, (30, 30), 5, obs.height, success=True)  # something was lifted
-    assert not memory.tried
-
-
-def test_tried_action_memory_forces_a_push_after_failed_grasps_in_a_row():
-    q = np.zeros((16, 2, 20, 20), np.float32)
-    obs = _scene_observation()
-    memory = TriedActionMemory(radius_px=3, failed_grasps_before_push=2)
-    memory.record(GRASP, (110, 60), 3, obs.height, success=False)
-    assert np.isfinite(memory.suppress(q, obs)[0, GRASP, 0, 0])  # one failure: other grasps stay open
-    memory.record(GRASP, (100, 50), 7, obs.height, success=False)
-    suppressed = memory.suppress(q, obs)
-    assert np.isneginf(suppressed[:, GRASP]).all() and np.isfinite(suppressed[:, PUSH]).all()
-    memory.record(PUSH, (105, 55), 6, obs.height, success=True)
-    assert np.isfinite(memory.suppress(q, obs)[:, GRASP]).all()  # the push reopens grasping
-    never = TriedActionMemory(radius_px=3, failed_grasps_before_push=0)
-    for pixel in ((110, 60), (100, 50), (95, 45)):
-        never.record(GRASP, pixel, 3, obs.height, success=False)
-    assert np.isfinite(never.suppress(q, obs)[0, GRASP, 0, 0])
-
-
+# ---- pose geometry the rules are built on (rules.py; the rules themselves: test_rules.py) ----------
 def _block(height, centre, half_px, top):
     height[centre[0] - half_px:centre[0] + half_px + 1, centre[1] - half_px:centre[1] + half_px + 1] = top
 
@@ -375,20 +287,6 @@ def test_grasp_clearance_on_hand_built_layouts():
     assert not grasp_clearance(height, (56, 56), 112)[:, 56, 56].any()
     # off the map counts as table: a crop hanging over the corner is computed, not an error
     assert grasp_clearance(height, (-56, -56), 112).shape == (16, 112, 112)
-
-
-def test_policy_pushes_when_no_grasp_is_clear_and_clearance_can_be_turned_off():
-    torch.manual_seed(0)
-    height = np.zeros((224, 224), np.float32)
-    for d_row in (-15, 0, 15):
-        for d_col in (-15, 0, 15):
-            _block(height, (112 + d_row, 112 + d_col), 6, 0.035)  # target wedged in a 3x3 packing
-    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(),
-                      np.full((112, 112), 255, np.uint8), (56, 56), height)
-    q = np.zeros((16, 2, 112, 112), np.float32)
-    q[:, GRASP, 50:62, 50:62] = 1.0  # the network would rather grasp the wedged target
-    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.primitive == GRASP
-    assert Policy(QNetwork(SMALL)).decide(obs, q=q).decision.primitive == PUSH
 
 
 def test_grasp_clearance_keeps_the_palm_off_tall_piles():
@@ -426,30 +324,6 @@ def test_pushes_ending_inside_the_workspace():
     assert not inside[4, 224 - push_px - margin_px + 2, 112]  # +y likewise
 
 
-def test_policy_filters_grasps_off_the_target_and_pushes_away_from_the_heap():
-    height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target, free
-    _block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
-    mask = np.zeros((112, 112), np.uint8)
-    mask[50:63, 50:63] = 255
-    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
-                      (56, 56), height)
-    q = np.zeros((16, 2, 112, 112), np.float32)
-    q[:, PUSH] = -1.0
-    q[:, GRASP, 56, 84] = 1.0  # the network prefers the neighbour
-    decision = Policy(QNetwork(SMALL)).decide(obs, q=q).decision
-    assert decision.primitive == GRASP and mask[decision.pixel]
-    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 84)
-    occluded = Observation(MODE_OCCLUDED_REGION, obs.color_crop, obs.height_crop, np.full_like(mask, 255),
-                           (56, 56), height)
-    q[:, PUSH] = 0.0
-    q[0, PUSH, 100, 10] = 1.0  # the network prefers a push far from the pile
-    push = Policy(QNetwork(SMALL)).decide(occluded, q=q).decision
-    assert push.primitive == PUSH
-    assert pushes_passing(heap_top(occluded.height_crop, valid_action_mask(112), 6.0), 112, 10)[
-        push.rotation][push.pixel]
-
-
 def _covered_heap(top=0.09):
     """A 50 mm slab 41 px wide with a pile on its middle, centred in a 224 px map (crop origin 56, 56)."""
     height = np.zeros((224, 224), np.float32)
@@ -467,25 +341,6 @@ def test_pushes_starting_on_the_heap_flank():
     assert not pushes_starting_on_flank(crop, (56, 56), (0.6, 0.8), radius_px=3).any()  # 56 % is below
 
 
-def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
-    height = _covered_heap()
-    occluded = Observation(MODE_OCCLUDED_REGION, np.full((112, 112, 3), 150, np.uint8),
-                           height[56:168, 56:168].copy(), np.full((112, 112), 255, np.uint8), (56, 56),
-                           height)
-    q = np.zeros((16, 2, 112, 112), np.float32)
-    q[0, PUSH, 56, 56] = 1.0  # the network prefers to push from the top of the pile
-    q[0, PUSH, 56, 40] = 0.5  # from the slab, through the pile
-    assert Policy(QNetwork(SMALL)).decide(occluded, q=q).decision.pixel == (56, 40)
-    no_band = ActionFilters(occluded_push_start_band=None)
-    assert Policy(QNetwork(SMALL), filters=no_band).decide(occluded, q=q).decision.pixel == (56, 56)
-    # a heap without a flank in the band (a flat block): the rule gives way instead of leaving no push
-    flat = np.zeros((224, 224), np.float32)
-    _block(flat, (112, 112), 20, 0.05)
-    flat_obs = Observation(MODE_OCCLUDED_REGION, occluded.color_crop, flat[56:168, 56:168].copy(),
-                           occluded.mask, (56, 56), flat)
-    assert Policy(QNetwork(SMALL)).decide(flat_obs, q=q).decision.primitive == PUSH
-
-
 def test_target_on_top_and_pixels_near_a_mask():
     height = np.zeros((112, 112), np.float32)
     _block(height, (56, 56), 6, 0.026)  # the target
@@ -501,27 +356,6 @@ def test_target_on_top_and_pixels_near_a_mask():
     assert (pixels_near(mask, 0) == (mask > 0)).all()
 
 
-def test_policy_pushes_next_to_the_target_and_grasps_where_it_is_on_top():
-    height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target, free
-    _block(height, (112, 126), 6, 0.045)  # a taller block against its +col side
-    mask = np.zeros((112, 112), np.uint8)
-    mask[50:63, 50:63] = 255
-    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
-                      (56, 56), height)
-    no_clearance = ActionFilters(finger_clearance=False, grasp_core_depth_px=None)
-    q = np.full((16, 2, 112, 112), -1.0, np.float32)
-    q[4, GRASP, 56, 61] = 1.0  # the net's grasp: by the taller block, which it would lift
-    q[4, GRASP, 56, 54] = 0.5
-    assert Policy(QNetwork(SMALL), filters=no_clearance).decide(obs, q=q).decision.pixel == (56, 54)
-    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 61)
-    q[:, GRASP] = -2.0
-    q[8, PUSH, 56, 100] = 1.0  # the net's push: far from the target
-    q[8, PUSH, 56, 66] = 0.5  # from beside the target
-    assert Policy(QNetwork(SMALL), filters=no_clearance).decide(obs, q=q).decision.pixel == (56, 66)
-    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 100)
-
-
 def test_target_core_is_the_middle_of_the_mask():
     mask = np.zeros((112, 112), np.uint8)
     mask[50:63, 50:63] = 255  # 13 px square: 7 px deep at its centre
@@ -531,41 +365,67 @@ def test_target_core_is_the_middle_of_the_mask():
     assert (target_core(mask, 100.0) == (mask > 0)).all()
 
 
-def test_policy_grasps_the_middle_of_a_free_target():
+# ---- policy decisions ------------------------------------------------------------------------------
+def _observation(mode, origin=(50, 60)):
+    s = _state()
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target, free
-    mask = np.zeros((112, 112), np.uint8)
-    mask[50:63, 50:63] = 255
-    obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
-                      (56, 56), height)
-    q = np.full((16, 2, 112, 112), -1.0, np.float32)
-    q[:, PUSH] = -2.0
-    q[4, GRASP, 56, 51] = 1.0  # the net's grasp: at the target's edge
-    q[4, GRASP, 56, 56] = 0.5
-    middle = ActionFilters(finger_clearance=False)
-    assert Policy(QNetwork(SMALL), filters=middle).decide(obs, q=q).decision.pixel == (56, 56)
-    assert Policy(QNetwork(SMALL), filters=NO_FILTERS).decide(obs, q=q).decision.pixel == (56, 51)
-    q[:, GRASP, 55:58, 55:58] = -np.inf  # e.g. tried already: no grasp at the edge, a push instead
-    assert Policy(QNetwork(SMALL), filters=middle).decide(obs, q=q).decision.primitive == PUSH
+    return Observation(mode, s.color, s.height, s.mask, origin, height)
 
 
-def test_a_greedy_policy_does_not_repeat_a_failed_grasp():
-    torch.manual_seed(0)
-    policy = Policy(QNetwork())
-    color = np.full((112, 112, 3), 150, np.uint8)
-    height = np.zeros((112, 112), np.float32)
-    height[40:70, 40:70] = 0.03
-    mask = np.zeros((112, 112), np.uint8)
-    mask[45:65, 45:65] = 255
-    obs = Observation(MODE_TARGET, color, height, mask, (0, 0), np.pad(height, ((0, 112), (0, 112))))
-    memory = TriedActionMemory()
-    q = policy.q_maps(obs)
-    q[:, PUSH] = -np.inf  # only grasps compete
-    first = policy.decide(obs, q=memory.suppress(q, obs))
-    assert first.decision.primitive == GRASP
-    memory.record(GRASP, first.pose.heightmap_pixel, first.pose.rotation, obs.height, success=False)
-    second = policy.decide(obs, q=memory.suppress(q, obs))
-    assert second.decision.primitive == GRASP
-    same_axis = second.pose.rotation % 8 == first.pose.rotation % 8
-    distance = math.dist(second.pose.heightmap_pixel, first.pose.heightmap_pixel)
-    assert not (same_axis and distance <= memory.radius_px)
+def test_policy_decides_in_base_link_and_only_pushes_without_target():
+    policy = Policy(QNetwork(SMALL), rules=RulePipeline.preset("cell"))
+    choice = policy.decide(_observation(MODE_TARGET))
+    assert choice.q_maps.shape == (16, 2, 112, 112)
+    assert cell.in_workspace(choice.pose.x, choice.pose.y)
+    assert choice.masks[choice.decision.primitive][choice.decision.pixel]
+    for _ in range(3):
+        assert policy.decide(_observation(MODE_OCCLUDED_REGION)).decision.primitive == PUSH
+    with pytest.raises(NoActionError):
+        policy.decide(_observation(MODE_NONE))
+    # crop hanging over the map's corner: the action stays on the map
+    corner = policy.decide(_observation(MODE_TARGET, origin=(-56, -56)))
+    assert min(corner.pose.heightmap_pixel) >= 0
+    picture = q_maps_picture(choice.q_maps, choice.masks, choice.decision)
+    assert picture.shape == (112, 16 * 56, 3) and picture.dtype == np.uint8
+
+
+def test_policy_rejects_malformed_crops():
+    policy = Policy(QNetwork(SMALL), rules=RulePipeline.preset("cell"))
+    obs = _observation(MODE_TARGET)
+    obs.height_crop = obs.height_crop.copy()
+    obs.height_crop[0, 0] = np.nan
+    with pytest.raises(NoActionError, match="NaN"):
+        policy.decide(obs)
+    obs = _observation(MODE_TARGET)
+    obs.color_crop = obs.color_crop[:, :100]
+    with pytest.raises(NoActionError, match="colour crop"):
+        policy.decide(obs)
+
+
+def test_a_policy_without_rules_takes_the_argmax_over_the_valid_actions():
+    policy = Policy(QNetwork(SMALL))  # rules: none, the paper's method
+    obs = _observation(MODE_TARGET)
+    q = np.zeros((16, 2, 112, 112), np.float32)
+    q[3, GRASP, 0, 0] = 5.0  # outside the crop's inscribed disk: not every rotation sees it
+    q[2, GRASP, 20, 20] = 4.0  # on the table: grasps need an object under them
+    q[5, PUSH, 60, 60] = 2.0
+    q[7, GRASP, 56, 56] = 1.0
+    choice = policy.decide(obs, q=q)
+    assert (choice.decision.primitive, choice.decision.rotation, choice.decision.pixel) == (PUSH, 5, (60, 60))
+    assert choice.q_maps is q  # nothing ruled out
+    q[5, PUSH, 60, 60] = 0.0
+    assert policy.decide(obs, q=q).decision.pixel == (56, 56)
+
+
+def test_policy_poses_lie_on_the_observations_grid():
+    policy = Policy(QNetwork(SMALL))
+    q = np.zeros((16, 2, 112, 112), np.float32)
+    q[4, GRASP, 56, 56] = 1.0
+    default = policy.decide(_observation(MODE_TARGET), q=q).pose
+    obs = _observation(MODE_TARGET)
+    obs.grid = HeightmapGrid(x_min=0.3, x_max=0.748, y_min=-0.2, y_max=0.248, table_z=0.05)
+    shifted = policy.decide(obs, q=q).pose
+    assert shifted.heightmap_pixel == default.heightmap_pixel == (56 + 50, 56 + 60)
+    assert shifted.x - default.x == pytest.approx(0.3 - cell.WORKSPACE_X[0])
+    assert shifted.y - default.y == pytest.approx(-0.2 - cell.WORKSPACE_Y[0])
+    assert shifted.z - default.z == pytest.approx(0.05 - cell.TABLE_Z)

@@ -5,10 +5,10 @@ import csv
 import pytest
 import torch
 
-from impurity_policy.core.network import NetworkConfig
 from impurity_learning.train import CSV_FIELDS, TrainConfig, TrainingRun, migrate_log, network_config_for
 from impurity_learning.train_cli import export_network
 from impurity_policy.core.checkpoint import load_network
+from impurity_policy.core.network import NetworkConfig
 
 pytest.importorskip("ur5_driver_sim.core.world")
 torch.set_num_threads(1)
@@ -86,6 +86,13 @@ def test_resume_refuses_another_method(tmp_path):
         TrainingRun(TrainConfig(run_dir=str(tmp_path), method="no_t", iterations=1, progress=False))
 
 
+def test_train_config_rules_default_to_none_and_unknown_presets_are_refused():
+    assert TrainConfig().rules == "none"  # the paper's method: the network's argmax while training
+    assert TrainConfig(rules="cell").rules == "cell"
+    with pytest.raises(ValueError, match="unknown rules preset 'telepathy'"):
+        TrainConfig(rules="telepathy")
+
+
 def test_full_heightmap_methods_use_224_inputs():
     assert network_config_for("vpg").crop_size == 224 and network_config_for("ours").crop_size == 112
     with pytest.raises(ValueError, match="random scenario only"):
@@ -94,17 +101,18 @@ def test_full_heightmap_methods_use_224_inputs():
 
 def test_fast_sim_episode_counts_like_the_episode_core():
     from impurity_learning.agents import NetworkAgent
-    from impurity_policy.core.episode import EpisodeRequest
     from impurity_learning.evaluate import EVAL_SEED_BASE, run_episode
+    from impurity_policy.core.episode import EpisodeRequest
     from impurity_policy.core.network import QNetwork
     from impurity_policy.core.policy import Policy
+    from impurity_policy.core.rules import RulePipeline
     from ur5_driver_sim.core.world import CellWorld
 
     world = CellWorld(mode="floating")
     torch.manual_seed(0)
     try:
-        metrics = run_episode(world, NetworkAgent("ours", Policy(QNetwork())),
-                              EpisodeRequest("random", seed=EVAL_SEED_BASE, max_actions=3))
+        agent = NetworkAgent("ours", Policy(QNetwork(), rules=RulePipeline.preset("cell")))
+        metrics = run_episode(world, agent, EpisodeRequest("random", seed=EVAL_SEED_BASE, max_actions=3))
     finally:
         world.close()
     assert 1 <= metrics["actions"] <= 3 and metrics["termination_reason"]
