@@ -232,6 +232,7 @@ class TrainingRun:
         self.world.reset_scene(self.config.scenario, seed=seed, num_targets=self.config.num_targets,
                                num_objects=self.config.num_objects)
         self.scene_step, self.failures = 0, {PUSH: 0, GRASP: 0}
+        self.policy.rules.clear()
         return self.sense()
 
     # -- one action
@@ -317,6 +318,7 @@ class TrainingRun:
         kind = "grasp" if decision.primitive == GRASP else "push"
         t1 = time.perf_counter()
         outcome = self.world.execute(kind, pose.x, pose.y, pose.z, pose.yaw)
+        self.policy.remember(pose, obs.height, bool(outcome.success))  # for stateful rules (--rules cell)
         t2 = time.perf_counter()
         next_obs, next_truth, next_maps = self.sense()
         t3 = time.perf_counter()

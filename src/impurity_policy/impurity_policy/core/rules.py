@@ -308,6 +308,7 @@ class RulePipeline:
     episode's executed actions: `record` after each, `clear` at an episode's start."""
 
     def __init__(self, names=(), params: RuleParams = RuleParams()):
+        names = tuple(names)
         unknown = sorted(set(names) - set(RULES))
         if unknown:
             raise ValueError(f"unknown rule(s) {', '.join(unknown)} (known: {', '.join(RULE_ORDER)})")
