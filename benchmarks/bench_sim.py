@@ -80,7 +80,8 @@ def actions_per_second(mode: str, actions: int, seed: int) -> None:
 
 
 def agreement(seeds: int, scenario: str = "random") -> None:
-    """Same scene, same primitive in both modes; outcome classes as in tests/test_sim_arm.py."""
+    """Same scene, same primitive in both modes; outcome classes as in
+    tests/unit/ur5_driver_sim/test_sim_arm.py."""
     worlds = {mode: CellWorld(mode=mode) for mode in ("floating", "arm")}
     same = strict = 0
     for seed in range(seeds):
@@ -108,7 +109,7 @@ def agreement(seeds: int, scenario: str = "random") -> None:
 
 def oracle_grasps(mode: str, seeds: int) -> None:
     """Issue 3's oracle: one block alone, true centre, closing across its short horizontal axis (a prism
-    across its flat ends), the same cases as tests/test_sim_*.py."""
+    across its flat ends), the same cases as tests/unit/ur5_driver_sim/test_sim_*.py."""
     import json
     import tempfile
 

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """Regenerate tests/data/episode_bag: one short sim episode recorded with bag_recorder, trimmed to what
-tests/test_bag_replay_regression.py replays (a few MB).
+tests/graph/test_bag_replay_regression.py replays (a few MB).
 
 Steps: start the cell (bringup/launch_cell.py), start bag_recorder on the camera, decision and step
 topics, run one episode (bringup/episode_client.py), stop the recorder and the cell, then keep only

@@ -10,7 +10,7 @@ from impurity_common import names
 from impurity_common.enums import EPISODE_SCENARIOS, AttentionMode, PrimitiveKind, Scenario
 from impurity_interfaces.msg import AttentionResult, Primitive
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 NAMES_FILE = ROOT / "src" / "impurity_common" / "impurity_common" / "names.py"
 FRAMES = {names.BASE_FRAME, names.CAMERA_OPTICAL_FRAME}
 GRAPH_NAMES = {value for key, value in vars(names).items()

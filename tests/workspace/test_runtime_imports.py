@@ -14,7 +14,7 @@ import xml.etree.ElementTree as ElementTree
 
 import pytest
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
 # (package, module) of every executable a real cell runs: perception, policy, episodes, bag tools.
 RUNTIME_EXECUTABLES = [

@@ -17,7 +17,7 @@ from impurity_common.bags import BagReader, file_sha256
 from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 BAG = ROOT / "tests" / "data" / "episode_bag"
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC

@@ -24,7 +24,7 @@ from impurity_common.parameters import (
     parameter_specs,
 )
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+ROOT = pathlib.Path(__file__).resolve().parents[3]
 
 
 class Colour(enum.StrEnum):

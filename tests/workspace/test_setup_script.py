@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-TOP = Path(__file__).resolve().parent.parent
+TOP = Path(__file__).resolve().parents[2]
 SETUP = TOP / "scripts" / "setup.sh"
 CHECK_TORCH = TOP / "scripts" / "check_torch.py"
 BASH = shutil.which("bash") or "/bin/bash"
