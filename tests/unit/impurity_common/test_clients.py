@@ -1,0 +1,111 @@
+"""The project's ROS clients never lose a response to the send-then-register race (ros2/rclpy#1123).
+
+The race is made certain instead of rare: the client's handle is wrapped so that a request's sequence
+number reaches the client only some time after the request went out (as when the sending thread is
+descheduled at that instant), while an executor thread is ready to take the server's answer.
+"""
+
+import threading
+import warnings
+
+import pytest
+import rclpy
+from rclpy.action import ActionClient, ActionServer
+from rclpy.executors import MultiThreadedExecutor
+
+from impurity_common.clients import GUARDED_METHODS, RaceFreeActionClient
+from impurity_interfaces.action import ExecutePrimitive
+from impurity_interfaces.srv import GetGroundTruth
+
+REGISTRATION_DELAY = 0.3  # s between sending a request and learning its sequence number
+ANSWER_TIMEOUT = 5.0  # s: far longer than the server needs to answer
+
+
+class DelayedRegistration:
+    """Proxy of a client handle whose send methods return (the sequence number) only after a delay."""
+
+    def __init__(self, handle, send_methods):
+        self._handle, self._send_methods = handle, send_methods
+
+    def __getattr__(self, name):
+        attribute = getattr(self._handle, name)
+        if name not in self._send_methods:
+            return attribute
+
+        def delayed(*args, **kwargs):
+            sequence_number = attribute(*args, **kwargs)
+            threading.Event().wait(REGISTRATION_DELAY)
+            return sequence_number
+        return delayed
+
+    def __enter__(self):
+        return self._handle.__enter__()
+
+    def __exit__(self, *exc):
+        return self._handle.__exit__(*exc)
+
+
+@pytest.fixture
+def spinning(ros_node):
+    """Nodes spun by a multi-threaded executor in a background thread; stopped at teardown."""
+    executor = MultiThreadedExecutor(num_threads=3)
+    created = []
+
+    def add(name):
+        node = rclpy.create_node(name)
+        created.append(node)
+        executor.add_node(node)
+        return node
+
+    thread = threading.Thread(target=executor.spin, daemon=True)
+    yield add, thread
+    executor.shutdown()
+    for node in created:
+        node.destroy_node()
+
+
+def goal_answered(add, thread, client_class, suffix) -> bool:
+    server_node, client_node = add(f"race_server_{suffix}"), add(f"race_client_{suffix}")
+    action = f"/test_clients/execute_{suffix}"
+
+    def execute(goal_handle):
+        goal_handle.succeed()
+        return ExecutePrimitive.Result(success=True)
+
+    ActionServer(server_node, ExecutePrimitive, action, execute)
+    client = client_class(client_node, ExecutePrimitive, action)
+    if not thread.is_alive():
+        thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT), "test action server not discovered"
+    client._client_handle = DelayedRegistration(client._client_handle, {"send_goal_request"})
+    answered = threading.Event()
+    client.send_goal_async(ExecutePrimitive.Goal()).add_done_callback(lambda _: answered.set())
+    return answered.wait(ANSWER_TIMEOUT)
+
+
+def test_race_free_action_client_gets_the_goal_response_that_a_late_registration_would_lose(spinning):
+    add, thread = spinning
+    assert goal_answered(add, thread, RaceFreeActionClient, "ours")
+    if goal_answered(add, thread, ActionClient, "rclpy"):
+        warnings.warn("this rclpy's ActionClient no longer loses the response (upstream fix)", stacklevel=1)
+
+
+def test_the_guarded_methods_exist_in_this_rclpy():
+    # A renamed private method would silently leave its request unguarded.
+    for name in GUARDED_METHODS:
+        assert callable(getattr(ActionClient, name, None)), f"rclpy.action.ActionClient.{name} is gone"
+
+
+def test_service_client_registers_its_request_under_its_own_lock(spinning):
+    add, thread = spinning
+    server_node, client_node = add("race_service_server"), add("race_service_client")
+    service = "/test_clients/ground_truth"
+    server_node.create_service(GetGroundTruth, service, lambda _request, response: response)
+    client = client_node.create_client(GetGroundTruth, service)
+    thread.start()
+    assert client.wait_for_service(timeout_sec=ANSWER_TIMEOUT)
+    inner = "_Client__client"  # rclpy.client.Client's C handle (name-mangled)
+    setattr(client, inner, DelayedRegistration(getattr(client, inner), {"send_request"}))
+    answered = threading.Event()
+    client.call_async(GetGroundTruth.Request()).add_done_callback(lambda _: answered.set())
+    assert answered.wait(ANSWER_TIMEOUT), "rclpy's service client lost a response: wrap it too"
