@@ -41,7 +41,6 @@ from .episode import (
     StepRecord,
     action_limit,
 )
-from .rules import MODE_NONE
 
 MODE_NAMES = {int(mode): mode.name for mode in AttentionMode}  # 1 -> "TARGET", as the records spell it
 
@@ -144,7 +143,7 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
             if first_view and recorder is not None and view.color is not None:
                 recorder.write_first_view(view.color)
             first_view = False
-            action = None if view.mode == MODE_NONE else cell.decide(view)
+            action = None if view.mode == AttentionMode.NONE else cell.decide(view)
             if action is None:
                 reason = TERMINATION_NOTHING_LEFT
                 break
