@@ -4,8 +4,9 @@ SHELL := /bin/bash
 ENV := source scripts/env.sh &&
 
 EVAL_GRAPH_EPISODES ?= 2
+SOAK_EPISODES ?= 200
 
-.PHONY: setup test lint pytest demo train train-baselines eval bench test-bag clean help
+.PHONY: setup test lint pytest demo train train-baselines eval bench soak test-bag clean help
 
 help:
 	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
@@ -15,6 +16,7 @@ help:
 	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
 	@echo "              episodes through the node graph (EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
+	@echo "make soak   - N picking episodes back to back through the node graph, memory per node (SOAK_EPISODES=200)"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
 	@echo "make test-bag - re-record tests/data/episode_bag (after a checkpoint or perception change)"
 
@@ -43,6 +45,9 @@ train-baselines: setup
 eval: setup
 	@$(ENV) python -m impurity_learning.eval_cli --rules cell none $(EVAL_ARGS)
 	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
+
+soak: setup
+	@$(ENV) python benchmarks/soak_graph.py --episodes $(SOAK_EPISODES)
 
 bench: setup
 	@$(ENV) for b in benchmarks/bench_*.py; do echo "== $$b"; python "$$b"; done

@@ -16,8 +16,8 @@ import sys
 import time
 
 import rclpy
-from rclpy.action import ActionClient
 
+from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
@@ -27,13 +27,15 @@ BRINGUP = pathlib.Path(__file__).resolve().parent
 
 
 @contextlib.contextmanager
-def running_cell(out: pathlib.Path):
-    """The whole node graph (launch_cell.py) for the duration of a `with`: episode records in `out`,
-    node logs in out/logs; stopped with SIGINT (SIGKILL after 30 s) on the way out."""
+def running_cell(out: pathlib.Path, config: pathlib.Path | None = None):
+    """The whole node graph (launch_cell.py, with `config` or bringup/config/cell.yaml) for the
+    duration of a `with`: episode records in `out`, node logs in out/logs; stopped with SIGINT (SIGKILL
+    after 30 s) on the way out."""
     out.mkdir(parents=True, exist_ok=True)
+    extra = ["--config", str(config)] if config is not None else []
     launcher = subprocess.Popen(
         [sys.executable, str(BRINGUP / "launch_cell.py"), "--quiet", "--log-dir", str(out / "logs"),
-         "--record-dir", str(out)], start_new_session=True)
+         "--record-dir", str(out), *extra], start_new_session=True)
     try:
         yield launcher
     finally:
@@ -73,23 +75,30 @@ def format_result(result) -> str:
 
 
 def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
-    """Send the goal, print feedback as it comes; returns the result (None if rejected)."""
-    client = ActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
-    if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
-        raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
-    future = client.send_goal_async(goal, feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
-    rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
-    handle = future.result()
-    if handle is None or not handle.accepted:
-        return None
-    result_future = handle.get_result_async()
-    deadline = time.monotonic() + timeout
-    while not result_future.done():
-        if time.monotonic() > deadline:
-            handle.cancel_goal_async()
-            raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
-        rclpy.spin_once(node, timeout_sec=0.1)
-    return result_future.result().result
+    """Send the goal, print feedback as it comes; returns the result (None if rejected). The action
+    client lives for this episode only (clients left behind pile up in the node)."""
+    client = RaceFreeActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
+    try:
+        if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
+            raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
+        future = client.send_goal_async(goal,
+                                        feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
+        rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+        handle = future.result()
+        if handle is None:
+            raise TimeoutError(f"{RUN_EPISODE_ACTION} did not answer the goal within 30 s")
+        if not handle.accepted:
+            return None
+        result_future = handle.get_result_async()
+        deadline = time.monotonic() + timeout
+        while not result_future.done():
+            if time.monotonic() > deadline:
+                handle.cancel_goal_async()
+                raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
+            rclpy.spin_once(node, timeout_sec=0.1)
+        return result_future.result().result
+    finally:
+        client.destroy()
 
 
 def main(argv=None) -> int:

@@ -25,6 +25,10 @@ RUNTIME_EXECUTABLES = [
     ("impurity_common", "impurity_common.bag_recorder_node"),
     ("impurity_common", "impurity_common.bag_replay_node"),
 ]
+# Executables that never run the network, so never load torch.
+NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_recorder_node",
+                          "impurity_common.bag_replay_node", "impurity_attention.heightmap_node",
+                          "impurity_attention.attention_node")
 # Never on a real cell: the simulator, its physics engine, training and evaluation.
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
@@ -46,6 +50,8 @@ def test_runtime_executable_imports_no_simulator_or_learning_code(package, modul
     loaded = imported_modules(module)
     offending = sorted(m for m in loaded if m.split(".")[0] in FORBIDDEN)
     assert not offending, f"{module} (deployed on a real cell) imports {offending}"
+    if module in NO_NETWORK_EXECUTABLES:  # torch alone is ~200 MB of resident memory per process
+        assert "torch" not in loaded, f"{module} does not run the network but imports torch"
 
 
 def first_party_imports(package: str) -> set[str]:
