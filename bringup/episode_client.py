@@ -22,6 +22,7 @@ from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
+from impurity_policy.core.episode import is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 
@@ -65,7 +66,9 @@ def kind_label(kind: int) -> str:
 def format_result(result) -> str:
     return "\n".join([
         f"episode {result.episode_id}: {result.termination_reason}",
-        f"  targets picked   {result.targets_picked}/{result.targets_total}",
+        f"  targets picked   {result.targets_picked}/{result.targets_total}"
+        + (f" ({result.targets_outside} outside the workspace: cannot be picked)" if result.targets_outside
+           else ""),
         f"  actions          {result.actions} ({result.pushes} pushes, {result.grasp_attempts} grasps, "
         f"{result.grasp_successes} lifted something, {result.false_rejects} false rejects)",
         f"  grasp success    {100 * result.grasp_success:.1f} %",
@@ -136,7 +139,7 @@ def main(argv=None) -> int:
                   file=sys.stderr)
             return 1
         print(format_result(result))
-        return 1 if result.termination_reason.startswith(("node_lost", "error")) else 0
+        return 1 if is_failure(result.termination_reason) else 0  # node_lost, stale_input, error
     except TimeoutError as error:
         print(f"episode_client: {error}", file=sys.stderr)
         return 2

@@ -11,7 +11,7 @@ import signal
 import pytest
 
 from impurity_interfaces.action import RunEpisode
-from impurity_interfaces.srv import GetGroundTruth
+from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from impurity_policy.core.episode import read_steps
 from ros_harness import ROOT, ActionHelper, call_service, ros_args, spin_until
 
@@ -98,4 +98,40 @@ def test_a_node_killed_mid_episode_ends_it_with_a_reason_and_intact_records(ros_
     assert len(steps) == result.actions >= 1
     assert json.loads((ROOT / result.record_path / "summary.json").read_text())["termination_reason"] == \
         result.termination_reason
+    episode.destroy()
+
+
+def test_a_target_outside_the_workspace_is_counted_apart(ros_node, cell, tmp_path):
+    """Issue 19 item 8: a scene file with a second impurity at x = 0.74 m (the workspace ends at 0.724).
+    The reset reported 2 targets, the ground truth counted 1 in the workspace, and the episode ended
+    "all_targets_picked" with 1 of 2 picked."""
+    procs = list(cell.values())
+    blocks = [dict(shape="cube", dims=[0.04] * 3, position=[0.50, 0.0, 0.021], is_target=True),
+              dict(shape="cube", dims=[0.03] * 3, position=[0.74, 0.0, 0.016], is_target=True)]
+    blocks += [dict(shape="cube", dims=[0.04] * 3, position=[x, y, 0.021], is_target=False)
+               for x, y in ((0.40, -0.10), (0.60, 0.10), (0.45, 0.12))]
+    scene = tmp_path / "outside.json"
+    scene.write_text(json.dumps(blocks))
+    reset = call_service(ros_node, ResetScene, "/cell/reset_scene",
+                         ResetScene.Request(scenario="file", scene_file=str(scene)), processes=procs,
+                         resend_after=5.0)  # the same file scene again: idempotent
+    assert reset.success and (reset.num_targets, reset.targets_outside_workspace) == (2, 1), reset.message
+    assert "1 target(s) outside the workspace" in reset.message
+    episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
+    handle, wrapped = episode.run(RunEpisode.Goal(scenario="file", scene_file=str(scene), num_targets=2,
+                                                  max_actions=4), timeout=400.0)
+    assert handle.accepted
+    result = wrapped.result
+    truth = call_service(ros_node, GetGroundTruth, "/cell/ground_truth", GetGroundTruth.Request(),
+                         processes=procs, resend_after=5.0)
+    assert truth.success and truth.targets_outside_workspace == 1
+    assert (result.targets_total, result.targets_outside) == (2, 1)
+    assert result.targets_picked == truth.targets_removed <= 1
+    assert result.termination_reason != "all_targets_picked"
+    if truth.targets_remaining == 0:  # the reachable one was picked
+        assert result.termination_reason == "all_reachable_targets_picked"
+    records = read_steps(f"{result.record_path}/steps.jsonl")
+    assert records[0]["targets_total"] == 2 and records[0]["targets_outside"] == 1
+    summary = json.loads((ROOT / result.record_path / "summary.json").read_text())
+    assert summary["targets_outside"] == 1 and not summary["completed"]
     episode.destroy()

@@ -1,10 +1,29 @@
 """Episode node on its own: bad requests and a second start are refused with a reason, and an episode
-whose cell does not answer ends with a clear reason and an intact record."""
+whose cell does not answer ends with a clear reason and an intact record; against a scripted cell in
+this process: a cancel in every wait, inputs stamped on another clock, a motion the driver refuses."""
 
 import json
+import os
+import pathlib
+import re
+import threading
 
-from impurity_interfaces.action import RunEpisode
+import pytest
+import rclpy
+from action_msgs.msg import GoalStatus
+from geometry_msgs.msg import Point
+from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.callback_groups import ReentrantCallbackGroup
+from rclpy.executors import MultiThreadedExecutor
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from std_msgs.msg import Header
+
+from impurity_common import names
+from impurity_common.conversions import ns_to_time
+from impurity_interfaces.action import ExecutePrimitive, RunEpisode
+from impurity_interfaces.msg import AttentionResult, Primitive
 from impurity_interfaces.srv import StartEpisode
+from impurity_policy.core.episode import read_steps
 from ros_harness import ActionHelper, call_service, ros_args, spin_until
 
 
@@ -39,7 +58,177 @@ def test_refusals_and_a_missing_cell(ros_node, launch, tmp_path):
 
     # Free again: a bad goal is now rejected for its own reason, a good one would be accepted.
     assert not action.send_goal(RunEpisode.Goal(scenario="file")).accepted
-    retry = call_service(ros_node, StartEpisode, "/episode/start",
-                         StartEpisode.Request(scenario="random", seed=3), processes=[episode])
-    assert retry.accepted
+    # (the summary is written just before the node frees itself: a start in between is still "busy")
+    retries = []
+    spin_until(ros_node, lambda: retries.append(call_service(
+        ros_node, StartEpisode, "/episode/start", StartEpisode.Request(scenario="random", seed=3),
+        processes=[episode])) or retries[-1].accepted, 30.0, "a start accepted", [episode])
+    assert all(r.reason.startswith("busy") for r in retries[:-1])
+    action.destroy()
+
+
+# ---- the episode node against a scripted cell in this process (issue 19 items 4, 7, 11) -------------------
+class ScriptedCell:
+    """Stands in for attention, policy and driver, in this test process on its own executor thread:
+    publishes attention results (stamped `stamp_offset` s from this clock) and, with `decide`, a push
+    decision on each; serves /ur5/execute_primitive as `driver` says: "reject" every goal, leave it
+    "silent" (never answered), or "hold" the motion until it is canceled."""
+
+    def __init__(self, stamp_offset: float = 0.0, decide: bool = True, driver: str = "reject"):
+        self.stamp_offset, self.decide, self.driver = stamp_offset, decide, driver
+        self.node = rclpy.create_node(f"scripted_cell_{os.getpid()}")
+        reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
+        self._attention = self.node.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
+        self._primitive = self.node.create_publisher(Primitive, names.PRIMITIVE_TOPIC, reliable)
+        group = ReentrantCallbackGroup()
+        self.goals, self.motions, self.motion_canceled = [], [], threading.Event()
+        self._release = threading.Event()  # lets a silent goal callback return at teardown
+        self._server = ActionServer(self.node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION,
+                                    execute_callback=self._execute, goal_callback=self._on_goal,
+                                    cancel_callback=lambda _: CancelResponse.ACCEPT, callback_group=group)
+        self.node.create_timer(0.2, self._publish, callback_group=group)
+        self._executor = MultiThreadedExecutor(num_threads=4)
+        self._executor.add_node(self.node)
+        self._thread = threading.Thread(target=self._executor.spin, daemon=True)
+        self._thread.start()
+
+    def _publish(self) -> None:
+        stamp = ns_to_time(self.node.get_clock().now().nanoseconds + int(self.stamp_offset * 1e9))
+        header = Header(stamp=stamp, frame_id=names.BASE_FRAME)
+        self._attention.publish(AttentionResult(header=header, mode=AttentionResult.MODE_TARGET))
+        if self.decide:
+            self._primitive.publish(Primitive(header=header, kind=Primitive.PUSH,
+                                              position=Point(x=0.5, y=0.0, z=0.02), yaw=0.0))
+
+    def _on_goal(self, goal) -> GoalResponse:
+        self.goals.append(goal)
+        if self.driver == "silent":
+            self._release.wait(120.0)  # blocks this executor thread: the goal is never answered
+        return GoalResponse.ACCEPT if self.driver == "hold" else GoalResponse.REJECT
+
+    def _execute(self, goal_handle):
+        self.motions.append(goal_handle)
+        while not goal_handle.is_cancel_requested and not self._release.is_set():
+            self._release.wait(0.05)  # the motion under way
+        self.motion_canceled.set()
+        goal_handle.canceled()
+        return ExecutePrimitive.Result(success=False, grasped_object_id=-1, message="push cancelled",
+                                       finished=self.node.get_clock().now().to_msg())
+
+    def destroy(self) -> None:
+        self._release.set()
+        self._executor.shutdown(timeout_sec=5.0)
+        self._thread.join(5.0)
+        self._server.destroy()
+        self.node.destroy_node()
+
+
+@pytest.fixture
+def scripted_cell():
+    made = []
+
+    def make(**kwargs) -> ScriptedCell:
+        made.append(ScriptedCell(**kwargs))
+        return made[-1]
+
+    yield make
+    for cell in made:
+        cell.destroy()
+
+
+def episode_node(launch, tmp_path, **parameters):
+    """episode_node with its defaults (cell.yaml's values), records in tmp_path, no sim services (unless
+    use_ground_truth)."""
+    return launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(tmp_path), "use_ground_truth": False, **parameters}))
+
+
+def summary_of(result) -> dict:
+    return json.loads((pathlib.Path(result.record_path) / "summary.json").read_text())
+
+
+def steps_in(tmp_path) -> list:
+    return [r for path in tmp_path.glob("*/steps.jsonl") for r in read_steps(path)]
+
+
+@pytest.mark.parametrize("wait", ["reset service", "decision", "driver goal", "driver result"])
+def test_a_cancel_is_honoured_in_every_wait_and_the_goal_ends_canceled_with_its_records(
+        ros_node, launch, tmp_path, scripted_cell, wait):
+    """Issue 19 item 7: an episode waiting for a decision (no camera running) was canceled; the cancel was
+    accepted, then ignored, and the goal ABORTED as node_lost after the decision timeout. Every timeout
+    here is 120 s: a goal that ends within the 30 s below honoured the cancel."""
+    long = 120.0
+    if wait == "reset service":  # a simulated cell whose sim_cell is not running
+        episode = episode_node(launch, tmp_path, use_ground_truth=True, service_timeout=long)
+    else:
+        episode = episode_node(launch, tmp_path, decision_timeout=long, motion_timeout=long,
+                               service_timeout=long)
+    cell = {"reset service": None, "decision": None,
+            "driver goal": lambda: scripted_cell(driver="silent"),
+            "driver result": lambda: scripted_cell(driver="hold")}[wait]
+    cell = cell() if cell else None
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
+    handle = action.send_goal(RunEpisode.Goal(scenario="random", seed=1))
+    assert handle.accepted
+    waiting = {  # evidence that the episode is in that wait
+        "reset service": lambda: any(path.is_dir() for path in tmp_path.iterdir()),
+        "decision": lambda: any(r["event"] == "start" for r in steps_in(tmp_path)),
+        "driver goal": lambda: cell.goals,
+        "driver result": lambda: cell.motions,
+    }[wait]
+    spin_until(ros_node, waiting, 60.0, f"the episode waiting for the {wait}", [episode])
+    action.cancel(handle)
+    wrapped = action.get_result(handle, timeout=30.0)
+    assert wrapped.status == GoalStatus.STATUS_CANCELED
+    result = wrapped.result
+    assert result.termination_reason == "canceled"
+    assert summary_of(result)["termination_reason"] == "canceled"  # the records are closed
+    steps = [r for r in read_steps(pathlib.Path(result.record_path) / "steps.jsonl") if r["event"] == "step"]
+    if wait == "driver result":  # the motion was stopped by the driver, and recorded
+        assert cell.motion_canceled.is_set()
+        assert result.actions == len(steps) == 1 and steps[0]["message"] == "push cancelled"
+    else:
+        assert result.actions == len(steps) == 0
+    # Free again: the next goal is accepted.
+    again = action.send_goal(RunEpisode.Goal(scenario="random", seed=2))
+    assert again.accepted
+    action.cancel(again)
+    assert action.get_result(again, timeout=30.0).status == GoalStatus.STATUS_CANCELED
+    action.destroy()
+
+
+@pytest.mark.parametrize("offset, decide, side", [
+    (-1000.0, False, "before"),  # the policy node refuses them as stale (max_age): no decision comes
+    (1000.0, True, "after"),  # the policy answers, but such a frame could predate the last motion
+])
+def test_attention_stamped_on_another_clock_ends_the_episode_naming_the_stamp_gap(
+        ros_node, launch, tmp_path, scripted_cell, offset, decide, side):
+    """Issue 19 item 4 (episode part): frames stamped on the camera's own clock, 1000 s off the nodes'.
+    The episode used to end blaming a lost node."""
+    episode = episode_node(launch, tmp_path, decision_timeout=3.0)
+    scripted_cell(stamp_offset=offset, decide=decide, driver="hold")
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
+    handle, wrapped = action.run(RunEpisode.Goal(scenario="random", seed=1), timeout=60.0)
+    assert handle.accepted and wrapped.status == GoalStatus.STATUS_ABORTED
+    reason = wrapped.result.termination_reason
+    gap = re.fullmatch(rf"stale_input: attention results are stamped ([0-9.]+) s {side} this node's clock "
+                       r"\(camera clock\? use_sim_time / the driver's timestamp setting\); .*", reason)
+    assert gap is not None, reason
+    assert 990.0 < float(gap.group(1)) < 1010.0  # the offset, give or take this host's latency
+    assert wrapped.result.actions == 0  # nothing was executed on such a decision
+    assert summary_of(wrapped.result)["termination_reason"] == reason
+    action.destroy()
+
+
+def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal(
+        ros_node, launch, tmp_path, scripted_cell):
+    """Issue 19 item 11: cell.yaml said a refused motion counts toward max_consecutive_failures (5); the
+    first refusal ends the episode, which is the safe choice, and now what cell.yaml says."""
+    episode = episode_node(launch, tmp_path, max_consecutive_failures=5)
+    cell = scripted_cell(driver="reject")
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
+    handle, wrapped = action.run(RunEpisode.Goal(scenario="random", seed=1), timeout=60.0)
+    assert handle.accepted and wrapped.status == GoalStatus.STATUS_ABORTED
+    assert wrapped.result.termination_reason.startswith("error: driver rejected the primitive")
+    assert wrapped.result.actions == 0 and len(cell.goals) == 1
     action.destroy()

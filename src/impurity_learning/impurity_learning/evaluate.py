@@ -23,8 +23,9 @@ EVAL_SEED_BASE = 900_000_000
 
 class SimCell:
     """The fast simulator (a ur5_driver_sim CellWorld) and an evaluation agent (agents.py) behind the
-    picking loop's cell interface. Ground truth counts the targets: this is the simulator's privilege,
-    and the only place where truth meets the loop."""
+    picking loop's cell interface. Ground truth counts the targets (CellWorld.ground_truth: in the
+    workspace, and outside it apart, as sim_cell's services count them): this is the simulator's
+    privilege, and the only place where truth meets the loop."""
 
     def __init__(self, world, agent, attention_params: AttentionParams = AttentionParams(),
                  grid: HeightmapGrid = HeightmapGrid()):
@@ -36,12 +37,12 @@ class SimCell:
         self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params,
                              self.grid)
 
-    def reset(self, request: EpisodeRequest) -> int:
+    def reset(self, request: EpisodeRequest) -> picking.Targets:
         self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
                                num_objects=request.num_objects, scene_file=request.scene_file or None)
         self.agent.reset(request.seed)
         self._sense()
-        return self._sensed.truth.targets_remaining
+        return self._targets()
 
     def observe(self) -> picking.View:
         return picking.View(self._sensed.obs.mode, self._sensed.maps.color, self._sensed)
@@ -61,8 +62,12 @@ class SimCell:
         self._sense()
         return picking.Outcome(bool(outcome.success), bool(outcome.target_grasped), outcome.message)
 
-    def targets_remaining(self, outcome: picking.Outcome, before: int) -> int:
-        return self._sensed.truth.targets_remaining
+    def targets_remaining(self, outcome: picking.Outcome, before: int) -> picking.Targets:
+        return self._targets()
+
+    def _targets(self) -> picking.Targets:
+        truth = self._sensed.truth
+        return picking.Targets(truth.targets_remaining, truth.targets_out_of_workspace)
 
 
 def _reraise(error: Exception) -> None:
@@ -72,6 +77,7 @@ def _reraise(error: Exception) -> None:
 def run_episode(world, agent, request: EpisodeRequest,
                 limits: picking.EpisodeLimits = picking.EpisodeLimits(), recorder=None) -> dict:
     """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
-    loop's summary: the metrics plus termination_reason and completed (every target picked)."""
+    loop's summary: the metrics (targets_outside among them) plus termination_reason and completed
+    (every target picked)."""
     return picking.run_episode(SimCell(world, agent), request, f"{request.scenario}-{request.seed}", limits,
                                recorder=recorder, on_error=_reraise)

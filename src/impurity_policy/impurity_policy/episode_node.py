@@ -2,8 +2,11 @@
 
 It serves /episode/start and /episode/run, and runs each episode with the one picking loop against a
 RosCell (ros_cell.py): attention -> policy decision -> driver motion -> targets left, until every target
-is picked, the action limit, repeated failure, a cancel, or a node of the graph stops answering. Every
-decision it executes comes from a camera frame stamped after the previous motion finished.
+is picked, the action limit, repeated failure, a cancel, or a node of the graph stops answering (or its
+inputs are stamped on another clock). Every decision it executes comes from a camera frame stamped after
+the previous motion finished. A cancel of /episode/run is honoured in every wait (within
+ros_cell.CANCEL_POLL s; a motion under way is stopped by the driver) and the goal ends CANCELED with its
+records closed.
 """
 
 import os
@@ -32,6 +35,7 @@ from impurity_policy.core.episode import (
     EpisodeRecorder,
     EpisodeRequest,
     StepRecord,
+    is_failure,
     validate_request,
 )
 from impurity_policy.core.picking import EpisodeLimits, run_episode
@@ -50,11 +54,15 @@ class EpisodeParameters:
 
     record_dir: str = param("", "Directory of episode records (JSON lines); empty: runs/episodes in the "
                                 "checkout, else ~/.ros/impurity_episodes")
-    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target when a request "
-                                    "gives max_actions 0", low=1, high=1000)
-    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES, "Failed grasps/motions in a row "
-                                          "that end the episode", low=1, high=1000)
-    decision_timeout: float = param(30.0, "s to wait for a fresh decision before giving up", low=0.1)
+    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target in the workspace "
+                                    "when a request gives max_actions 0", low=1, high=1000)
+    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES,
+                                          "Failed grasps (nothing lifted) or pushes whose motion failed, "
+                                          "in a row, that end the episode; a motion the driver refuses "
+                                          "ends it at once", low=1, high=1000)
+    decision_timeout: float = param(30.0, "s to wait for a fresh decision before giving up (node_lost, or "
+                                    "stale_input when the attention results are stamped on another clock)",
+                                    low=0.1)
     motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
     service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
     use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth")
@@ -128,7 +136,7 @@ class EpisodeNode(Node):
         result.record_path = summary.get("record_path", "")
         if summary["termination_reason"] == TERMINATION_CANCELED:
             goal_handle.canceled()
-        elif summary["termination_reason"].startswith(("node_lost", "error")):
+        elif is_failure(summary["termination_reason"]):
             goal_handle.abort()
         else:
             goal_handle.succeed()
@@ -153,9 +161,11 @@ class EpisodeNode(Node):
             should_stop=lambda: goal_handle is not None and goal_handle.is_cancel_requested,
             clock_ns=lambda: self.get_clock().now().nanoseconds,
             on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"))
+        outside = summary.get("targets_outside", 0)
+        outside_note = f" ({outside} outside the workspace)" if outside else ""
         log.info(f"episode {episode_id} ended ({summary['termination_reason']}): picked "
-                 f"{summary['targets_picked']}/{summary['targets_total']} in {summary['actions']} actions; "
-                 f"record {recorder.directory}")
+                 f"{summary['targets_picked']}/{summary['targets_total']}{outside_note} in "
+                 f"{summary['actions']} actions; record {recorder.directory}")
         return summary
 
     # ---- outputs ------------------------------------------------------------------------------

@@ -5,9 +5,15 @@
                      frame stamped after the last motion finished (or a NONE attention result)
     decide           that decision as a picking.Action
     execute          the /ur5/execute_primitive action, waited for with timeouts
-    targets_remaining  /cell/ground_truth (simulated cells), else what the driver reported
+    targets_remaining  /cell/ground_truth (simulated cells: in and outside the workspace), else what the
+                     driver reported
 
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
+Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
+nodes only) end it with "stale_input: ..." naming the gap, measured on the attention results it hears.
+Every wait also polls the loop's should_stop (set_should_stop) at least every CANCEL_POLL s and raises
+picking.EpisodeCanceled; a cancel during a motion is forwarded to the driver, whose result (the motion
+stopped) is still awaited so that the step is recorded and the arm is parked before the episode ends.
 The episode node owns one RosCell; its callbacks run in the node's executor threads.
 """
 
@@ -27,10 +33,19 @@ from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import AttentionResult, Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from impurity_policy.core.episode import EpisodeRequest
-from impurity_policy.core.picking import Action, EpisodeAborted, Outcome, View
+from impurity_policy.core.picking import Action, EpisodeAborted, EpisodeCanceled, Outcome, Targets, View
 
 POLICY_GONE_GRACE = 5.0  # s without the policy node's publisher, once it had been seen, before giving up
 ATTENTION_KEPT = 20  # attention results kept to pair with decisions (by stamp)
+CANCEL_POLL = 0.1  # s between two looks at should_stop in every wait (a cancel is honoured within it)
+# s: attention results stamped further ahead of this node's clock are not taken as fresh (a frame taken
+# before the last motion would pass as taken after it); their stamps are on another clock.
+MAX_STAMP_LEAD = 1.0
+# s: when no decision came although attention results did, results stamped more than this before this
+# node's clock (at receipt) make the reason "stale_input" (the policy node refuses them: its max_age).
+STALE_GAP = 2.0
+ATTENTION_SILENT = 5.0  # s without attention results at the decision timeout: their stream stopped
+CLOCK_HINT = "camera clock? use_sim_time / the driver's timestamp setting"
 
 
 @dataclass(frozen=True)
@@ -51,6 +66,10 @@ class RosCell:
         self._latest_primitive: Primitive | None = None
         self._policy_seen = False
         self._after_ns = 0  # views must come from frames stamped after this (the last motion's end)
+        self._after_what = "the scene reset"  # what _after_ns is, for messages
+        # (received ns on this node's clock, stamp ns) of the last attention results: the stamp gap
+        self._attention_heard: collections.deque[tuple[int, int]] = collections.deque(maxlen=ATTENTION_KEPT)
+        self._should_stop = None  # the loop's cancel check, polled in every wait
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         node.create_subscription(AttentionResult, names.ATTENTION_TOPIC, self._on_attention, reliable,
                                  callback_group=callback_group)
@@ -67,7 +86,9 @@ class RosCell:
     # ---- inputs -------------------------------------------------------------------------------
     def _on_attention(self, msg: AttentionResult) -> None:
         with self._condition:
-            self._attention_by_stamp[time_to_ns(msg.header.stamp)] = msg
+            stamp_ns = time_to_ns(msg.header.stamp)
+            self._attention_heard.append((self.node.get_clock().now().nanoseconds, stamp_ns))
+            self._attention_by_stamp[stamp_ns] = msg
             while len(self._attention_by_stamp) > ATTENTION_KEPT:
                 self._attention_by_stamp.popitem(last=False)
             self._condition.notify_all()
@@ -78,18 +99,29 @@ class RosCell:
             self._condition.notify_all()
 
     # ---- the cell's verbs ---------------------------------------------------------------------
-    def reset(self, request: EpisodeRequest) -> int:
-        """Targets in the scene: from /cell/reset_scene on a simulated cell, else the request's."""
+    def set_should_stop(self, should_stop) -> None:
+        """The loop's cancel check (None: none), polled in every wait of the verbs below."""
+        self._should_stop = should_stop
+
+    def reset(self, request: EpisodeRequest) -> Targets:
+        """Targets in the scene: from /cell/reset_scene on a simulated cell (in and outside the workspace),
+        else the request's."""
         self._after_ns = self.node.get_clock().now().nanoseconds
+        self._after_what = "the scene reset"
         if not self.use_ground_truth:
-            return request.num_targets
+            return Targets(request.num_targets)
         response = self._call(self._reset, ResetScene.Request(
             scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
             num_objects=request.num_objects, scene_file=request.scene_file), names.RESET_SCENE_SERVICE)
         if not response.success:
             raise EpisodeAborted(f"error: scene reset failed: {response.message}")
         self._after_ns = self.node.get_clock().now().nanoseconds
-        return int(response.num_targets)
+        outside = int(response.targets_outside_workspace)
+        if outside:
+            self.node.get_logger().warning(
+                f"{outside} of the scene's {response.num_targets} target(s) lie outside the workspace: "
+                "counted apart, they cannot be picked")
+        return Targets(int(response.num_targets) - outside, outside)
 
     def observe(self) -> View:
         """The first decision (and its attention result) from a frame stamped after the last motion,
@@ -112,14 +144,17 @@ class RosCell:
         result = self._execute(action.source)
         self.last_primitive, self.last_finished = action.source, result.finished
         self._after_ns = time_to_ns(result.finished)
+        self._after_what = "the last motion's end as the driver stamped it: driver clock?"
         return Outcome(bool(result.success), bool(result.target_grasped), result.message,
                        time_to_ns(result.finished))
 
-    def targets_remaining(self, outcome: Outcome, before: int) -> int:
+    def targets_remaining(self, outcome: Outcome, before: int) -> Targets:
         if self.use_ground_truth:
-            return int(self._call(self._ground_truth, GetGroundTruth.Request(),
-                                  names.GROUND_TRUTH_SERVICE).targets_remaining)
-        return before - (1 if outcome.target_grasped else 0)
+            truth = self._call(self._ground_truth, GetGroundTruth.Request(), names.GROUND_TRUTH_SERVICE)
+            if not truth.success:
+                raise EpisodeAborted(f"error: ground truth not available: {truth.message}")
+            return Targets(int(truth.targets_remaining), int(truth.targets_outside_workspace))
+        return Targets(before - (1 if outcome.target_grasped else 0))
 
     # ---- waits --------------------------------------------------------------------------------
     def _color(self, attention: AttentionResult):
@@ -129,14 +164,47 @@ class RosCell:
             self.node.get_logger().warning(f"colour heightmap not usable for the episode picture: {error}")
             return None
 
+    def _check_cancel(self, what: str) -> None:
+        """EpisodeCanceled when the loop's should_stop says so."""
+        if self._should_stop is not None and self._should_stop():
+            raise EpisodeCanceled(f"canceled while waiting for {what}")
+
+    def _wait_until(self, ready, timeout: float, what: str) -> bool:
+        """Poll ready() every CANCEL_POLL s for up to `timeout` s: True when it is, False at the timeout,
+        EpisodeCanceled on a cancel."""
+        deadline = time.monotonic() + timeout
+        pause = threading.Event()
+        while not ready():
+            self._check_cancel(what)
+            if time.monotonic() > deadline:
+                return False
+            pause.wait(CANCEL_POLL)
+        return True
+
+    def _wait_event(self, done: threading.Event, timeout: float, what: str) -> bool:
+        """Wait for `done` up to `timeout` s: True when set (an answer within the first CANCEL_POLL s wins
+        over a cancel), False at the timeout, EpisodeCanceled on a cancel."""
+        deadline = time.monotonic() + timeout
+        while not done.wait(min(CANCEL_POLL, max(deadline - time.monotonic(), 0.0))):
+            self._check_cancel(what)
+            if time.monotonic() > deadline:
+                return False
+        return True
+
     def _call(self, client, request, name: str):
         timeout = self.timeouts.service
-        if not client.wait_for_service(timeout_sec=timeout):
+        if not self._wait_until(client.service_is_ready, timeout, f"service {name}"):
             raise EpisodeAborted(f"node_lost: service {name} not available within {timeout:.0f} s")
         done = threading.Event()
         future = client.call_async(request)
         future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
+        try:
+            answered = self._wait_event(done, timeout, f"a response from {name}")
+        except EpisodeCanceled:
+            client.remove_pending_request(future)
+            raise
+        if not answered:
+            client.remove_pending_request(future)
             raise EpisodeAborted(f"node_lost: no response from {name} within {timeout:.0f} s")
         return future.result()
 
@@ -145,18 +213,21 @@ class RosCell:
         (NONE attention, None)."""
         timeout = self.timeouts.decision
         deadline = time.monotonic() + timeout
+        waiting_since_ns = self.node.get_clock().now().nanoseconds
         gone_since = None
         with self._condition:
             while True:
+                lead_limit = self.node.get_clock().now().nanoseconds + int(MAX_STAMP_LEAD * 1e9)
                 primitive = self._latest_primitive
-                if primitive is not None and time_to_ns(primitive.header.stamp) > after_ns:
+                if primitive is not None and after_ns < time_to_ns(primitive.header.stamp) <= lead_limit:
                     attention = self._attention_by_stamp.get(time_to_ns(primitive.header.stamp))
                     if attention is not None:
                         return attention, primitive
                 newest = next(reversed(self._attention_by_stamp.values()), None)
-                if (newest is not None and time_to_ns(newest.header.stamp) > after_ns
+                if (newest is not None and after_ns < time_to_ns(newest.header.stamp) <= lead_limit
                         and newest.mode == AttentionResult.MODE_NONE):
                     return newest, None
+                self._check_cancel(f"a fresh decision on {names.PRIMITIVE_TOPIC}")
                 remaining = deadline - time.monotonic()
                 if self.node.count_publishers(names.PRIMITIVE_TOPIC) > 0:
                     self._policy_seen, gone_since = True, None
@@ -165,29 +236,73 @@ class RosCell:
                     if time.monotonic() - gone_since > POLICY_GONE_GRACE:
                         raise EpisodeAborted(f"node_lost: the policy node left {names.PRIMITIVE_TOPIC}")
                 if remaining <= 0:
-                    raise EpisodeAborted(
-                        f"node_lost: no fresh decision on {names.PRIMITIVE_TOPIC} within {timeout:.0f} s "
-                        "(camera, heightmap, attention or policy node not running?)")
-                self._condition.wait(min(remaining, 0.5))
+                    raise EpisodeAborted(self._no_decision_reason(after_ns, waiting_since_ns, timeout))
+                self._condition.wait(min(remaining, CANCEL_POLL))
+
+    def _no_decision_reason(self, after_ns: int, waiting_since_ns: int, timeout: float) -> str:
+        """Why no fresh decision came within `timeout`: the stamp gap of the attention results heard while
+        waiting when their stamps are not on this node's clock ("stale_input: ..."), else "node_lost: ..."."""
+        now_ns = self.node.get_clock().now().nanoseconds
+        heard = [(got, stamp) for got, stamp in self._attention_heard if got >= waiting_since_ns]
+        if not heard:
+            return (f"node_lost: no fresh decision on {names.PRIMITIVE_TOPIC} within {timeout:.0f} s and no "
+                    f"attention results (camera, heightmap, attention or policy node not running?)")
+        received, stamp = heard[-1]
+        if (now_ns - received) * 1e-9 > ATTENTION_SILENT:
+            return (f"node_lost: attention results stopped {(now_ns - received) * 1e-9:.0f} s ago and no "
+                    f"fresh decision came within {timeout:.0f} s (camera, heightmap or attention node "
+                    "stopped?)")
+        gap = (received - stamp) * 1e-9  # > 0: stamped before this node's clock
+        if gap < -MAX_STAMP_LEAD:
+            return (f"stale_input: attention results are stamped {-gap:.1f} s after this node's clock "
+                    f"({CLOCK_HINT}); a frame taken before a motion could pass as taken after it")
+        if gap > STALE_GAP:
+            return (f"stale_input: attention results are stamped {gap:.1f} s before this node's clock "
+                    f"({CLOCK_HINT}); the policy node answers none older than its max_age")
+        if not any(stamp_ns > after_ns for _, stamp_ns in heard):  # on this clock, yet never after after_ns
+            return (f"stale_input: attention results are stamped {(after_ns - stamp) * 1e-9:.1f} s before "
+                    f"{self._after_what} (use_sim_time / the driver's timestamp setting)")
+        return (f"node_lost: attention results arrive (stamped {gap:.1f} s before this node's clock) but no "
+                f"decision on {names.PRIMITIVE_TOPIC} within {timeout:.0f} s (policy node not running, or "
+                "refusing them: see its log)")
 
     def _execute(self, primitive: Primitive):
         timeout = self.timeouts.motion
-        if not self._driver.wait_for_server(timeout_sec=self.timeouts.service):
+        if not self._wait_until(self._driver.server_is_ready, self.timeouts.service,
+                                f"driver action {names.EXECUTE_PRIMITIVE_ACTION}"):
             raise EpisodeAborted(f"node_lost: driver action {names.EXECUTE_PRIMITIVE_ACTION} not available")
         done = threading.Event()
         goal_future = self._driver.send_goal_async(ExecutePrimitive.Goal(primitive=primitive))
         goal_future.add_done_callback(lambda _: done.set())
-        if not done.wait(timeout):
+        try:
+            answered = self._wait_event(done, timeout, "the driver's answer to the goal")
+        except EpisodeCanceled:  # the driver may still accept it: then cancel it at once
+            goal_future.add_done_callback(_cancel_if_accepted)
+            raise
+        if not answered:
             raise EpisodeAborted("node_lost: driver did not answer the goal")
         handle = goal_future.result()
-        if not handle.accepted:
-            raise EpisodeAborted("error: driver rejected the primitive")
+        if not handle.accepted:  # ends the episode: a refusal is not a failed attempt (cell.yaml)
+            raise EpisodeAborted("error: driver rejected the primitive (its log says why)")
         done.clear()
         result_future = handle.get_result_async()
         result_future.add_done_callback(lambda _: done.set())
         deadline = time.monotonic() + timeout
-        while not done.wait(1.0):
+        cancel_sent = False
+        while not done.wait(CANCEL_POLL):
+            if not cancel_sent and self._should_stop is not None and self._should_stop():
+                # Stop the motion; its result (the driver opens, lifts and parks) is still awaited.
+                self.node.get_logger().info("cancel: stopping the motion under way")
+                handle.cancel_goal_async()
+                cancel_sent = True
             if time.monotonic() > deadline or not self._driver.server_is_ready():
                 raise EpisodeAborted(f"node_lost: driver did not finish the motion "
                                      f"({'timeout' if time.monotonic() > deadline else 'server gone'})")
         return result_future.result().result
+
+
+def _cancel_if_accepted(goal_future) -> None:
+    """Done callback of a goal whose episode was canceled before the driver answered."""
+    handle = goal_future.result()
+    if handle is not None and handle.accepted:
+        handle.cancel_goal_async()

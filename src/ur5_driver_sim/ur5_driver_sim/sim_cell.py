@@ -277,23 +277,43 @@ class SimCellNode(Node):
             self._world_lock.release()
         response.success = True
         response.num_targets, response.num_objects = info.num_targets, info.num_objects
+        response.targets_outside_workspace = info.targets_outside_workspace
+        response.objects_outside_workspace = info.objects_outside_workspace
+        outside = _outside_note(info.targets_outside_workspace, info.objects_outside_workspace)
         response.message = (f"{info.scenario} seed {info.seed}: {info.num_targets} targets, "
-                            f"{info.num_objects} blocks in {info.generation_seconds:.2f} s")
+                            f"{info.num_objects} blocks{f' ({outside})' if outside else ''} in "
+                            f"{info.generation_seconds:.2f} s")
+        if outside:
+            self.get_logger().warning(
+                f"scene {info.scenario} seed {info.seed}: {outside} (x in [{cell.WORKSPACE_X[0]:.3f}, "
+                f"{cell.WORKSPACE_X[1]:.3f}] m, y in [{cell.WORKSPACE_Y[0]:.3f}, "
+                f"{cell.WORKSPACE_Y[1]:.3f}] m, on the table): they cannot be picked and are counted apart")
         return response
 
     def _on_ground_truth(self, _request, response: GetGroundTruth.Response) -> GetGroundTruth.Response:
         if not self._world_lock.acquire(timeout=SERVICE_LOCK_TIMEOUT):
-            self.get_logger().warning("ground truth: world busy, answering with an empty response")
+            response.success, response.message = False, (
+                f"world busy: a primitive is still running after {SERVICE_LOCK_TIMEOUT:.0f} s")
+            self.get_logger().warning(f"ground truth: {response.message}")
             return response
         try:
             gt = self._world.ground_truth()
         finally:
             self._world_lock.release()
+        response.success = True
         response.targets_remaining, response.objects_remaining = gt.targets_remaining, gt.objects_remaining
+        response.targets_outside_workspace = gt.targets_out_of_workspace
+        response.objects_outside_workspace = gt.objects_out_of_workspace
         response.targets_removed, response.non_targets_removed = gt.targets_removed, gt.non_targets_removed
         response.visible_target_pixels = gt.visible_target_pixels
         response.target_poses = [_pose(*gt.poses[b]) for b in gt.target_ids if b in gt.poses]
         return response
+
+
+def _outside_note(targets: int, objects: int) -> str:
+    """"1 target(s) and 2 block(s) outside the workspace", or "" when everything is inside."""
+    parts = [f"{n} {what}(s)" for n, what in ((targets, "target"), (objects, "block")) if n]
+    return f"{' and '.join(parts)} outside the workspace" if parts else ""
 
 
 def _kind_label(kind: int) -> str:

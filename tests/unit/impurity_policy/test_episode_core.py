@@ -8,23 +8,26 @@ import pytest
 from impurity_policy.core.episode import (
     TERMINATION_ACTION_LIMIT,
     TERMINATION_ALL_PICKED,
+    TERMINATION_REACHABLE_PICKED,
     TERMINATION_REPEATED_FAILURE,
+    CountError,
     EpisodeRecorder,
     EpisodeRequest,
     EpisodeTracker,
     StepRecord,
     action_limit,
     draw_episode,
+    is_failure,
     read_steps,
     validate_request,
 )
 
 
-def step(index, kind="grasp", success=False, target=False, remaining=2, pixel=(100, 100)):
+def step(index, kind="grasp", success=False, target=False, remaining=2, pixel=(100, 100), outside=0):
     return StepRecord(step=index, attention_mode="TARGET", kind=kind, position=(0.5, 0.0, 0.02), yaw=0.3,
                       q_value=0.7, rotation_index=1, pixel=pixel, decision_stamp_ns=10 * index,
                       motion_finished_ns=10 * index + 5, success=success, target_grasped=target,
-                      object_grasped=success, targets_remaining=remaining)
+                      object_grasped=success, targets_remaining=remaining, targets_outside=outside)
 
 
 @pytest.mark.parametrize("request_fields, fragment", [
@@ -78,6 +81,72 @@ def test_termination_by_action_limit_and_repeated_failure():
     for i in range(4, 7):
         failing.record(step(i))
     assert failing.termination() == TERMINATION_REPEATED_FAILURE
+
+
+def test_targets_outside_the_workspace_are_counted_apart():
+    # Issue 19 item 8: 2 targets in the scene, 1 of them outside the workspace (x = 0.74 m).
+    tracker = EpisodeTracker("e", EpisodeRequest(), targets_total=2, max_actions=30)
+    tracker.set_scene(in_workspace=1, outside=1)
+    assert (tracker.targets_total, tracker.targets_remaining, tracker.targets_outside) == (2, 1, 1)
+    tracker.record(step(1, kind="push", success=True, remaining=1, outside=1))
+    assert tracker.termination() is None
+    tracker.record(step(2, success=True, target=True, remaining=0, outside=1))
+    assert tracker.termination() == TERMINATION_REACHABLE_PICKED  # not "all_targets_picked"
+    metrics = tracker.metrics()
+    assert (metrics["targets_total"], metrics["targets_picked"], metrics["targets_outside"]) == (2, 1, 1)
+    inside = EpisodeTracker("e", EpisodeRequest(), 2, 30)
+    inside.set_scene(2)
+    inside.record(step(1, success=True, target=True, remaining=1))
+    inside.record(step(2, success=True, target=True, remaining=0))
+    assert inside.termination() == TERMINATION_ALL_PICKED and inside.metrics()["targets_outside"] == 0
+
+
+@pytest.mark.parametrize("bad, fragment", [
+    (step(2, success=True, target=True, remaining=0, outside=1), "1 outside it is more than the 1 target"),
+    (step(2, success=True, target=True, remaining=1), "2 picked + 1 left"),
+    (step(2, kind="push", success=True, remaining=0, outside=2), "2 outside it is more than"),
+    (step(2, kind="push", success=True, remaining=-1), "negative target counts (-1 left"),
+])
+def test_a_step_that_counts_more_targets_than_there_were_is_refused_and_not_counted(bad, fragment):
+    tracker = EpisodeTracker("e", EpisodeRequest(), targets_total=1, max_actions=30)
+    tracker.set_scene(1)
+    tracker.record(step(1, success=True, target=True, remaining=0))
+    with pytest.raises(CountError, match="the cell counts targets wrongly") as refused:
+        tracker.record(bad)
+    assert fragment in str(refused.value)
+    assert tracker.metrics()["targets_picked"] == 1 and tracker.actions == 1
+
+
+def test_no_sequence_of_steps_shows_more_picked_than_there_were():
+    """The tracker's invariant over random counts from a (possibly wrong) cell: picked <= total, and
+    picked + left + outside <= total, whatever it is told."""
+    rng = np.random.default_rng(0)
+    for episode in range(200):
+        total = int(rng.integers(0, 4))
+        outside = int(rng.integers(0, total + 1))
+        tracker = EpisodeTracker(f"e{episode}", EpisodeRequest(), total, 50)
+        tracker.set_scene(total - outside, outside)
+        for index in range(1, 12):
+            kind = ("push", "grasp")[int(rng.integers(2))]
+            candidate = step(index, kind=kind, success=bool(rng.integers(2)), target=bool(rng.integers(2)),
+                             remaining=int(rng.integers(-1, total + 1)),
+                             outside=int(rng.integers(0, total + 1)))
+            try:
+                tracker.record(candidate)
+            except CountError:
+                pass
+            m = tracker.metrics()
+            assert 0 <= m["targets_picked"] <= m["targets_total"] == total
+            assert m["targets_picked"] + tracker.targets_remaining + m["targets_outside"] <= total
+            assert m["grasp_success"] <= 1.0 and m["action_efficiency"] <= 1.0
+
+
+def test_failure_reasons_are_the_cells_not_the_pickings():
+    assert is_failure("node_lost: driver did not answer the goal")
+    assert is_failure("stale_input: attention results are stamped 1000.2 s before this node's clock")
+    assert is_failure("error: driver rejected the primitive")
+    assert not any(is_failure(reason) for reason in (TERMINATION_ALL_PICKED, TERMINATION_REACHABLE_PICKED,
+                                                     TERMINATION_ACTION_LIMIT, "canceled"))
 
 
 def test_records_survive_a_crash_mid_line(tmp_path):

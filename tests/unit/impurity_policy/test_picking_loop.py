@@ -9,12 +9,22 @@ from impurity_policy.core.episode import (
     TERMINATION_ALL_PICKED,
     TERMINATION_CANCELED,
     TERMINATION_NOTHING_LEFT,
+    TERMINATION_REACHABLE_PICKED,
     TERMINATION_REPEATED_FAILURE,
     EpisodeRecorder,
     EpisodeRequest,
     read_steps,
 )
-from impurity_policy.core.picking import Action, EpisodeAborted, EpisodeLimits, Outcome, View, run_episode
+from impurity_policy.core.picking import (
+    Action,
+    EpisodeAborted,
+    EpisodeCanceled,
+    EpisodeLimits,
+    Outcome,
+    Targets,
+    View,
+    run_episode,
+)
 from impurity_policy.core.policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET
 
 
@@ -123,16 +133,95 @@ def test_ends_with_nothing_left_when_the_decision_is_none():
     assert cell.calls[-2:] == ["observe", "decide"]
 
 
-def test_ends_canceled_when_should_stop_says_so_after_a_step():
+@pytest.mark.parametrize("canceled_at_ask, actions", [
+    (1, 0),  # before the first look
+    (2, 0),  # while the first decision was awaited: that decision is not executed
+    (3, 1),  # after the first step, before the next look
+    (4, 1),  # while the second decision was awaited
+])
+def test_a_cancel_is_asked_before_each_look_and_each_motion_and_no_motion_follows_it(canceled_at_ask,
+                                                                                      actions):
     asked = []
 
     def should_stop():
         asked.append(len(asked) + 1)
-        return len(asked) == 2
+        return len(asked) >= canceled_at_ask
 
-    summary, _ = run([push()] * 5, should_stop=should_stop)
+    summary, cell = run([push()] * 5, should_stop=should_stop)
     assert summary["termination_reason"] == TERMINATION_CANCELED
-    assert summary["actions"] == 2 and asked == [1, 2]  # asked once after each step
+    assert summary["actions"] == actions == cell.calls.count("execute")
+    assert len(asked) == canceled_at_ask  # asked until it said so, never after
+
+
+class WaitingCell(ScriptedCell):
+    """A cell whose verbs wait like RosCell's: each wait checks the should_stop it was handed and raises
+    EpisodeCanceled. The client cancels during the `call`-th wait of `verb` (execute waits for the
+    driver's answer before its motion)."""
+
+    def __init__(self, script, verb=None, call=1, **kwargs):
+        super().__init__(script, **kwargs)
+        self.verb, self.call, self.should_stop, self.bound = verb, call, None, []
+        self.waits: list = []
+        self.canceled = False
+
+    def set_should_stop(self, should_stop):
+        self.bound.append(should_stop)
+        self.should_stop = should_stop
+
+    def _wait(self, verb):
+        self.waits.append(verb)
+        if verb == self.verb and self.waits.count(verb) == self.call:
+            self.canceled = True  # the client cancels while this wait runs
+        if self.should_stop is not None and self.should_stop():
+            raise EpisodeCanceled(f"canceled while waiting in {verb}")
+
+    def reset(self, request):
+        self._wait("reset")
+        return super().reset(request)
+
+    def observe(self):
+        self._wait("observe")
+        return super().observe()
+
+    def execute(self, action):
+        self._wait("execute")
+        return super().execute(action)
+
+    def targets_remaining(self, outcome, before):
+        self._wait("targets_remaining")
+        return super().targets_remaining(outcome, before)
+
+
+@pytest.mark.parametrize("verb, call, actions", [
+    ("reset", 1, 0),  # waiting for /cell/reset_scene
+    ("observe", 2, 1),  # waiting for a decision (issue 19 item 7)
+    ("execute", 2, 1),  # waiting for the driver to answer the goal: no motion, no step
+    ("targets_remaining", 2, 2),  # the motion happened: recorded, with the counts from before it
+])
+def test_a_cancel_seen_in_a_cell_wait_ends_the_episode_canceled_with_its_records_closed(
+        tmp_path, verb, call, actions):
+    cell = WaitingCell([push()] * 5, verb, call, targets=2)
+    recorder = EpisodeRecorder(tmp_path, "ep-1")
+    summary = run_episode(cell, EpisodeRequest("random", seed=1, num_targets=2), "ep-1", recorder=recorder,
+                          should_stop=lambda: cell.canceled)
+    assert summary["termination_reason"] == TERMINATION_CANCELED
+    assert cell.waits[-1] == verb and cell.waits.count(verb) == call  # it ended in that very wait
+    records = read_steps(recorder.steps_path)
+    steps = [r for r in records if r["event"] == "step"]
+    assert summary["actions"] == len(steps) == actions == 5 - len(cell.script)
+    if verb == "targets_remaining":
+        assert steps[-1]["message"] == "push (targets not recounted: canceled)"
+        assert steps[-1]["targets_remaining"] == 2
+    assert records[-1]["event"] == "end" and records[-1]["termination_reason"] == TERMINATION_CANCELED
+    assert recorder.summary_path.is_file()
+    assert read_steps(tmp_path / "episodes.jsonl")[-1]["termination_reason"] == TERMINATION_CANCELED
+    assert cell.bound[0] is not None and cell.bound[-1] is None  # handed over, then taken back
+
+
+def test_cells_without_set_should_stop_and_loops_without_should_stop_work_as_before():
+    cell = WaitingCell([push(), grasp(), grasp()], targets=2)
+    summary = run_episode(cell, EpisodeRequest("random", seed=1, num_targets=2), "ep-1")
+    assert summary["termination_reason"] == TERMINATION_ALL_PICKED and cell.bound == []
 
 
 def test_an_aborted_episode_ends_with_its_reason_and_still_writes_its_records(tmp_path):
@@ -184,3 +273,77 @@ def test_on_step_sees_every_step_in_order():
     assert [s.targets_remaining for s in steps] == [2, 2, 1, 1, 0]
     assert [s.attention_mode for s in steps] == ["OCCLUDED_REGION"] + ["TARGET"] * 4
     assert [s.pixel for s in steps] == [(100, 100 + i) for i in range(5)]  # each step its own action
+
+
+# ---- targets outside the workspace (issue 19 item 8) -------------------------------------------------
+class CountingCell(ScriptedCell):
+    """A cell that counts like a simulator: reset and every step report Targets (in the workspace,
+    outside it) from `counts`, in turn."""
+
+    def __init__(self, script, counts, **kwargs):
+        super().__init__(script, **kwargs)
+        self.counts = list(counts)
+
+    def reset(self, request):
+        super().reset(request)
+        return self.counts.pop(0)
+
+    def targets_remaining(self, outcome, before):
+        return self.counts.pop(0)
+
+
+def run_counting(script, counts, tmp_path, **kwargs):
+    cell = CountingCell(script, counts)
+    recorder = EpisodeRecorder(tmp_path, "ep-1")
+    summary = run_episode(cell, EpisodeRequest("file", num_targets=2, scene_file="scene.json"), "ep-1",
+                          recorder=recorder, **kwargs)
+    return summary, read_steps(recorder.steps_path)
+
+
+def test_a_target_outside_the_workspace_from_the_start_is_counted_apart(tmp_path):
+    # The instance: a scene file with a second impurity at x = 0.74 m; the reset reports 2 targets, 1 of
+    # them outside the workspace. Picking the other one used to end "all_targets_picked" with 1 of 2.
+    counts = [Targets(1, 1), Targets(1, 1), Targets(0, 1)]
+    summary, records = run_counting([push(), grasp()], counts, tmp_path)
+    assert summary["termination_reason"] == TERMINATION_REACHABLE_PICKED
+    assert (summary["targets_total"], summary["targets_picked"], summary["targets_outside"]) == (2, 1, 1)
+    assert not summary["completed"] and summary["actions"] == 2
+    assert records[0]["targets_total"] == 2 and records[0]["targets_outside"] == 1
+    assert records[0]["max_actions"] == 15  # 15 per target the cell can reach
+    assert [r["targets_outside"] for r in records if r["event"] == "step"] == [1, 1]
+    assert records[-1]["targets_outside"] == 1
+
+
+def test_a_target_pushed_out_of_the_workspace_is_counted_apart(tmp_path):
+    counts = [Targets(2, 0), Targets(1, 1), Targets(0, 1)]  # the push moves one target out
+    summary, records = run_counting([push(), grasp()], counts, tmp_path)
+    assert summary["termination_reason"] == TERMINATION_REACHABLE_PICKED
+    assert (summary["targets_total"], summary["targets_picked"], summary["targets_outside"]) == (2, 1, 1)
+    assert not summary["completed"]
+    assert [(r["targets_remaining"], r["targets_outside"]) for r in records if r["event"] == "step"] == [
+        (1, 1), (0, 1)]
+
+
+def test_every_target_outside_the_workspace_ends_at_once(tmp_path):
+    summary, _ = run_counting([push()], [Targets(0, 2)], tmp_path)
+    assert summary["termination_reason"] == TERMINATION_REACHABLE_PICKED
+    assert summary["actions"] == 0 and summary["targets_outside"] == 2 and not summary["completed"]
+
+
+def test_a_cell_that_counts_more_targets_than_there_were_ends_the_episode_as_an_error(tmp_path):
+    # The cell says a target was picked but also that both are still in the workspace: 1 + 2 > 2.
+    seen = []
+    summary, records = run_counting([grasp(), grasp()], [Targets(2, 0), Targets(2, 0)], tmp_path,
+                                    on_error=seen.append)
+    assert summary["termination_reason"].startswith("error: CountError")
+    assert "more than the 2 target(s)" in summary["termination_reason"] and len(seen) == 1
+    assert summary["targets_picked"] == 0 and summary["actions"] == 0  # nothing of the bad step counted
+    assert records[-1]["event"] == "end"
+
+
+def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal():
+    # bringup/config/cell.yaml (issue 19 item 11): a refusal is not one of max_consecutive_failures.
+    refused = EpisodeAborted("error: driver rejected the primitive (its log says why)")
+    summary, cell = run([push(), refused, push(), push()], limits=EpisodeLimits(max_consecutive_failures=5))
+    assert summary["termination_reason"] == str(refused) and summary["actions"] == 1
+    assert len(cell.script) == 2  # nothing was tried after the refusal

@@ -197,3 +197,48 @@ def test_mesh_shapes_face_outwards():
         for t in range(0, len(indices), 3):
             a, b, c = vertices[indices[t:t + 3]]
             assert np.dot(np.cross(b - a, c - a), (a + b + c) / 3 - centre) > 0, (mesh.__name__, t // 3)
+
+
+def write_scene_with_a_target_outside(tmp_path):
+    """Issue 19 item 8's scene: one target inside the workspace, a second impurity at x = 0.74 m (outside
+    x <= 0.724 and out of the camera's heightmap), a target near the +x edge and a product block."""
+    blocks = [dict(shape="cube", dims=[0.04] * 3, position=[0.50, 0.0, 0.021], is_target=True),
+              dict(shape="cube", dims=[0.03] * 3, position=[0.74, 0.0, 0.016], is_target=True),
+              dict(shape="cube", dims=[0.04] * 3, position=[0.68, 0.12, 0.021], is_target=True),
+              dict(shape="cube", dims=[0.04] * 3, position=[0.40, -0.10, 0.021], is_target=False)]
+    path = tmp_path / "outside.json"
+    path.write_text(json.dumps(blocks))
+    return path
+
+
+def test_targets_outside_the_workspace_are_counted_apart_at_the_start_and_when_pushed_out(world, tmp_path):
+    info = world.reset_scene("file", scene_file=str(write_scene_with_a_target_outside(tmp_path)))
+    assert (info.num_targets, info.targets_outside_workspace) == (3, 1)  # all of them, and those outside
+    assert (info.num_objects, info.objects_outside_workspace) == (1, 0)
+    gt = world.ground_truth()
+    assert (gt.targets_remaining, gt.targets_out_of_workspace) == (2, 1)
+    # Pushed out during an episode: the target at the +x edge, pushed along +x.
+    assert world.push(0.68 - 0.05, 0.12, 0.01, 0.0).success
+    gt = world.ground_truth()
+    assert (gt.targets_remaining, gt.targets_out_of_workspace) == (1, 2)
+    assert gt.targets_remaining + gt.targets_out_of_workspace + gt.targets_removed == info.num_targets
+
+
+def test_the_fast_sim_cell_counts_targets_outside_the_workspace_apart(world, tmp_path):
+    """The evaluation's cell (impurity_learning.evaluate.SimCell) counts as sim_cell's services do: the
+    episode picks the target it can reach and says that one lies outside the workspace."""
+    from impurity_learning.agents import SalientGraspHeuristic
+    from impurity_learning.evaluate import run_episode
+    from impurity_policy.core.episode import TERMINATION_REACHABLE_PICKED, EpisodeRequest
+
+    path = tmp_path / "two_targets.json"
+    products = [dict(shape="cube", dims=[0.04] * 3, position=[x, y, 0.021], is_target=False)
+                for x, y in ((0.40, -0.10), (0.60, 0.10), (0.45, 0.12))]  # saliency needs some clutter
+    path.write_text(json.dumps([
+        dict(shape="cube", dims=[0.04] * 3, position=[0.50, 0.0, 0.021], is_target=True),
+        dict(shape="cube", dims=[0.03] * 3, position=[0.74, 0.0, 0.016], is_target=True), *products]))
+    summary = run_episode(world, SalientGraspHeuristic(),
+                          EpisodeRequest("file", num_targets=2, scene_file=str(path), max_actions=4))
+    assert (summary["targets_total"], summary["targets_outside"]) == (2, 1)
+    assert summary["termination_reason"] == TERMINATION_REACHABLE_PICKED
+    assert summary["targets_picked"] == 1 and not summary["completed"]

@@ -19,14 +19,26 @@ SCENARIOS = tuple(scenario.value for scenario in EPISODE_SCENARIOS)  # what an e
 # Paper section 6.4 caps real-world runs at 15 steps per group; we scale it with the target count
 # so invisible scenes (more exploratory pushes) still have room: 15 actions per target.
 DEFAULT_ACTIONS_PER_TARGET = 15
-# Consecutive grasps that lift nothing (or motions the driver refuses) before giving up.
+# Consecutive grasps that lift nothing or pushes whose motion failed before giving up. A motion the
+# driver refuses (goal rejected) is not one of them: it ends the episode at once ("error: ...").
 DEFAULT_MAX_CONSECUTIVE_FAILURES = 5
 
 TERMINATION_ALL_PICKED = "all_targets_picked"
+# Every target in the workspace picked, but some lie outside it (from the start or pushed out): the
+# summary's targets_outside says how many; such an episode is not completed.
+TERMINATION_REACHABLE_PICKED = "all_reachable_targets_picked"
 TERMINATION_ACTION_LIMIT = "action_limit"
 TERMINATION_REPEATED_FAILURE = "repeated_failure"
 TERMINATION_CANCELED = "canceled"
 TERMINATION_NOTHING_LEFT = "no_target_or_cluster_left"
+# Reasons of episodes that ended because the cell failed, not because of the picking: "node_lost: ..."
+# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "error: ...".
+FAILURE_PREFIXES = ("node_lost", "stale_input", "error")
+
+
+def is_failure(termination_reason: str) -> bool:
+    """True when an episode ended because the cell failed (FAILURE_PREFIXES), not by the picking."""
+    return termination_reason.startswith(FAILURE_PREFIXES)
 
 
 @dataclasses.dataclass
@@ -79,12 +91,22 @@ class StepRecord:
     success: bool  # grasp: lifted something; push: motion completed
     target_grasped: bool
     object_grasped: bool
-    targets_remaining: int
+    targets_remaining: int  # in the workspace
     message: str = ""
+    targets_outside: int = 0  # in the scene but outside the workspace (not reachable)
+
+
+class CountError(ValueError):
+    """A step's counts contradict the episode's: more targets picked, left or outside than there were."""
 
 
 class EpisodeTracker:
-    """Counts an episode's actions and decides when it ends."""
+    """Counts an episode's actions and decides when it ends.
+
+    Targets are counted apart by where they are: picked, remaining (in the workspace, still to pick) and
+    outside (in the scene but outside the workspace: from the start, or pushed out). Invariant, checked on
+    every step: picked + remaining + outside <= targets_total, so no metric shows more picked than there
+    were."""
 
     def __init__(self, episode_id: str, request: EpisodeRequest, targets_total: int,
                  max_actions: int, max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES):
@@ -101,14 +123,34 @@ class EpisodeTracker:
         self.false_rejects = 0
         self.consecutive_failures = 0
         self.targets_remaining = targets_total
+        self.targets_outside = 0
 
     @property
     def actions(self) -> int:
         return len(self.steps)
 
+    def set_scene(self, in_workspace: int, outside: int = 0) -> None:
+        """The scene the cell built: targets in the workspace and outside it; their sum is the total."""
+        if in_workspace < 0 or outside < 0:
+            raise CountError(f"negative target counts from the cell: {in_workspace} in the workspace, "
+                             f"{outside} outside")
+        self.targets_total = in_workspace + outside
+        self.targets_remaining, self.targets_outside = in_workspace, outside
+
     def record(self, step: StepRecord) -> None:
+        """Count one step; CountError (nothing counted) when its counts contradict the episode's."""
+        picked = self.targets_picked + (1 if step.kind == "grasp" and step.target_grasped else 0)
+        if step.targets_remaining < 0 or step.targets_outside < 0:
+            raise CountError(f"step {step.step}: negative target counts ({step.targets_remaining} left in "
+                             f"the workspace, {step.targets_outside} outside it): the cell counts targets "
+                             "wrongly")
+        if picked + step.targets_remaining + step.targets_outside > self.targets_total:
+            raise CountError(
+                f"step {step.step}: {picked} picked + {step.targets_remaining} left in the workspace + "
+                f"{step.targets_outside} outside it is more than the {self.targets_total} target(s) the "
+                "scene held (the cell counts targets wrongly)")
         self.steps.append(step)
-        self.targets_remaining = step.targets_remaining
+        self.targets_remaining, self.targets_outside = step.targets_remaining, step.targets_outside
         if step.kind == "grasp":
             self.grasp_attempts += 1
             if step.success:
@@ -126,7 +168,7 @@ class EpisodeTracker:
     def termination(self) -> str | None:
         """Why the episode should stop now, or None to go on."""
         if self.targets_remaining <= 0:
-            return TERMINATION_ALL_PICKED
+            return TERMINATION_ALL_PICKED if self.targets_outside == 0 else TERMINATION_REACHABLE_PICKED
         if self.actions >= self.max_actions:
             return TERMINATION_ACTION_LIMIT
         if self.consecutive_failures >= self.max_consecutive_failures:
@@ -138,6 +180,7 @@ class EpisodeTracker:
             "episode_id": self.episode_id,
             "targets_total": self.targets_total,
             "targets_picked": self.targets_picked,
+            "targets_outside": self.targets_outside,
             "grasp_attempts": self.grasp_attempts,
             "grasp_successes": self.grasp_successes,
             "pushes": self.pushes,
@@ -167,11 +210,13 @@ class EpisodeRecorder:
             os.fsync(stream.fileno())
 
     def write_start(self, request: EpisodeRequest, targets_total: int, max_actions: int,
-                    scene_ready_ns: int) -> None:
-        """scene_ready_ns: the clock time after which camera frames show the episode's scene."""
+                    scene_ready_ns: int, targets_outside: int = 0) -> None:
+        """scene_ready_ns: the clock time after which camera frames show the episode's scene;
+        targets_outside: how many of targets_total lie outside the workspace."""
         self._append_line(self.steps_path, {"event": "start", "wall_time": time.time(),
                                             "request": dataclasses.asdict(request),
-                                            "targets_total": targets_total, "max_actions": max_actions,
+                                            "targets_total": targets_total,
+                                            "targets_outside": targets_outside, "max_actions": max_actions,
                                             "scene_ready_ns": scene_ready_ns})
 
     def write_step(self, step: StepRecord) -> None:

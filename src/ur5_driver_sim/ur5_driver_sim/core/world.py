@@ -38,12 +38,14 @@ ABORT_RETREAT_MAX_Z = 0.25  # m: an aborted primitive lifts the gripper at most 
 class SceneInfo:
     scenario: str
     seed: int
-    num_targets: int
+    num_targets: int  # in the scene, in and outside the workspace
     num_objects: int
     target_ids: list
     object_ids: list
     attempts: int = 1
     generation_seconds: float = 0.0
+    targets_outside_workspace: int = 0  # of num_targets: outside the workspace or off the table
+    objects_outside_workspace: int = 0
 
 
 @dataclass
@@ -56,7 +58,7 @@ class GroundTruth:
     non_targets_removed: int  # false rejects
     visible_target_pixels: int
     poses: dict = field(default_factory=dict)  # id -> (position, quaternion), bodies still in the world
-    targets_out_of_workspace: int = 0  # still on the table but pushed out of the workspace
+    targets_out_of_workspace: int = 0  # outside the workspace or off the table (from the start or pushed)
     objects_out_of_workspace: int = 0
 
 
@@ -176,7 +178,9 @@ class CellWorld:
         targets = [b for b, s in self.specs.items() if s.is_target]
         others = [b for b, s in self.specs.items() if not s.is_target]
         self.scene = SceneInfo(scenario, int(seed), len(targets), len(others), targets, others, attempts,
-                               time.perf_counter() - started)
+                               time.perf_counter() - started,
+                               targets_outside_workspace=sum(not self._in_workspace(b) for b in targets),
+                               objects_outside_workspace=sum(not self._in_workspace(b) for b in others))
         return self.scene
 
     def _spawn(self, specs) -> None:
