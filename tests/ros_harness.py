@@ -11,9 +11,10 @@ import subprocess
 import time
 
 import rclpy
-from rclpy.action import ActionClient
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+
+from impurity_common.clients import RaceFreeActionClient
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
@@ -147,7 +148,7 @@ class ActionHelper:
 
     def __init__(self, node: Node, action_type, name: str, timeout: float = 30.0, processes=()):
         self.node, self.name, self.processes = node, name, processes
-        self.client = ActionClient(node, action_type, name)
+        self.client = RaceFreeActionClient(node, action_type, name)
         spin_until(node, self.client.server_is_ready, timeout, f"action server {name}", processes)
         self.feedback = []
 

@@ -24,10 +24,10 @@ import threading
 import time
 from dataclasses import dataclass
 
-from rclpy.action import ActionClient
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 
 from impurity_common import names
+from impurity_common.clients import RaceFreeActionClient
 from impurity_common.conversions import image_to_numpy, time_to_ns
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import AttentionResult, Primitive
@@ -75,8 +75,8 @@ class RosCell:
                                  callback_group=callback_group)
         node.create_subscription(Primitive, names.PRIMITIVE_TOPIC, self._on_primitive, reliable,
                                  callback_group=callback_group)
-        self._driver = ActionClient(node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION,
-                                    callback_group=callback_group)
+        self._driver = RaceFreeActionClient(node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION,
+                                            callback_group=callback_group)
         self._reset = node.create_client(ResetScene, names.RESET_SCENE_SERVICE, callback_group=callback_group)
         self._ground_truth = node.create_client(GetGroundTruth, names.GROUND_TRUTH_SERVICE,
                                                 callback_group=callback_group)
