@@ -4,6 +4,7 @@ import pathlib
 
 import yaml
 from mcap.reader import make_reader
+from rosbags.typesys import get_types_from_msg
 
 from impurity_common.bags import BagMessage, BagWriter
 
@@ -26,12 +27,13 @@ def primitive_cdr(typestore, index: int) -> bytes:
     return bytes(typestore.serialize_cdr(msg, PRIMITIVE))
 
 
-def write_sample_bag(path, typestore, count=30, split_duration_ns=None) -> list[BagMessage]:
-    """Two topics interleaved, 10 ms apart; returns what was written."""
+def write_sample_bag(path, typestore, count=30, split_duration_ns=None, qos=()) -> list[BagMessage]:
+    """Two topics interleaved, 10 ms apart, both with the offered QoS profiles `qos`; returns what was
+    written."""
     written = []
     with BagWriter(path, typestore, split_duration_ns=split_duration_ns) as writer:
-        writer.add_topic("/chatter", STRING)
-        writer.add_topic("/policy/primitive", PRIMITIVE)
+        writer.add_topic("/chatter", STRING, qos)
+        writer.add_topic("/policy/primitive", PRIMITIVE, qos)
         for i in range(count):
             topic, msgtype = ("/chatter", STRING) if i % 2 == 0 else ("/policy/primitive", PRIMITIVE)
             data = string_cdr(typestore, f"hello {i}") if i % 2 == 0 else primitive_cdr(typestore, i)
@@ -53,3 +55,77 @@ def read_with_mcap_library(bag: pathlib.Path) -> list[BagMessage]:
                 assert schema.encoding == "ros2msg" and channel.message_encoding == "cdr"
                 messages.append(BagMessage(channel.topic, schema.name, message.log_time, bytes(message.data)))
     return messages
+
+
+# ------------------------------------------------------------------- bags that replay partly or not
+COLOR = "/bagtest/camera/color/image_raw"
+INFO = "/bagtest/camera/color/camera_info"
+GADGET, GADGET_TYPE = "/bagtest/gadget", "other_pkg/msg/Gadget"  # a custom package this environment lacks
+TF, TF_TYPE = "/tf", "tf2_msgs/msg/TFMessage"  # in rosbags' Jazzy typestore, but the PyPI wheels hold no tf2
+
+
+def write_camera_bag(path, frames: int = 10) -> dict[str, list[bytes]]:
+    """Camera topics (15 Hz) beside one message of a custom type and one /tf: what a cell's own bag
+    looks like when it was recorded on a machine with more packages. Returns the bytes per topic."""
+    from rclpy.serialization import serialize_message
+    from sensor_msgs.msg import CameraInfo, Image
+
+    from impurity_common.bags import cell_typestore
+
+    store = cell_typestore()
+    store.register(get_types_from_msg("int32 value", GADGET_TYPE))
+    written: dict[str, list[bytes]] = {COLOR: [], INFO: [], GADGET: [], TF: []}
+    start = 1_700_000_000_000_000_000
+    with BagWriter(path, store) as writer:
+        writer.add_topic(TF, TF_TYPE)
+        writer.add_topic(GADGET, GADGET_TYPE)
+        writer.add_topic(INFO, "sensor_msgs/msg/CameraInfo")
+        writer.add_topic(COLOR, "sensor_msgs/msg/Image")
+        tf = bytes(store.serialize_cdr(store.types[TF_TYPE](transforms=[]), TF_TYPE))
+        gadget = bytes(store.serialize_cdr(store.types[GADGET_TYPE](value=7), GADGET_TYPE))
+        for topic, data in ((TF, tf), (GADGET, gadget)):
+            writer.write(topic, start, data)
+            written[topic].append(data)
+        for frame in range(frames):
+            stamp = start + 1_000_000 + frame * 66_666_667
+            info = CameraInfo(width=4, height=2, distortion_model="plumb_bob")
+            image = Image(width=4, height=2, encoding="rgb8", step=12, data=bytes(range(frame, frame + 24)))
+            for message in (info, image):
+                message.header.frame_id = "camera_color_optical_frame"
+                message.header.stamp.sec, message.header.stamp.nanosec = divmod(stamp, 1_000_000_000)
+            for topic, message in ((INFO, info), (COLOR, image)):
+                data = serialize_message(message)
+                writer.write(topic, stamp, data)
+                written[topic].append(data)
+    return written
+
+
+def edit_metadata(bag: pathlib.Path, edit) -> None:
+    """Apply edit(info) to metadata.yaml's rosbag2_bagfile_information, as a user with an editor would."""
+    path = bag / "metadata.yaml"
+    metadata = yaml.safe_load(path.read_text())
+    edit(metadata["rosbag2_bagfile_information"])
+    path.write_text(yaml.safe_dump(metadata, sort_keys=False))
+
+
+def set_offered_qos(bag: pathlib.Path, topic: str, value) -> None:
+    """Replace one topic's offered_qos_profiles text in metadata.yaml."""
+    def edit(info):
+        for entry in info["topics_with_message_count"]:
+            if entry["topic_metadata"]["name"] == topic:
+                entry["topic_metadata"]["offered_qos_profiles"] = value
+    edit_metadata(bag, edit)
+
+
+def garbled_qos(profiles: list) -> list:
+    """The instance from the field: the profiles' policies edited into words no ROS knows."""
+    return [{**profile, "reliability": "garbage", "durability": "very durable"} for profile in profiles]
+
+
+def unlist_split(bag: pathlib.Path, index: int) -> None:
+    """Drop one split from relative_file_paths (as after deleting a damaged file) and leave the counts."""
+    def edit(info):
+        name = f"{bag.name}_{index}.mcap"
+        info["relative_file_paths"].remove(name)
+        info["files"] = [f for f in info["files"] if f["path"] != name]
+    edit_metadata(bag, edit)

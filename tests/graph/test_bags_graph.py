@@ -1,16 +1,31 @@
 """Recorder and replay executables in a live graph: publisher -> bag_recorder (stopped mid-stream) ->
-valid bag (rosbags and mcap readers) -> bag_replay -> the same bytes, in order; and clear failures."""
+valid bag (rosbags and mcap readers) -> bag_replay -> the same bytes, in order; clear failures; latched
+topics recorded; bags that replay partly (types this environment lacks, edited QoS text, missing
+messages) played as far as they can and never reported as fully played."""
 
 import signal
 
 import pytest
 import yaml
-from bag_helpers import read_with_mcap_library, write_sample_bag
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from bag_helpers import (
+    COLOR,
+    GADGET,
+    GADGET_TYPE,
+    INFO,
+    garbled_qos,
+    read_with_mcap_library,
+    set_offered_qos,
+    unlist_split,
+    write_camera_bag,
+    write_sample_bag,
+)
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
+from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
 from impurity_common.bags import BagReader, cell_typestore
@@ -30,6 +45,16 @@ def closed_message_count(bag) -> int:
         return metadata["rosbag2_bagfile_information"]["message_count"]
     except (FileNotFoundError, TypeError, KeyError):
         return 0
+
+
+def closed_topic_counts(bag) -> dict[str, int]:
+    """Per topic, what the recorder has already made durable."""
+    try:
+        metadata = yaml.safe_load((bag / "metadata.yaml").read_text())
+        return {entry["topic_metadata"]["name"]: entry["message_count"]
+                for entry in metadata["rosbag2_bagfile_information"]["topics_with_message_count"]}
+    except (FileNotFoundError, TypeError, KeyError):
+        return {}
 
 
 def make_messages(index: int):
@@ -180,3 +205,188 @@ def test_recorder_refuses_an_existing_output(launch, tmp_path):
     recorder = launch("impurity_common", "bag_recorder", ros_args({"output": str(tmp_path)}))
     assert recorder.process.wait(timeout=30) == 1
     assert "already exists" in recorder.output()
+
+
+# ------------------------------------------------------- issue 19 item 6: latched topics in recordings
+ROBOT_DESCRIPTION = "/bagtest/robot_description"
+LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                     durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def recorded(bag, topic) -> list[str]:
+    with BagReader(bag) as reader:
+        return [deserialize_message(m.data, String).data for m in reader.messages([topic])]
+
+
+def publish_until_recorded(ros_node, publisher, bag, wanted: dict[str, int], recorder, what: str) -> None:
+    """Publish on `publisher` (volatile chatter keeps splits closing) until the recorder made `wanted`
+    durable, then stop it with SIGINT."""
+    index = 0
+
+    def tick():
+        nonlocal index
+        publisher.publish(String(data=f"chatter {index}"))
+        index += 1
+        counts = closed_topic_counts(bag)
+        return all(counts.get(topic, 0) >= count for topic, count in wanted.items())
+
+    spin_until(ros_node, tick, 60.0, what, [recorder])
+    recorder.send_signal(signal.SIGINT)
+    assert recorder.process.wait(timeout=15) == 0
+
+
+def test_recorder_records_a_latched_topic_published_before_it_started(ros_node, launch, tmp_path):
+    """The field report: /robot_description (transient local) published once, then bag_recorder starts:
+    the message must be in the bag, and the start-up line counts the topics it records."""
+    bag = tmp_path / "latched"
+    description = ros_node.create_publisher(String, ROBOT_DESCRIPTION, LATCHED)
+    chatter = ros_node.create_publisher(String, CHATTER, RELIABLE)
+    description.publish(String(data="<robot name='ur5'/>"))
+    try:
+        recorder = launch("impurity_common", "bag_recorder", ros_args(
+            {"topics": [ROBOT_DESCRIPTION, CHATTER], "output": str(bag), "split_duration": 0.2}))
+        wait_for_subscribers(ros_node, description, processes=[recorder])
+        wait_for_subscribers(ros_node, chatter, processes=[recorder])
+        publish_until_recorded(ros_node, chatter, bag, {ROBOT_DESCRIPTION: 1, CHATTER: 5}, recorder,
+                               f"{ROBOT_DESCRIPTION} and 5 chatter messages in closed splits")
+    finally:
+        ros_node.destroy_publisher(description)
+        ros_node.destroy_publisher(chatter)
+    assert recorded(bag, ROBOT_DESCRIPTION) == ["<robot name='ur5'/>"]
+    output = recorder.output()
+    assert "recording 2 topic(s) to" in output
+    assert f"recording {ROBOT_DESCRIPTION} (std_msgs/msg/String, reliable, transient_local" in output
+    assert f"recording {CHATTER} (std_msgs/msg/String, reliable, volatile" in output
+
+
+def test_recorder_waits_for_publishers_and_rechecks_when_new_ones_appear(ros_node, launch, tmp_path):
+    """A topic that first has only a subscriber is not subscribed blindly (volatile): the recorder
+    waits for its publisher, so a latched message published at once is recorded; a volatile publisher
+    joining later makes it re-subscribe volatile (a warning says so), and its messages are recorded too,
+    the latched message still once."""
+    bag = tmp_path / "late"
+    listener = ros_node.create_subscription(String, ROBOT_DESCRIPTION, lambda _: None, RELIABLE)
+    publishers = []
+    try:
+        recorder = launch("impurity_common", "bag_recorder", ros_args(
+            {"topics": [ROBOT_DESCRIPTION], "output": str(bag), "split_duration": 0.2}))
+        spin_until(ros_node, lambda: "waiting for a publisher of" in recorder.output(), 30.0,
+                   "the recorder's start-up line", [recorder])
+        assert "recording 1 topic(s) to" in recorder.output()
+        publishers.append(ros_node.create_publisher(String, ROBOT_DESCRIPTION, LATCHED))
+        publishers[0].publish(String(data="<robot name='ur5'/>"))  # at once: only a latch delivers it
+        spin_until(ros_node, lambda: f"recording {ROBOT_DESCRIPTION}" in recorder.output(), 30.0,
+                   f"the recorder to subscribe {ROBOT_DESCRIPTION}", [recorder])
+        publishers.append(ros_node.create_publisher(String, ROBOT_DESCRIPTION, RELIABLE))
+        spin_until(ros_node, lambda: "re-subscribed reliable, volatile" in recorder.output(), 30.0,
+                   "the recorder to re-subscribe volatile", [recorder])
+        wait_for_subscribers(ros_node, publishers[1], processes=[recorder])
+        publish_until_recorded(ros_node, publishers[1], bag, {ROBOT_DESCRIPTION: 6}, recorder,
+                               "the latched and 5 volatile messages in closed splits")
+    finally:
+        ros_node.destroy_subscription(listener)
+        for publisher in publishers:
+            ros_node.destroy_publisher(publisher)
+    texts = recorded(bag, ROBOT_DESCRIPTION)
+    assert texts[0] == "<robot name='ur5'/>" and texts.count("<robot name='ur5'/>") == 1
+    assert len(texts) >= 6 and all(text.startswith("chatter ") for text in texts[1:])
+    assert "offers volatile, the subscription requests transient_local" in recorder.output()
+
+
+# ------------------------------------------------- issue 19 item 5: bags that replay partly or not at all
+CAMERA_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
+
+
+def test_replay_of_the_camera_topics_beside_a_type_this_environment_lacks(ros_node, launch, tmp_path):
+    """The field report: a custom type and a tf2_msgs message beside the camera topics; replaying only
+    the camera topics plays every frame, and a warning names the topics it leaves out for their types."""
+    bag = tmp_path / "camera"
+    written = write_camera_bag(bag)
+    received = {COLOR: [], INFO: []}
+    subscriptions = [
+        ros_node.create_subscription(Image, COLOR, received[COLOR].append, CAMERA_QOS, raw=True),
+        ros_node.create_subscription(CameraInfo, INFO, received[INFO].append, CAMERA_QOS, raw=True)]
+    try:
+        replay = launch("impurity_common", "bag_replay", ros_args(
+            {"bag": str(bag), "topics": [COLOR, INFO], "as_fast_as_possible": True,
+             "wait_for_subscribers": 1}))
+        spin_until(ros_node, lambda: all(len(received[t]) >= len(written[t]) for t in received), 30.0,
+                   "every camera message", [replay])
+        assert replay.process.wait(timeout=15) == 0, replay.output()[-2000:]
+    finally:
+        for subscription in subscriptions:
+            ros_node.destroy_subscription(subscription)
+    for topic, msg_class in ((COLOR, Image), (INFO, CameraInfo)):  # the wire pads the CDR to 4 bytes
+        assert [deserialize_message(data, msg_class) for data in received[topic]] == \
+            [deserialize_message(data, msg_class) for data in written[topic]]
+    output = replay.output()
+    assert f"not playing {GADGET} ({GADGET_TYPE}, 1 message(s)): unknown message type '{GADGET_TYPE}'" \
+        in output
+    assert "played 20 message(s)" in output
+
+
+@pytest.mark.parametrize("allow_partial", [False, True], ids=["refused", "allow_partial"])
+def test_replay_of_every_topic_of_a_bag_with_a_missing_type(launch, tmp_path, allow_partial):
+    bag = tmp_path / "camera"
+    write_camera_bag(bag)
+    replay = launch("impurity_common", "bag_replay", ros_args(
+        {"bag": str(bag), "as_fast_as_possible": True, "allow_partial": allow_partial}))
+    code = replay.process.wait(timeout=30)
+    output = replay.output()
+    assert f"{GADGET} ({GADGET_TYPE}, 1 message(s))" in output
+    if allow_partial:
+        assert code == 0 and "(allow_partial is true)" in output
+    else:
+        assert code == 1 and "topics:=[...]" in output and "allow_partial:=true" in output
+
+
+def test_replay_of_a_bag_whose_qos_text_was_edited_plays_every_message(ros_node, launch, tmp_path):
+    """The field report: offered_qos_profiles edited into garbage gave "played 0 message(s)" and exit 0."""
+    bag = tmp_path / "edited"
+    offered = Qos(QosHistory.UNKNOWN, 0, QosReliability.RELIABLE, QosDurability.VOLATILE, QosTime(0, 0),
+                  QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
+    written = write_sample_bag(bag, cell_typestore(), count=20, qos=[offered])
+    with open(bag / "metadata.yaml") as stream:
+        profiles = yaml.safe_load(stream)["rosbag2_bagfile_information"]["topics_with_message_count"][0][
+            "topic_metadata"]["offered_qos_profiles"]
+    for topic in ("/chatter", "/policy/primitive"):
+        set_offered_qos(bag, topic, garbled_qos(profiles))
+    classes = {"/chatter": String, "/policy/primitive": Primitive}
+    received = {topic: [] for topic in classes}
+    subscriptions = [ros_node.create_subscription(msg_class, topic, received[topic].append, RELIABLE)
+                     for topic, msg_class in classes.items()]
+    try:
+        replay = launch("impurity_common", "bag_replay", ros_args(
+            {"bag": str(bag), "as_fast_as_possible": True, "wait_for_subscribers": 1}))
+        spin_until(ros_node, lambda: sum(map(len, received.values())) >= len(written), 30.0,
+                   "every replayed message", [replay])
+        assert replay.process.wait(timeout=15) == 0, replay.output()[-2000:]
+    finally:
+        for subscription in subscriptions:
+            ros_node.destroy_subscription(subscription)
+    for topic, msg_class in classes.items():
+        expected = [deserialize_message(m.data, msg_class) for m in written if m.topic == topic]
+        assert received[topic] == expected
+    output = replay.output()
+    assert "offered_qos_profiles of /chatter in metadata.yaml cannot be read" in output
+    assert "played 20 message(s)" in output
+
+
+@pytest.mark.parametrize("allow_partial", [False, True], ids=["refused", "allow_partial"])
+def test_replay_that_plays_fewer_messages_than_the_bag_holds_fails_unless_allowed(launch, tmp_path,
+                                                                                   allow_partial):
+    """A split missing from relative_file_paths: 20 of 30 messages readable; never "played" with exit 0
+    unless asked for."""
+    bag = tmp_path / "gap"
+    write_sample_bag(bag, cell_typestore(), count=30, split_duration_ns=100_000_000)
+    unlist_split(bag, 1)
+    replay = launch("impurity_common", "bag_replay", ros_args(
+        {"bag": str(bag), "as_fast_as_possible": True, "allow_partial": allow_partial}))
+    code = replay.process.wait(timeout=30)
+    output = replay.output()
+    assert "played 20 of the 30 message(s) the selected topic(s) hold" in output
+    assert "a split missing from relative_file_paths" in output
+    if allow_partial:
+        assert code == 0 and "(allow_partial is true)" in output
+    else:
+        assert code == 1 and "Set allow_partial:=true to accept a partial replay" in output

@@ -1,9 +1,15 @@
 """Bag recorder: the cell's topics -> a rosbag2 directory (MCAP, as Jazzy), raw CDR, never re-serialised.
 
-Thin shell around impurity_common.bags.BagWriter. Each wanted topic is subscribed as soon as it
-appears in the graph, with the type its publishers announce and a QoS they are compatible with (best
-effort if any publisher is best effort); the publishers' offered QoS goes into the bag's metadata.
-Timestamps are receive times on the node's clock, as rosbag2 records them.
+Thin shell around impurity_common.bags.BagWriter. Each wanted topic is subscribed as soon as it has
+a publisher, with the type its publishers announce and the QoS rosbag2 would request from their offers
+(bags.subscription_request, read with get_publishers_info_by_topic): best effort if any publisher is
+best effort, transient local if every publisher offers it, so that a latched message published before
+the recorder started (/robot_description) is recorded. The publishers' offered QoS goes into the
+bag's metadata. Every `discovery_period` the recorder looks again: at topics still without a
+publisher, and at new publishers of recorded topics; a new publisher the subscription would receive
+nothing from (best effort, or volatile under a transient-local subscription) makes it re-subscribe
+with the weaker QoS, and a warning says so. Timestamps are receive times on the node's clock, as
+rosbag2 records them.
 
 Stopping: SIGINT (Ctrl-C) and SIGTERM only set a flag, so a signal never interrupts a write; the
 open split is then closed and metadata.yaml written. A SIGKILL loses only the open split (at most
@@ -28,7 +34,15 @@ from rclpy.signals import SignalHandlerOptions
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from impurity_common import names
-from impurity_common.bags import BagError, BagWriter, cell_typestore, ros_message_class
+from impurity_common.bags import (
+    BagError,
+    BagWriter,
+    cell_typestore,
+    request_misses,
+    ros_message_class,
+    subscription_request,
+    weakened_request,
+)
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
     ParameterError,
@@ -47,7 +61,8 @@ class BagRecorderParameters:
     split_duration: float = param(5.0, "s of messages per split file: what a SIGKILL can lose at most",
                                   low=0.01, high=3600.0)
     qos_depth: int = param(100, "Subscription queue depth", low=1, high=100000)
-    discovery_period: float = param(0.2, "s between looks for not yet seen topics", low=0.01, high=60.0)
+    discovery_period: float = param(0.2, "s between looks at the graph: topics without a publisher yet, new "
+                                    "publishers of recorded topics", low=0.01, high=60.0)
 
 
 
@@ -65,42 +80,107 @@ def bag_qos(profile: QoSProfile) -> Qos:
                bool(profile.avoid_ros_namespace_conventions))
 
 
+def publisher_name(info) -> str:
+    return f"{info.node_namespace.rstrip('/')}/{info.node_name}"
+
+
+def request_words(request: tuple[QosReliability, QosDurability]) -> str:
+    return f"{request[0].name.lower()}, {request[1].name.lower()}"
+
+
 class BagRecorderNode(Node):
     def __init__(self):
         super().__init__("bag_recorder")
         params = self.params = declare_parameters(self, BagRecorderParameters)
         output = params.output or time.strftime("bag_%Y%m%d_%H%M%S")
-        self._pending = list(dict.fromkeys(params.topics))
+        self._wanted = list(dict.fromkeys(params.topics))
+        self._pending = list(self._wanted)  # no publisher seen yet
+        self._refused: list[str] = []
+        self._recorded: dict[str, dict] = {}  # topic -> msg_class, request, subscription, publisher gids
         self._depth = params.qos_depth
         self.writer = BagWriter(output, cell_typestore(), split_duration_ns=int(params.split_duration * 1e9))
-        self.create_timer(params.discovery_period, self._subscribe_new_topics)
-        self._subscribe_new_topics()
-        self.get_logger().info(f"recording {len(self._pending)} topic(s) to {self.writer.path}")
+        self.create_timer(params.discovery_period, self._look_at_graph)
+        self._look_at_graph()
+        waiting = f"; waiting for a publisher of {self._pending}" if self._pending else ""
+        refused = f"; not recording {self._refused} (see the errors above)" if self._refused else ""
+        self.get_logger().info(f"recording {len(self._wanted)} topic(s) to {self.writer.path}: "
+                               f"{len(self._recorded)} subscribed{waiting}{refused}")
 
-    def _subscribe_new_topics(self) -> None:
-        if not self._pending:
-            return
-        announced = dict(self.get_topic_names_and_types())
+    def _look_at_graph(self) -> None:
         for topic in list(self._pending):
-            types = announced.get(topic)
-            if not types:
-                continue
-            self._pending.remove(topic)
-            if len(types) > 1:
-                self.get_logger().error(f"not recording {topic}: its publishers disagree on the type {types}")
-                continue
-            publishers = [info.qos_profile for info in self.get_publishers_info_by_topic(topic)]
-            try:
-                self.writer.add_topic(topic, types[0], [bag_qos(p) for p in publishers])
-                msg_class = ros_message_class(types[0], topic)
-            except BagError as error:
-                self.get_logger().error(f"not recording {topic}: {error}")
-                continue
-            best_effort = any(p.reliability == ReliabilityPolicy.BEST_EFFORT for p in publishers)
-            reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE
-            qos = QoSProfile(depth=self._depth, durability=DurabilityPolicy.VOLATILE, reliability=reliability)
-            self.create_subscription(msg_class, topic, partial(self._record, topic), qos, raw=True)
-            self.get_logger().info(f"recording {topic} ({types[0]})")
+            self._subscribe_new_topic(topic)
+        for topic in self._recorded:
+            self._check_new_publishers(topic)
+
+    def _subscribe_new_topic(self, topic: str) -> None:
+        """Once the topic has a publisher (a subscriber alone says nothing of the QoS to request)."""
+        publishers = self.get_publishers_info_by_topic(topic)
+        if not publishers:
+            return
+        self._pending.remove(topic)
+        types = sorted({info.topic_type for info in publishers})
+        if len(types) > 1:
+            self._refused.append(topic)
+            self.get_logger().error(f"not recording {topic}: its publishers disagree on the type {types}")
+            return
+        offers = [bag_qos(info.qos_profile) for info in publishers]
+        try:
+            self.writer.add_topic(topic, types[0], offers)
+            msg_class = ros_message_class(types[0], topic)
+        except BagError as error:
+            self._refused.append(topic)
+            self.get_logger().error(f"not recording {topic}: {error}")
+            return
+        request = subscription_request(offers)
+        self._recorded[topic] = {"msg_class": msg_class, "request": request, "subscription": None,
+                                 "publishers": {bytes(info.endpoint_gid) for info in publishers}}
+        self._subscribe(topic)
+        self.get_logger().info(f"recording {topic} ({types[0]}, {request_words(request)}; offered by "
+                               f"{sorted(publisher_name(info) for info in publishers)})")
+
+    def _subscribe(self, topic: str) -> None:
+        """(Re-)subscribe with the topic's request. On re-subscription the new subscription is made
+        first, and what the old one received but the executor has not taken yet is recorded before it
+        goes (taken as the executor takes it), so the swap loses nothing."""
+        entry = self._recorded[topic]
+        reliability, durability = entry["request"]
+        qos = QoSProfile(depth=self._depth, reliability=ReliabilityPolicy(reliability.value),
+                         durability=DurabilityPolicy(durability.value))
+        old, entry["subscription"] = entry["subscription"], self.create_subscription(
+            entry["msg_class"], topic, partial(self._record, topic), qos, raw=True)
+        if old is not None:
+            with old.handle:
+                while (taken := old.handle.take_message(old.msg_type, old.raw)) is not None:
+                    self._record(topic, taken[0])
+            self.destroy_subscription(old)
+
+    def _check_new_publishers(self, topic: str) -> None:
+        """A publisher that appeared since: if the subscription would receive nothing from it, weaken the
+        request and re-subscribe; if it offers transient local to a volatile subscription, say that what
+        it published before it matched is not recorded."""
+        entry = self._recorded[topic]
+        publishers = self.get_publishers_info_by_topic(topic)
+        new = [info for info in publishers if bytes(info.endpoint_gid) not in entry["publishers"]]
+        if not new:
+            return
+        entry["publishers"].update(bytes(info.endpoint_gid) for info in new)
+        logger = self.get_logger()
+        old_request = entry["request"]
+        offers = [(publisher_name(info), bag_qos(info.qos_profile)) for info in new]
+        misses = [f"{name}: {', '.join(reasons)}" for name, offer in offers
+                  if (reasons := request_misses(old_request, offer))]
+        if misses:
+            entry["request"] = weakened_request(old_request, [offer for _, offer in offers])
+            self._subscribe(topic)
+            logger.warn(f"{topic}: the {request_words(old_request)} subscription would receive nothing from "
+                        f"new publisher(s) ({'; '.join(misses)}): re-subscribed "
+                        f"{request_words(entry['request'])}")
+        if entry["request"][1] == QosDurability.VOLATILE:
+            latched = [name for name, offer in offers if offer.durability == QosDurability.TRANSIENT_LOCAL]
+            if latched:
+                logger.warn(f"{topic}: new publisher(s) {latched} offer transient_local, but {topic} is "
+                            "recorded volatile (not every publisher offers transient_local): what they "
+                            "published before the recorder matched them is not in the bag")
 
     def _record(self, topic: str, data: bytes) -> None:
         self.writer.write(topic, self.get_clock().now().nanoseconds, data)

@@ -16,9 +16,17 @@ message falls back to UDP fragments, which a best-effort subscriber (the heightm
 subscriptions) loses in bursts. Unless a Fast DDS profile or transport is chosen in the environment,
 bag_replay gives its own participant a 32 MB segment (it is the writer's segment that matters).
 
-Exits 0 when the bag has been played, 1 with one clear line for a missing, truncated or corrupted
-bag, an unknown message type or missing subscribers, 2 with one line for a bad parameter; every wait
-is bounded.
+Topics: only the types of the played topics are checked; the bag's other topics are skipped, and
+those whose types this environment lacks (a custom package, tf2_msgs without tf2) named in a warning.
+A selected topic of such a type, or (with the default: every topic) any topic of such a type, is
+refused, unless `allow_partial`. Messages are found by topic and type; an unreadable QoS text in
+metadata.yaml falls back to the storage file's QoS or the default (reliable, volatile) with a warning.
+
+Exits 0 when the bag has been played: every message the selected topics hold (from start_offset on)
+in the first pass, or fewer when stopped (Ctrl-C) or with `allow_partial` (then with a warning). Exits
+1 with one clear line for a missing, truncated or corrupted bag, a type this environment lacks,
+missing subscribers, or a pass that played fewer messages than the topics hold (how many of how many,
+and why); 2 with one line for a bad parameter; every wait is bounded.
 
   bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
 """
@@ -42,12 +50,14 @@ from impurity_common.bags import (
     BagError,
     BagMessage,
     BagReader,
+    PassCounter,
     ReplayTiming,
-    cell_typestore,
     header_stamp_ns,
+    message_type_problem,
     replay_plan,
     ros_message_class,
     run_replay,
+    select_topics,
 )
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
@@ -98,6 +108,9 @@ def use_large_shm_segment() -> None:
 class BagReplayParameters:
     bag: str = param("", "rosbag2 directory to play")
     topics: tuple[str, ...] = param(("",), "Topics to play (default: all in the bag)")
+    allow_partial: bool = param(False, "Play what can be played and warn, instead of failing, when topics "
+                                "have types this environment lacks or a pass plays fewer messages than "
+                                "the selected topics hold")
     rate: float = param(1.0, "Speed factor of the original timing (2.0: twice as fast)",
                         low=0.001, high=1000.0)
     start_offset: float = param(0.0, "s after the bag's first message to start at", low=0.0)
@@ -127,20 +140,33 @@ class BagReplayNode(Node):
             raise BagError("parameter bag is empty: give the bag directory (-p bag:=<dir>)")
         self.timing = ReplayTiming(rate=params.rate, start_offset=params.start_offset, loop=params.loop,
                                    as_fast_as_possible=params.as_fast_as_possible)
-        self.reader = BagReader(path, cell_typestore())
-        wanted = [t for t in params.topics if t] or list(self.reader.topics)
-        missing = sorted(set(wanted) - set(self.reader.topics))
-        if missing:
-            raise BagError(f"bag {path} has no topic(s) {missing}; it has {sorted(self.reader.topics)}")
-        self.topics = wanted
-        self._topic_publishers = {topic: self._publisher(topic) for topic in wanted}
+        self.reader = BagReader(path)
         self._acked_stamps: set[int] = set()
         self._pending_stamp: int | None = None  # of the last ack_before message, until answered
         self._unanswered: list[BagMessage] = []  # played since, for re-publication
         self._ack_before = params.ack_before
         self._pacing = bool(params.ack_topic)
-        if self._pacing:
-            self._subscribe_acks(params.ack_topic)
+        try:
+            self._select_topics()
+            self._topic_publishers = {topic: self._publisher(topic) for topic in self.topics}
+            if self._pacing:
+                self._subscribe_acks(params.ack_topic)
+        except BaseException:
+            self.reader.close()
+            raise
+
+    def _select_topics(self) -> None:
+        """Only the played topics' types are checked; what is left out is said (warnings, notes)."""
+        logger = self.get_logger()
+        for warning in self.reader.warnings:
+            logger.warn(warning)
+        selection = select_topics(self.reader.path, self.reader.topics, self.params.topics,
+                                  message_type_problem, self.params.allow_partial)
+        for warning in selection.warnings:
+            logger.warn(warning)
+        for note in selection.notes:
+            logger.info(note)
+        self.topics = list(selection.play)
 
     def _publisher(self, topic: str):
         info = self.reader.topics[topic]
@@ -175,14 +201,29 @@ class BagReplayNode(Node):
         deadline = time.monotonic() + self.params.delay
         while not should_stop() and (remaining := deadline - time.monotonic()) > 0:
             spin_once(min(remaining, 0.05))
-        plan = replay_plan(lambda start_ns: self.reader.messages(self.topics, start_ns), self.reader.start_ns,
-                           self.timing)
+        counter = PassCounter(lambda start_ns: self.reader.messages(self.topics, start_ns))
+        plan = replay_plan(counter, self.reader.start_ns, self.timing)
         count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once)
         if self._pacing and not should_stop():
             self._settle_group()
         for publisher in self._topic_publishers.values():  # reliable subscribers get the last messages too
             publisher.wait_for_all_acked(Duration(seconds=self.params.wait_timeout))
+        self._check_first_pass(counter)
         return count
+
+    def _check_first_pass(self, counter: PassCounter) -> None:
+        """A finished first pass must have played every message the topics hold (from the offset on)."""
+        if not counter.first_pass_done:
+            self.get_logger().info(f"stopped during the first pass, after {sum(counter.counts.values())} "
+                                   "message(s)")
+            return
+        shortfall = self.reader.replay_shortfall(self.topics, self.timing.first_ns(self.reader.start_ns),
+                                                 counter.counts)
+        if shortfall is None:
+            return
+        if not self.params.allow_partial:
+            raise BagError(f"{shortfall}. Set allow_partial:=true to accept a partial replay")
+        self.get_logger().warn(f"{shortfall} (allow_partial is true)")
 
     def _wait_for_subscribers(self, should_stop) -> None:
         wanted = self.params.wait_for_subscribers

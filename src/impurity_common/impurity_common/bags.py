@@ -9,10 +9,18 @@ and replay nodes (it never imports rclpy):
   MCAP file) before the next starts, with metadata.yaml rewritten after every closed split, so a
   recorder killed at any moment still leaves a valid bag of everything up to its last split;
 - `BagReader`: opens and checks a bag (clear `BagError`s for a missing directory, missing or invalid
-  metadata, truncated or corrupted files, unknown message types), yields `BagMessage`s in time order;
+  metadata, truncated or corrupted files, unknown message types of the topics read), yields
+  `BagMessage`s in time order. Storage connections are matched to metadata.yaml's topics by topic and
+  type only: its QoS text may be edited or unreadable (then the storage file's QoS, else the default,
+  with a warning in `BagReader.warnings`), never a reason to yield nothing;
+- `select_topics()`: which topics a replay plays; those whose types this environment lacks are
+  refused when selected (or skipped with `allow_partial`), and named in a warning when not;
+- `subscription_request()`: the QoS a recorder requests from the publishers' offers (as rosbag2:
+  transient local only if every publisher offers it, best effort if any publisher is best effort);
 - `replay_plan()` / `run_replay()`: when each message is due (original timing with a rate factor,
   start offset and loop, or as fast as possible) and the loop that publishes them, with an injectable
-  clock so the timing is tested without ROS.
+  clock so the timing is tested without ROS; `PassCounter` and `BagReader.replay_shortfall()` tell
+  whether a finished pass played every message the selected topics hold.
 """
 
 from __future__ import annotations
@@ -23,16 +31,18 @@ import os
 import pathlib
 import shutil
 import struct
+import tempfile
 import time
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections import Counter
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import NamedTuple
 
 import yaml
-from rosbags.interfaces import Qos
+from rosbags.interfaces import Qos, QosDurability, QosReliability
 from rosbags.rosbag2 import Reader, Writer
 from rosbags.rosbag2.enums import StoragePlugin
-from rosbags.rosbag2.metadata import dump_qos_v9
+from rosbags.rosbag2.metadata import dump_qos_v9, parse_qos
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from rosbags.typesys.store import Typestore
 
@@ -93,14 +103,102 @@ def check_known_type(typestore: Typestore, msgtype: str, topic: str) -> None:
                        f"standard type nor one of {INTERFACES_PACKAGE}'s messages")
 
 
+def message_type_problem(msgtype: str) -> str | None:
+    """None when this ROS environment has the generated Python class of 'pkg/msg/Type' (what rclpy needs
+    to publish or subscribe, even raw CDR), else why not. The PyPI wheels lack e.g. tf2_msgs."""
+    package, separator, name = msgtype.partition("/msg/")
+    if not (package and separator and name):
+        return f"'{msgtype}' is not a message type name (pkg/msg/Type)"
+    try:
+        module = importlib.import_module(f"{package}.msg")
+    except ImportError as error:
+        return f"unknown message type '{msgtype}' in this ROS environment ({error})"
+    if not hasattr(module, name):
+        return f"unknown message type '{msgtype}' in this ROS environment ({package}.msg has no {name})"
+    return None
+
+
 def ros_message_class(msgtype: str, topic: str):
     """The generated Python class of 'pkg/msg/Type' (rclpy needs it even for raw CDR publishing)."""
+    problem = message_type_problem(msgtype)
+    if problem is not None:
+        raise BagError(f"topic {topic}: {problem}")
     package, _, name = msgtype.partition("/msg/")
+    return getattr(importlib.import_module(f"{package}.msg"), name)
+
+
+# ------------------------------------------------------------------------------------------- QoS
+QOS_KEYS = ("history", "depth", "reliability", "durability", "deadline", "lifespan", "liveliness",
+            "liveliness_lease_duration", "avoid_ros_namespace_conventions")
+
+
+def offered_qos_problem(value) -> str | None:
+    """None when a topic's offered_qos_profiles (metadata.yaml: a list of dicts, or before version 9 a
+    YAML string of one) reads as QoS profiles with a known reliability and durability, else what is
+    wrong with it. Empty means "not recorded", which is fine."""
+    if value is None or value == "" or value == []:
+        return None
     try:
-        return getattr(importlib.import_module(f"{package}.msg"), name)
-    except (ImportError, AttributeError, ValueError) as error:
-        raise BagError(f"message type '{msgtype}' on topic {topic} is not available in this ROS "
-                       f"environment ({error})") from error
+        items = yaml.safe_load(value) if isinstance(value, str) else value
+    except yaml.YAMLError as error:
+        return f"not YAML ({' '.join(str(error).split())[:120]})"
+    if not isinstance(items, list) or not all(isinstance(item, dict) for item in items):
+        return f"not a list of QoS profiles: {str(value)[:80]!r}"
+    for index, item in enumerate(items):
+        if missing := [key for key in QOS_KEYS if key not in item]:
+            return f"profile {index} lacks {missing}"
+    try:
+        profiles = parse_qos(items)
+    except Exception as error:  # noqa: BLE001 - rosbags raises key, type and value errors alike
+        return f"{type(error).__name__}: {error}"
+    for index, (item, profile) in enumerate(zip(items, profiles, strict=True)):
+        if profile.reliability == QosReliability.UNKNOWN:
+            return f"profile {index}: reliability {item['reliability']!r} is not a QoS reliability"
+        if profile.durability == QosDurability.UNKNOWN:
+            return f"profile {index}: durability {item['durability']!r} is not a QoS durability"
+    return None
+
+
+def qos_words(qos: Sequence[Qos]) -> str:
+    """'reliable, transient_local' for the profiles' reliability and durability (each distinct once)."""
+    if not qos:
+        return "none recorded"
+    words = dict.fromkeys(f"{q.reliability.name.lower()}, {q.durability.name.lower()}" for q in qos)
+    return " / ".join(words)
+
+
+def subscription_request(offers: Sequence[Qos]) -> tuple[QosReliability, QosDurability]:
+    """The reliability and durability a recorder requests so that it receives from every offering
+    publisher, as rosbag2 adapts them: reliable unless a publisher is best effort (a reliable request
+    matches no best-effort publisher), transient local only if every publisher offers it (a
+    transient-local request matches no volatile publisher) so that a latched message published
+    before the recorder subscribed is still delivered. No offers: reliable, volatile."""
+    reliable = all(q.reliability == QosReliability.RELIABLE for q in offers)
+    latched = bool(offers) and all(q.durability == QosDurability.TRANSIENT_LOCAL for q in offers)
+    return (QosReliability.RELIABLE if reliable else QosReliability.BEST_EFFORT,
+            QosDurability.TRANSIENT_LOCAL if latched else QosDurability.VOLATILE)
+
+
+def weakened_request(request: tuple[QosReliability, QosDurability],
+                     offers: Sequence[Qos]) -> tuple[QosReliability, QosDurability]:
+    """`request` weakened just enough to receive from `offers` too, never strengthened (a volatile
+    subscription turned transient local would record a latched history a second time)."""
+    reliability, durability = subscription_request(offers)
+    return (request[0] if reliability == QosReliability.RELIABLE else QosReliability.BEST_EFFORT,
+            request[1] if durability == QosDurability.TRANSIENT_LOCAL else QosDurability.VOLATILE)
+
+
+def request_misses(request: tuple[QosReliability, QosDurability], offer: Qos) -> list[str]:
+    """Why a subscription with `request` receives nothing from a publisher offering `offer` ([] if it
+    does): DDS matches a request only with an offer at least as strong."""
+    reliability, durability = request
+    reasons = []
+    if reliability == QosReliability.RELIABLE and offer.reliability != QosReliability.RELIABLE:
+        reasons.append(f"it offers {offer.reliability.name.lower()}, the subscription requests reliable")
+    if durability == QosDurability.TRANSIENT_LOCAL and offer.durability != QosDurability.TRANSIENT_LOCAL:
+        reasons.append(f"it offers {offer.durability.name.lower()}, the subscription requests "
+                       "transient_local")
+    return reasons
 
 
 # --------------------------------------------------------------------------------------- writing
@@ -271,13 +369,22 @@ def file_sha256(path: pathlib.Path) -> str:
 class BagReader:
     """An opened, checked rosbag2 directory. Every problem is a BagError naming the bag.
 
-    Checks on open: the directory and metadata.yaml exist and parse, every listed file is a complete
-    MCAP file (rosbags checks the magic, footer and summary), the SHA-256 recorded by BagWriter
-    matches (bit flips anywhere), and with a typestore, every topic's type is known to it.
+    Checks on open: the directory and metadata.yaml exist and parse, every listed file exists and is a
+    complete MCAP file (rosbags checks the magic, footer and summary), the SHA-256 recorded by BagWriter
+    matches (bit flips anywhere), and with a typestore, the types of `topics` (all when None) are known.
+
+    A topic's offered_qos_profiles in metadata.yaml that cannot be read (edited, not YAML, unknown
+    policies) never stops the bag from opening or playing: the topic's QoS is then the one the storage
+    file records for its channel, else none (a replay's default), and `warnings` says so. Messages are
+    read by topic and type; the QoS text takes no part in finding them.
     """
 
-    def __init__(self, path: str | os.PathLike, typestore: Typestore | None = None):
+    def __init__(self, path: str | os.PathLike, typestore: Typestore | None = None,
+                 topics: Iterable[str] | None = None):
         self.path = pathlib.Path(path)
+        self.warnings: list[str] = []  # what the reader worked around; a node logs them
+        self._reader = None
+        self._view: tempfile.TemporaryDirectory | None = None
         if not self.path.exists():
             raise BagError(f"bag {self.path} does not exist")
         if not self.path.is_dir():
@@ -285,25 +392,93 @@ class BagReader:
         if not (self.path / METADATA_FILE).is_file():
             raise BagError(f"bag {self.path} has no {METADATA_FILE} (not a rosbag2 directory, or the "
                            "recorder was killed before it closed its first split)")
-        reader = Reader(self.path)
+        try:
+            metadata = self._load_metadata()
+            qos_problems = self._qos_problems(metadata)
+            self._open(metadata, qos_problems)
+            self._check_checksums(metadata)
+            self.topics = {
+                topic: TopicInfo(info.msgtype, info.msgcount,
+                                 tuple(q for c in info.connections for q in c.ext.offered_qos_profiles))
+                for topic, info in self._reader.topics.items()}
+            for topic, problem in qos_problems.items():
+                self._fall_back_qos(topic, problem)
+            if typestore is not None:
+                for topic in (self.topics if topics is None else topics):
+                    if topic in self.topics:
+                        check_known_type(typestore, self.topics[topic].msgtype, topic)
+        except BaseException:
+            self.close()
+            raise
+
+    # ---- opening
+    def _load_metadata(self) -> dict | None:
+        """metadata.yaml's rosbag2_bagfile_information, or None when it does not parse (rosbags then
+        reports what is wrong when it opens the bag)."""
+        try:
+            info = yaml.safe_load((self.path / METADATA_FILE).read_text())["rosbag2_bagfile_information"]
+        except (yaml.YAMLError, TypeError, KeyError):
+            return None
+        return info if isinstance(info, dict) else None
+
+    def _qos_problems(self, metadata: dict | None) -> dict[str, str]:
+        """topic -> what is wrong with its offered_qos_profiles in metadata.yaml."""
+        problems = {}
+        entries = (metadata or {}).get("topics_with_message_count")
+        for entry in entries if isinstance(entries, list) else []:
+            try:
+                topic_metadata = entry["topic_metadata"]
+                problem = offered_qos_problem(topic_metadata.get("offered_qos_profiles"))
+                if problem is not None:
+                    problems[str(topic_metadata["name"])] = problem
+            except (TypeError, KeyError, AttributeError):
+                continue  # a malformed entry: rosbags names it when it opens the bag
+        return problems
+
+    def _open(self, metadata: dict | None, qos_problems: dict[str, str]) -> None:
+        """Open with rosbags; with unreadable QoS text, through a view of the bag (a scratch directory:
+        metadata.yaml without that text, links to the storage files), never changing the bag."""
+        if metadata is not None and isinstance(metadata.get("relative_file_paths"), list):
+            missing = [name for name in metadata["relative_file_paths"]
+                       if not (self.path / pathlib.PurePath(str(name)).name).exists()]
+            if missing:
+                raise BagError(f"bag {self.path} cannot be opened: storage file(s) {missing} listed in "
+                               f"{METADATA_FILE} are missing")
+        source = self.path
+        if qos_problems and isinstance(metadata.get("relative_file_paths"), list):
+            self._view = tempfile.TemporaryDirectory(prefix="bag_view_")
+            source = pathlib.Path(self._view.name)
+            for entry in metadata["topics_with_message_count"]:
+                if str(entry["topic_metadata"]["name"]) in qos_problems:
+                    entry["topic_metadata"]["offered_qos_profiles"] = []
+            (source / METADATA_FILE).write_text(
+                yaml.safe_dump({"rosbag2_bagfile_information": metadata}, sort_keys=False))
+            for name in metadata["relative_file_paths"]:
+                name = pathlib.PurePath(str(name)).name
+                (source / name).symlink_to((self.path / name).resolve())
+        reader = Reader(source)
         try:
             reader.open()
         except Exception as error:  # noqa: BLE001 - rosbags raises ReaderError, struct/OS/key errors
             raise BagError(f"bag {self.path} cannot be opened: {type(error).__name__}: {error}") from error
         self._reader = reader
-        try:
-            self._check_checksums()
-            self.topics = {
-                topic: TopicInfo(info.msgtype, info.msgcount,
-                                 tuple(q for c in info.connections for q in c.ext.offered_qos_profiles))
-                for topic, info in self._reader.topics.items()}
-            if typestore is not None:
-                for topic, info in self.topics.items():
-                    check_known_type(typestore, info.msgtype, topic)
-        except BaseException:
-            self.close()
-            raise
 
+    def _fall_back_qos(self, topic: str, problem: str) -> None:
+        if topic not in self.topics:
+            return
+        stored = tuple(dict.fromkeys(q for c in self._storage_connections([topic])
+                                     for q in c.ext.offered_qos_profiles))
+        usable = bool(stored) and all(q.reliability != QosReliability.UNKNOWN
+                                      and q.durability != QosDurability.UNKNOWN for q in stored)
+        info = self.topics[topic]
+        self.topics[topic] = TopicInfo(info.msgtype, info.message_count, stored if usable else ())
+        fallback = (f"using the QoS its storage file records ({qos_words(stored)})" if usable else
+                    "no QoS recorded elsewhere: a replay publishes it with its default (reliable, volatile)")
+        self.warnings.append(f"bag {self.path}: offered_qos_profiles of {topic} in {METADATA_FILE} cannot be "
+                             f"read ({problem}); {fallback}. Correct it in {self.path / METADATA_FILE} "
+                             "to change this")
+
+    # ---- what the bag holds
     @property
     def message_count(self) -> int:
         return self._reader.message_count
@@ -325,23 +500,70 @@ class BagReader:
     def custom_data(self) -> dict[str, str]:
         return dict(self._reader.storage.metadata.custom or {})
 
-    def messages(self, topics: Iterable[str] | None = None,
-                 start_ns: int | None = None) -> Iterator[BagMessage]:
-        """Messages in time order, optionally only some topics and only from `start_ns` on."""
-        wanted = None if topics is None else set(topics)
-        connections = [c for c in self._reader.connections if wanted is None or c.topic in wanted]
-        if not connections:
+    def _storage_connections(self, topics: Iterable[str], same_type: bool = True) -> list:
+        """The storage files' connections (MCAP channels) of `topics`, matched by topic and, with
+        `same_type`, by the type metadata.yaml gives (without: the channels of any other type)."""
+        wanted = set(topics)
+        return [connection for storage in self._reader.storage.storages for connection in storage.connections
+                if connection.topic in wanted and connection.topic in self.topics
+                and (connection.msgtype == self.topics[connection.topic].msgtype) == same_type]
+
+    def storage_counts(self, topics: Iterable[str] | None = None) -> dict[str, int]:
+        """Messages per topic that the storage files' indexes list (metadata.yaml may say otherwise)."""
+        selected = list(self.topics if topics is None else topics)
+        counts = dict.fromkeys(selected, 0)
+        for connection in self._storage_connections(selected):
+            counts[connection.topic] += connection.msgcount
+        return counts
+
+    def messages(self, topics: Iterable[str] | None = None, start_ns: int | None = None,
+                 stop_ns: int | None = None) -> Iterator[BagMessage]:
+        """Messages in time order, optionally only some topics and only in [start_ns, stop_ns)."""
+        connections = self._storage_connections(self.topics if topics is None else topics)
+        if not connections:  # rosbags reads every connection when given none
             return
         try:
-            for connection, timestamp, data in self._reader.messages(connections, start=start_ns):
+            for connection, timestamp, data in self._reader.messages(connections, start_ns, stop_ns):
                 yield BagMessage(connection.topic, connection.msgtype, timestamp, bytes(data))
         except Exception as error:  # noqa: BLE001 - a damaged chunk surfaces as any parsing error
             raise BagError(f"bag {self.path} is damaged: {type(error).__name__}: {error}") from error
+
+    def replay_shortfall(self, topics: Sequence[str], first_ns: int, played: Mapping[str, int]) -> str | None:
+        """None when a pass from `first_ns` on played (`played`: messages per topic) every message that
+        metadata.yaml counts for `topics` from there on; else how many of how many, per topic, and why."""
+        before = Counter(m.topic for m in self.messages(topics, stop_ns=first_ns)) \
+            if self.message_count and first_ns > self.start_ns else Counter()
+        held = {topic: max(self.topics[topic].message_count - before[topic], 0) for topic in topics}
+        short = [topic for topic in topics if played.get(topic, 0) < held[topic]]
+        if not short:
+            return None
+        stored = self.storage_counts(short)
+        reasons = []
+        for topic in short:
+            counted = self.topics[topic].message_count
+            other_types = sorted({c.msgtype for c in self._storage_connections([topic], same_type=False)})
+            if other_types:
+                reasons.append(f"{topic} is recorded as {other_types} in the storage file(s) but as "
+                               f"{self.topics[topic].msgtype} in {METADATA_FILE}")
+            elif stored[topic] < counted:
+                reasons.append(f"the storage file(s) listed in {METADATA_FILE} hold {stored[topic]} of the "
+                               f"{counted} message(s) it counts for {topic} (a split missing from "
+                               "relative_file_paths, or edited counts)")
+            else:
+                reasons.append(f"{topic}: the storage file(s) list its messages but {played.get(topic, 0)} "
+                               f"of {held[topic]} could be read")
+        total_played = sum(min(played.get(topic, 0), held[topic]) for topic in topics)
+        per_topic = ", ".join(f"{topic} {played.get(topic, 0)} of {held[topic]}" for topic in short)
+        return (f"bag {self.path}: played {total_played} of the {sum(held.values())} message(s) the selected "
+                f"topic(s) hold ({per_topic}): {'; '.join(reasons)}")
 
     def close(self) -> None:
         reader, self._reader = self._reader, None
         if reader is not None:
             reader.close()
+        view, self._view = self._view, None
+        if view is not None:
+            view.cleanup()
 
     def __enter__(self) -> BagReader:
         return self
@@ -349,15 +571,70 @@ class BagReader:
     def __exit__(self, *exc_info) -> None:
         self.close()
 
-    def _check_checksums(self) -> None:
+    def _check_checksums(self, metadata: dict | None) -> None:
+        """Every listed storage file whose SHA-256 BagWriter recorded (other recorders record none)."""
+        names = (metadata or {}).get("relative_file_paths") or []
+        listed = {pathlib.PurePath(str(name)).name for name in names}
         for key, expected in self.custom_data.items():
-            if not key.startswith(CHECKSUM_PREFIX):
+            if not key.startswith(CHECKSUM_PREFIX) or key[len(CHECKSUM_PREFIX):] not in listed:
                 continue
             name = key[len(CHECKSUM_PREFIX):]
             actual = file_sha256(self.path / name)
             if actual != expected:
                 raise BagError(f"bag {self.path}: {name} is corrupted (SHA-256 {actual[:12]}… differs from "
                                f"the recorded {expected[:12]}…)")
+
+
+# ------------------------------------------------------------------------------------ topic choice
+@dataclass(frozen=True)
+class TopicSelection:
+    """What a replay plays, and what it says about the rest."""
+
+    play: tuple[str, ...]
+    warnings: tuple[str, ...] = ()  # topics left out that someone may have wanted
+    notes: tuple[str, ...] = ()  # topics left out on purpose (not in `topics`)
+
+
+def select_topics(bag: str | os.PathLike, topics: Mapping[str, TopicInfo], wanted: Sequence[str],
+                  type_problem: Callable[[str], str | None] = message_type_problem,
+                  allow_partial: bool = False) -> TopicSelection:
+    """The topics to play: `wanted` (all the bag's when empty). Only the types of those are checked
+    (`type_problem(msgtype)`: None, or why this environment cannot publish it). A chosen topic that
+    cannot be played is refused, or skipped with a warning when `allow_partial`; an unchosen one whose
+    type is missing here is named in a warning; BagError when nothing is left to play."""
+    chosen = list(dict.fromkeys(topic for topic in wanted if topic))
+    explicit = bool(chosen)
+    if explicit:
+        missing = [topic for topic in chosen if topic not in topics]
+        if missing:
+            raise BagError(f"bag {bag} has no topic(s) {missing}; it has {sorted(topics)} (parameter topics)")
+    else:
+        chosen = list(topics)
+    problems = {topic: problem for topic in topics if (problem := type_problem(topics[topic].msgtype))}
+
+    def described(names: Sequence[str]) -> str:
+        return "; ".join(f"{topic} ({topics[topic].msgtype}, {topics[topic].message_count} message(s)): "
+                         f"{problems[topic]}" for topic in names)
+
+    unplayable = [topic for topic in chosen if topic in problems]
+    play = [topic for topic in chosen if topic not in problems]
+    if not play:
+        raise BagError(f"bag {bag}: nothing to play: {described(unplayable) or 'it has no topics'}")
+    warnings, notes = [], []
+    if unplayable:
+        if not allow_partial:
+            choose = "leave them out of topics" if explicit else \
+                "choose the topics to play with topics:=[...]"
+            raise BagError(f"bag {bag}: cannot play {len(unplayable)} of the {len(chosen)} selected "
+                           f"topic(s): {described(unplayable)}. {choose}, or set allow_partial:=true to play "
+                           f"the other {len(play)} without them")
+        warnings.append(f"not playing {described(unplayable)} (allow_partial is true)")
+    others = [topic for topic in topics if topic not in chosen]
+    if unknown := [topic for topic in others if topic in problems]:
+        warnings.append(f"not playing {described(unknown)} (not in topics)")
+    if rest := [topic for topic in others if topic not in problems]:
+        notes.append(f"not playing {rest} (not in topics)")
+    return TopicSelection(tuple(play), tuple(warnings), tuple(notes))
 
 
 # ---------------------------------------------------------------------------------------- replay
@@ -387,6 +664,10 @@ class ReplayTiming:
         if not self.start_offset >= 0:
             raise ValueError(f"start_offset must be >= 0 s, got {self.start_offset}")
 
+    def first_ns(self, bag_start_ns: int) -> int:
+        """Timestamp of the first message a pass plays (from the start offset on)."""
+        return bag_start_ns + int(round(self.start_offset * 1e9))
+
 
 def replay_plan(read_messages: Callable[[int], Iterable[BagMessage]], bag_start_ns: int,
                 timing: ReplayTiming) -> Iterator[tuple[float, BagMessage]]:
@@ -396,7 +677,7 @@ def replay_plan(read_messages: Callable[[int], Iterable[BagMessage]], bag_start_
     loop pass starts where the previous one ended; a pass with no message ends the plan, so an
     empty bag or an offset past its end never loops forever.
     """
-    first_ns = bag_start_ns + int(round(timing.start_offset * 1e9))
+    first_ns = timing.first_ns(bag_start_ns)
     pass_begins = 0.0
     while True:
         last_due = None
@@ -408,6 +689,28 @@ def replay_plan(read_messages: Callable[[int], Iterable[BagMessage]], bag_start_
         if last_due is None or not timing.loop:
             return
         pass_begins = last_due
+
+
+class PassCounter:
+    """Wraps replay_plan's `read_messages`: counts per topic the messages of the first pass, and knows
+    whether that pass was read to its end (not stopped half way), so that it can be checked."""
+
+    def __init__(self, read_messages: Callable[[int], Iterable[BagMessage]]):
+        self._read_messages = read_messages
+        self.counts: Counter[str] = Counter()
+        self.first_pass_done = False
+        self._passes = 0
+
+    def __call__(self, start_ns: int) -> Iterable[BagMessage]:
+        self._passes += 1
+        messages = self._read_messages(start_ns)
+        return self._count(messages) if self._passes == 1 else messages
+
+    def _count(self, messages: Iterable[BagMessage]) -> Iterator[BagMessage]:
+        for message in messages:
+            self.counts[message.topic] += 1
+            yield message
+        self.first_pass_done = True
 
 
 def run_replay(plan: Iterable[tuple[float, BagMessage]], publish: Callable[[BagMessage], None],

@@ -1,11 +1,30 @@
-"""Bag core without ROS: typestore, split writer, checked reader (rosbags and mcap readers), replay timing."""
+"""Bag core without ROS: typestore, split writer, checked reader (rosbags and mcap readers), replay timing,
+which topics a replay plays, partial replays, edited QoS metadata, the QoS a recorder requests."""
 
 import json
 import pathlib
 
 import pytest
 import yaml
-from bag_helpers import PRIMITIVE, STRING, primitive_cdr, read_with_mcap_library, string_cdr, write_sample_bag
+from bag_helpers import (
+    COLOR,
+    GADGET,
+    GADGET_TYPE,
+    INFO,
+    PRIMITIVE,
+    STRING,
+    TF,
+    TF_TYPE,
+    garbled_qos,
+    primitive_cdr,
+    read_with_mcap_library,
+    set_offered_qos,
+    string_cdr,
+    unlist_split,
+    write_camera_bag,
+    write_sample_bag,
+)
+from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
@@ -15,12 +34,18 @@ from impurity_common.bags import (
     BagMessage,
     BagReader,
     BagWriter,
+    PassCounter,
     ReplayTiming,
     cell_typestore,
     header_stamp_ns,
     interface_msg_dir,
+    message_type_problem,
     replay_plan,
+    request_misses,
     run_replay,
+    select_topics,
+    subscription_request,
+    weakened_request,
 )
 
 
@@ -289,3 +314,187 @@ def test_custom_data_is_kept_beside_the_checksums(tmp_path, typestore):
     with BagReader(tmp_path / "noted") as reader:
         assert reader.custom_data["impurity.policy"] == "untrained"
         assert "sha256:noted_0.mcap" in reader.custom_data
+
+
+# ------------------------------------------------- issue 19 item 5a: topics of types this environment lacks
+@pytest.fixture
+def camera_bag(tmp_path):
+    bag = tmp_path / "camera"
+    return bag, write_camera_bag(bag)
+
+
+def test_a_reader_checks_only_the_types_of_the_topics_it_reads(camera_bag, typestore):
+    bag, written = camera_bag
+    with BagReader(bag, typestore, topics=[COLOR, INFO]) as reader:
+        assert [m.data for m in reader.messages([COLOR])] == written[COLOR]
+        assert [m.data for m in reader.messages([INFO])] == written[INFO]
+    with pytest.raises(BagError, match=f"unknown message type '{GADGET_TYPE}' on topic {GADGET}"):
+        BagReader(bag, typestore)  # every topic read: the custom type is refused, naming it
+
+
+def test_replaying_chosen_topics_skips_the_rest_naming_those_whose_types_are_missing(camera_bag):
+    bag, _ = camera_bag
+    with BagReader(bag) as reader:
+        selection = select_topics(bag, reader.topics, [COLOR, INFO])
+    assert selection.play == (COLOR, INFO)
+    warning = " ".join(selection.warnings)
+    assert f"{GADGET} ({GADGET_TYPE}, 1 message(s)): unknown message type '{GADGET_TYPE}'" in warning
+    assert "(not in topics)" in warning
+    assert (f"{TF} ({TF_TYPE}" in warning) == (message_type_problem(TF_TYPE) is not None)
+
+
+def test_replaying_every_topic_is_refused_naming_the_missing_types_and_the_options(camera_bag):
+    bag, _ = camera_bag
+    with BagReader(bag) as reader:
+        topics = reader.topics
+    with pytest.raises(BagError) as refusal:
+        select_topics(bag, topics, [""])  # the parameter's default: every topic
+    assert f"{GADGET} ({GADGET_TYPE}" in str(refusal.value)
+    assert "topics:=[...]" in str(refusal.value) and "allow_partial:=true" in str(refusal.value)
+
+    selection = select_topics(bag, topics, [""], allow_partial=True)
+    assert set(selection.play) == {COLOR, INFO} | ({TF} if message_type_problem(TF_TYPE) is None else set())
+    assert GADGET in " ".join(selection.warnings) and "allow_partial is true" in " ".join(selection.warnings)
+
+
+def test_topic_choice_refusals(camera_bag):
+    bag, _ = camera_bag
+    with BagReader(bag) as reader:
+        topics = reader.topics
+    with pytest.raises(BagError, match=r"cannot play 1 of the 2 selected topic\(s\).*leave them out of"):
+        select_topics(bag, topics, [COLOR, GADGET])
+    assert select_topics(bag, topics, [COLOR, GADGET], allow_partial=True).play == (COLOR,)
+    with pytest.raises(BagError, match=f"nothing to play: {GADGET}"):
+        select_topics(bag, topics, [GADGET], allow_partial=True)
+    with pytest.raises(BagError, match=r"has no topic\(s\) \['/nowhere'\].*\(parameter topics\)"):
+        select_topics(bag, topics, ["/nowhere"])
+
+
+def test_message_type_problem_names_what_is_missing():
+    assert message_type_problem("sensor_msgs/msg/Image") is None
+    assert "No module named 'other_pkg'" in message_type_problem(GADGET_TYPE)
+    assert "sensor_msgs.msg has no Nothing" in message_type_problem("sensor_msgs/msg/Nothing")
+    assert "not a message type name" in message_type_problem("garbage")
+
+
+# -------------------------------------------------------- issue 19 item 5b: edited QoS text, partial passes
+LATCHED = Qos(QosHistory.UNKNOWN, 0, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, QosTime(0, 0),
+              QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
+
+
+def recorded_qos(bag) -> list:
+    return yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"][
+        "topics_with_message_count"][0]["topic_metadata"]["offered_qos_profiles"]
+
+
+@pytest.mark.parametrize("edit", [
+    garbled_qos,  # the field report: words no ROS knows (rosbags then matched no connection: 0 messages)
+    lambda profiles: "- history: [unclosed",  # not YAML
+    lambda profiles: "garbage",  # YAML, not profiles
+    lambda profiles: [{"reliability": "reliable"}],  # keys missing
+], ids=["garbled-policies", "not-yaml", "scalar", "missing-keys"])
+def test_unreadable_qos_text_still_reads_every_message_with_the_storage_files_qos(tmp_path, typestore, edit):
+    bag = tmp_path / "latched"
+    written = write_sample_bag(bag, typestore, count=12, split_duration_ns=30_000_000, qos=[LATCHED])
+    set_offered_qos(bag, "/chatter", edit(recorded_qos(bag)))
+    with BagReader(bag, typestore) as reader:
+        assert list(reader.messages()) == written  # matched by topic and type, not by the QoS text
+        assert reader.replay_shortfall(["/chatter"], reader.start_ns, {"/chatter": 6}) is None
+        assert [q.durability for q in reader.topics["/chatter"].qos] == [QosDurability.TRANSIENT_LOCAL]
+        assert reader.topics["/policy/primitive"].qos == (LATCHED,)
+        [warning] = reader.warnings
+    assert "offered_qos_profiles of /chatter in metadata.yaml cannot be read" in warning
+    assert "using the QoS its storage file records (reliable, transient_local)" in warning
+    assert f"Correct it in {bag / 'metadata.yaml'}" in warning
+
+
+def test_unreadable_qos_text_without_qos_in_the_storage_falls_back_to_the_default(tmp_path, typestore):
+    bag = tmp_path / "plain"
+    written = write_sample_bag(bag, typestore, count=6)  # recorded without QoS profiles
+    set_offered_qos(bag, "/chatter", "- history: [unclosed")
+    with BagReader(bag) as reader:
+        assert list(reader.messages()) == written and reader.topics["/chatter"].qos == ()
+        assert "default (reliable, volatile)" in reader.warnings[0]
+
+
+def test_a_pass_that_plays_fewer_messages_than_the_topics_hold_is_described(tmp_path, typestore):
+    """A split removed from relative_file_paths (the file stays, counts unchanged): 20 of 30 readable."""
+    bag = tmp_path / "gap"
+    write_sample_bag(bag, typestore, count=30, split_duration_ns=100_000_000)
+    unlist_split(bag, 1)
+    topics = ["/chatter", "/policy/primitive"]
+    with BagReader(bag, typestore) as reader:
+        counter = PassCounter(lambda start_ns: reader.messages(topics, start_ns))
+        assert len(list(replay_plan(counter, reader.start_ns, ReplayTiming(as_fast_as_possible=True)))) == 20
+        assert counter.first_pass_done and counter.counts == {"/chatter": 10, "/policy/primitive": 10}
+        shortfall = reader.replay_shortfall(topics, reader.start_ns, counter.counts)
+    assert shortfall == (
+        f"bag {bag}: played 20 of the 30 message(s) the selected topic(s) hold (/chatter 10 of 15, "
+        "/policy/primitive 10 of 15): the storage file(s) listed in metadata.yaml hold 10 of the 15 "
+        "message(s) it counts for /chatter (a split missing from relative_file_paths, or edited counts); "
+        "the storage file(s) listed in metadata.yaml hold 10 of the 15 message(s) it counts for "
+        "/policy/primitive (a split missing from relative_file_paths, or edited counts)")
+
+
+def test_a_complete_pass_from_an_offset_has_no_shortfall(tmp_path, typestore):
+    bag = tmp_path / "offset"
+    write_sample_bag(bag, typestore, count=30, split_duration_ns=100_000_000)
+    timing = ReplayTiming(start_offset=0.095, as_fast_as_possible=True)
+    with BagReader(bag, typestore) as reader:
+        counter = PassCounter(lambda start_ns: reader.messages(["/chatter"], start_ns))
+        assert len(list(replay_plan(counter, reader.start_ns, timing))) == 10  # 100 ms .. 280 ms, every 20 ms
+        assert reader.replay_shortfall(["/chatter"], timing.first_ns(reader.start_ns), counter.counts) is None
+        assert "played 9 of the 10" in reader.replay_shortfall(["/chatter"], timing.first_ns(reader.start_ns),
+                                                                {"/chatter": 9})
+
+
+def test_a_missing_unlisted_split_is_not_a_checksum_error(tmp_path, typestore):
+    bag = tmp_path / "gap"
+    write_sample_bag(bag, typestore, count=30, split_duration_ns=100_000_000)
+    unlist_split(bag, 1)
+    (bag / "gap_1.mcap").unlink()
+    with BagReader(bag, typestore) as reader:
+        assert len(list(reader.messages())) == 20
+
+
+def test_pass_counter_counts_only_a_first_pass_read_to_its_end():
+    messages = stamped(0, 100, 300)
+    looping = PassCounter(reader_of(messages))
+    plan = replay_plan(looping, messages[0].timestamp_ns, ReplayTiming(loop=True))
+    assert dues(plan, limit=5) and looping.first_pass_done and looping.counts == {"/t": 3}
+    stopped = PassCounter(reader_of(messages))
+    plan = replay_plan(stopped, messages[0].timestamp_ns, ReplayTiming())
+    next(plan), next(plan)
+    assert not stopped.first_pass_done and stopped.counts == {"/t": 2}
+
+
+# ---------------------------------------------------- issue 19 item 6: the QoS a recorder subscribes with
+def offer(reliability: QosReliability, durability: QosDurability) -> Qos:
+    return Qos(QosHistory.UNKNOWN, 0, reliability, durability, QosTime(0, 0), QosTime(0, 0),
+               QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
+
+
+RELIABLE, BEST_EFFORT = QosReliability.RELIABLE, QosReliability.BEST_EFFORT
+LATCH, VOLATILE = QosDurability.TRANSIENT_LOCAL, QosDurability.VOLATILE
+
+
+@pytest.mark.parametrize("offers, expected", [
+    ([offer(RELIABLE, LATCH)], (RELIABLE, LATCH)),  # /robot_description: its latched message is delivered
+    ([offer(RELIABLE, LATCH), offer(RELIABLE, LATCH)], (RELIABLE, LATCH)),
+    ([offer(RELIABLE, LATCH), offer(RELIABLE, VOLATILE)], (RELIABLE, VOLATILE)),  # else one publisher is lost
+    ([offer(BEST_EFFORT, VOLATILE), offer(RELIABLE, VOLATILE)], (BEST_EFFORT, VOLATILE)),
+    ([offer(BEST_EFFORT, LATCH)], (BEST_EFFORT, LATCH)),
+    ([], (RELIABLE, VOLATILE)),
+])
+def test_a_recorder_requests_transient_local_only_where_every_publisher_offers_it(offers, expected):
+    request = subscription_request(offers)
+    assert request == expected
+    assert all(request_misses(request, o) == [] for o in offers)  # it receives from every publisher
+
+
+def test_a_new_publisher_weakens_the_request_just_enough_and_never_strengthens_it():
+    assert request_misses((RELIABLE, LATCH), offer(RELIABLE, VOLATILE)) == [
+        "it offers volatile, the subscription requests transient_local"]
+    assert weakened_request((RELIABLE, LATCH), [offer(RELIABLE, VOLATILE)]) == (RELIABLE, VOLATILE)
+    assert weakened_request((RELIABLE, LATCH), [offer(BEST_EFFORT, LATCH)]) == (BEST_EFFORT, LATCH)
+    assert weakened_request((BEST_EFFORT, VOLATILE), [offer(RELIABLE, LATCH)]) == (BEST_EFFORT, VOLATILE)
