@@ -3,7 +3,8 @@
 attention module (224x224 heightmaps in), p50/p95 over repeated calls. Printed, never asserted.
 
 Scenes are synthetic (impurity_attention.core.synthetic, seeded) so the figures do not depend on the
-simulator; pass --sim to also time frames rendered by the PyBullet cell. Aims (issue 4): heightmap
+simulator; pass --sim to also time frames rendered by the PyBullet cell. Also printed: the depth sanity
+check and, for cameras coarser than the cells, the cost of filling the gaps. Aims (issue 4): heightmap
 <= 20 ms, attention <= 30 ms p50.
 """
 
@@ -15,7 +16,7 @@ from timing import timed
 
 from impurity_attention.core.attention import AttentionParams, attend
 from impurity_attention.core.heightmap import HeightmapProjector, depth_to_meters
-from impurity_attention.core.synthetic import random_boxes, render_boxes
+from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
 
 
 def report(name: str, times: tuple, aim_ms: float) -> None:
@@ -46,6 +47,18 @@ def main() -> None:
            timed(lambda: projector.project(frame.color, frame.depth), args.repeats), 20)
     from_millimetres = lambda: projector.project(frame.color, depth_to_meters(depth_mm, "16UC1"))  # noqa: E731
     report("heightmap 640x480 16UC1 (incl. mm -> m) -> 224x224", timed(from_millimetres, args.repeats), 20)
+    report("depth sanity check (check_depth), 640x480", timed(lambda: projector.check_depth(frame.depth),
+                                                              args.repeats), 20)
+    # cameras coarser than the cells: the gaps between samples are filled (the default camera: none)
+    for distance, width, height, fx in ((1.5, 640, 480, None), (1.5, 424, 240, 308.0)):
+        intrinsics, pose = overhead_camera(distance, width, height, fx)
+        coarse = render_boxes(random_boxes(args.seed, 20, 1), width, height, intrinsics, pose)
+        coarse_projector = HeightmapProjector(intrinsics, pose, coarse.depth.shape)
+        label = (f"{width}x{height} at {distance} m ({coarse_projector.footprint * 1000:.1f} mm/px, "
+                 f"reach {coarse_projector.gap_reach})")
+        for fill in (False, True):
+            project = lambda p=coarse_projector, c=coarse, f=fill: p.project(c.color, c.depth, fill_gaps=f)  # noqa: E731
+            report(f"heightmap {label}{', gaps filled' if fill else ''}", timed(project, args.repeats), 20)
     params = AttentionParams()
     for name, scene in scenes.items():
         maps = projector.project(scene.color, scene.depth)

@@ -4,6 +4,13 @@ height maps of the workspace in base_link).
 Thin shell around impurity_attention.core.heightmap: it converts messages, pairs colour and depth by
 stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback).
 The camera pose in base_link is a parameter: a real cell sets it from its hand-eye calibration.
+
+What a real camera does differently from the simulated one is said in the log, each with its cause
+and the parameter to change: frames that go unpaired (rate-limited, with the measured stamp offset:
+`sync_tolerance`), depth that does not fit the table and the camera pose (rate-limited: `depth_scale`,
+`camera_position`, `camera_orientation`), pixels coarser than the cells (once: the gaps between
+samples are filled), frames stamped on another clock than the node's (once: `use_sim_time`, the
+driver's timestamp setting).
 """
 
 from dataclasses import dataclass
@@ -15,21 +22,32 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
 from impurity_attention.core.heightmap import (
+    DEFAULT_DEPTH_SCALE,
     DEPTH_ENCODINGS,
     DepthFormatError,
     ProjectorCache,
+    depth_problem,
     depth_to_meters,
     pose_matrix,
 )
-from impurity_attention.core.sync import StampPairer
+from impurity_attention.core.sync import StampPairer, UnpairedFrame
 from impurity_common import cell, names
-from impurity_common.conversions import ImageFormatError, image_to_numpy, numpy_to_image, time_to_ns
+from impurity_common.conversions import (
+    RGB_ENCODINGS,
+    ImageFormatError,
+    image_to_numpy,
+    image_to_rgb,
+    numpy_to_image,
+    time_to_ns,
+)
 from impurity_common.grid import MAX_HEIGHT, HeightmapGrid
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import InvalidParameter, declare_parameters, increasing, nonzero_norm, param
 from impurity_interfaces.msg import Heightmap
 
-COLOR_ENCODINGS = ("rgb8", "bgr8")
+COLOR_ENCODINGS = tuple(RGB_ENCODINGS)  # rgb8, bgr8, rgba8, bgra8: read as RGB, alpha dropped
+# Frames stamped further than this from the node's clock are on another clock (warned once).
+STAMP_OFFSET_WARNING = 1.0  # s
 # Lab statistics of the seen cells of sim-rendered heightmaps (70 tuning scenes): the reference of the
 # optional sim-to-real transfer. Re-measure with `scripts/calibrate_attention.py lab-reference` when
 # the sim's look changes.
@@ -55,8 +73,12 @@ class HeightmapParameters:
     table_z: float = param(cell.TABLE_Z, "Table top height in base_link (m)", low=-5.0, high=5.0)
     max_height: float = param(MAX_HEIGHT, "Points higher than this above the table are dropped (arm, "
                               "gripper, noise) (m)", low=0.001, high=5.0)
-    sync_tolerance: float = param(0.01, "Largest stamp difference (s) for a colour and a depth frame to pair",
-                                  low=0.0, high=1.0)
+    sync_tolerance: float = param(0.0, "Largest stamp difference (s) for a colour and a depth frame to pair; "
+                                  "0.0 = automatic: half the frame period measured from the stamps (any "
+                                  "colour-depth offset of the driver below half a period)", low=0.0, high=1.0)
+    depth_scale: float = param(DEFAULT_DEPTH_SCALE, "Metres per unit of integer depth (16UC1, mono16); not "
+                               "on the topic: RealSense D4xx 0.001 (mm), D405 0.0001. 32FC1 is always metres",
+                               low=1e-7, high=1.0)
     colour_adaptation: bool = param(False, "Reinhard Lab transfer of heightmap colours to the sim reference "
                                     "statistics (real cameras)")
     colour_reference_mean: tuple[float, ...] = param(SIM_LAB_MEAN, "Reference Lab mean [L, a, b] for colour "
@@ -83,7 +105,10 @@ class HeightmapNode(Node):
 
         self._grid = params.grid()
         self._camera_pose = pose_matrix(params.camera_position, params.camera_orientation)
-        self._pairer = StampPairer(tolerance_ns=int(params.sync_tolerance * 1e9))
+        self._pairer = StampPairer(tolerance_ns=int(round(params.sync_tolerance * 1e9))
+                                   if params.sync_tolerance > 0 else None)
+        self._warned_clock = False
+        self._warned_footprint = None  # the projector the footprint warning was given for
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
         self._reference = LabStatistics(params.colour_reference_mean, params.colour_reference_std)
@@ -112,14 +137,68 @@ class HeightmapNode(Node):
         self._camera_info = msg
 
     def _on_color(self, msg: Image) -> None:
-        pair = self._pairer.add_color(time_to_ns(msg.header.stamp), msg)
-        if pair is not None:
-            self._process(*pair)
+        stamp = time_to_ns(msg.header.stamp)
+        self._check_clock(stamp)
+        self._pairs(self._pairer.add_color(stamp, msg))
 
     def _on_depth(self, msg: Image) -> None:
-        pair = self._pairer.add_depth(time_to_ns(msg.header.stamp), msg)
-        if pair is not None:
-            self._process(*pair)
+        self._pairs(self._pairer.add_depth(time_to_ns(msg.header.stamp), msg))
+
+    def _pairs(self, pairs: list) -> None:
+        """Process the pairs a frame completed; say why frames went unpaired."""
+        unpaired = self._pairer.take_unpaired()
+        if unpaired:
+            self.get_logger().warning(self._unpaired_text(unpaired),
+                                      throttle_duration_sec=self.params.log_throttle)
+        for color_msg, depth_msg in pairs:
+            self._process(color_msg, depth_msg)
+
+    def _unpaired_text(self, unpaired: list[UnpairedFrame]) -> str:
+        """Why frames went unpaired: the other stream is missing, the stamps lie further apart than the
+        tolerance (name it and the measured offset), or partners were lost on the way."""
+        last = unpaired[-1]
+        other = "depth" if last.side == "color" else "colour"
+        topic = names.DEPTH_TOPIC if last.side == "color" else names.COLOR_TOPIC
+        sides = sorted({"colour" if frame.side == "color" else "depth" for frame in unpaired})
+        text = (f"{len(unpaired)} {' and '.join(sides)} frame(s) dropped unpaired "
+                f"({self._pairer.dropped} so far): ")
+        if last.offset_ns is None:
+            return text + f"no {other} frame has arrived on {topic} (is that stream enabled?)"
+        offset, tolerance = last.offset_ns / 1e6, last.tolerance_ns / 1e6
+        period = self._pairer.period_ns
+        if self.params.sync_tolerance > 0:
+            rule = f"sync_tolerance={self.params.sync_tolerance:g} s"
+            advice = "set sync_tolerance above the offset, or to 0.0 to pair within half the frame period"
+        else:
+            rule = "sync_tolerance=0.0: half the frame period, " + (
+                f"{period / 1e6:.1f} ms measured" if period else "exact stamps until the period is measured")
+            advice = "set sync_tolerance (s) above the offset"
+        if not last.partner_lost:
+            return (text + f"depth is stamped {offset:+.1f} ms from its nearest colour frame, beyond the "
+                    f"pairing tolerance of {tolerance:.1f} ms ({rule}); {advice}")
+        taken = ", paired with another frame" if last.nearest_paired else ""
+        return (text + "their partners never arrived (lost by the best-effort transport or a busy node, or a "
+                f"frame came twice): the nearest {other} frame is {offset:+.1f} ms away{taken}; other frames "
+                f"pair within {tolerance:.1f} ms ({rule})")
+
+    def _check_clock(self, stamp_ns: int) -> None:
+        """Warn once when frames are stamped on another clock than this node's."""
+        if self._warned_clock:
+            return
+        now_ns = self.get_clock().now().nanoseconds
+        if now_ns == 0:  # use_sim_time and no /clock yet: nothing to compare with
+            return
+        offset = (stamp_ns - now_ns) / 1e9
+        if abs(offset) <= STAMP_OFFSET_WARNING:
+            return
+        self._warned_clock = True
+        self.get_logger().warning(
+            f"camera frames are stamped {offset:+.1f} s from this node's clock (frame "
+            f"{stamp_ns / 1e9:.3f} s, clock {now_ns / 1e9:.3f} s): the camera stamps on its own clock, and "
+            "every check of an input's age downstream (the policy's max_age, the episode's waits) will "
+            "misjudge it. Put the camera and the nodes on one clock: the driver's timestamp setting "
+            "(realsense-ros: global_time_enabled:=true), or use_sim_time:=true for every node when a /clock "
+            "is published (bag replays, simulation). (Said once.)")
 
     def _process(self, color_msg: Image, depth_msg: Image) -> None:
         try:
@@ -135,10 +214,9 @@ class HeightmapNode(Node):
         if info is None:
             self._drop(f"no camera_info on {names.CAMERA_INFO_TOPIC} yet")
             return None
-        color = image_to_numpy(color_msg, COLOR_ENCODINGS)
-        if color_msg.encoding == "bgr8":
-            color = np.ascontiguousarray(color[..., ::-1])
-        depth = depth_to_meters(image_to_numpy(depth_msg, DEPTH_ENCODINGS), depth_msg.encoding)
+        color = image_to_rgb(color_msg, COLOR_ENCODINGS)
+        depth = depth_to_meters(image_to_numpy(depth_msg, DEPTH_ENCODINGS), depth_msg.encoding,
+                                self.params.depth_scale)
         if color.shape[:2] != depth.shape:
             raise ValueError(f"colour {color.shape[1]}x{color.shape[0]} and depth "
                              f"{depth.shape[1]}x{depth.shape[0]} differ (depth must be aligned to colour)")
@@ -147,10 +225,15 @@ class HeightmapNode(Node):
                              f"{depth.shape[1]}x{depth.shape[0]}")
         intrinsics = np.array(info.k).reshape(3, 3)
         projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
+        self._check_footprint(projector)
         maps = projector.project(color, depth)
+        problem = depth_problem(projector.check_depth(depth), depth_msg.encoding, self.params.depth_scale)
+        if problem is not None:
+            self.get_logger().warning(f"depth does not fit the table: {problem}",
+                                      throttle_duration_sec=self.params.log_throttle)
         color_map = maps.color
         if self.params.colour_adaptation:
-            color_map = reinhard_transfer(color_map, self._reference, valid=maps.seen)
+            color_map = reinhard_transfer(color_map, self._reference, valid=maps.known)
         msg = Heightmap()
         msg.header.stamp = color_msg.header.stamp
         msg.header.frame_id = names.BASE_FRAME
@@ -159,6 +242,18 @@ class HeightmapNode(Node):
         msg.color = numpy_to_image(color_map, "rgb8", msg.header)
         msg.height = numpy_to_image(maps.height, "32FC1", msg.header)
         return msg
+
+    def _check_footprint(self, projector) -> None:
+        """Warn once per camera geometry when a pixel covers more of the table than a cell."""
+        if projector is self._warned_footprint or not projector.footprint > self._grid.resolution:
+            return
+        self._warned_footprint = projector
+        resolution = self._grid.resolution
+        self.get_logger().warning(
+            f"camera pixels cover up to {projector.footprint * 1000:.2f} mm of the table, more than the "
+            f"{resolution * 1000:.1f} mm cells: cells between samples are filled from their neighbours "
+            f"(gaps up to {projector.gap_reach} cell(s)). To see every cell, mount the camera lower, use a "
+            f"higher camera resolution, or set resolution to {projector.footprint:.4f} m or more.")
 
 
 def main(args=None):

@@ -11,6 +11,8 @@ from sensor_msgs.msg import Image
 ENCODINGS = {
     "rgb8": (np.uint8, 3),
     "bgr8": (np.uint8, 3),
+    "rgba8": (np.uint8, 4),
+    "bgra8": (np.uint8, 4),
     "mono8": (np.uint8, 1),
     "16UC1": (np.uint16, 1),
     "mono16": (np.uint16, 1),
@@ -49,6 +51,22 @@ def image_to_numpy(msg: Image, expected_encodings=None) -> np.ndarray:
         array = array.byteswap()
     shape = (msg.height, msg.width) if channels == 1 else (msg.height, msg.width, channels)
     return array.reshape(shape)
+
+
+# Colour encodings read as RGB (image_to_rgb): realsense-ros publishes rgb8, OpenCV-based drivers bgr8,
+# ZED and many USB cameras bgra8 / rgba8. encoding -> the channels, in R, G, B order, of its pixels.
+RGB_ENCODINGS = {"rgb8": slice(None), "bgr8": slice(None, None, -1), "rgba8": slice(0, 3),
+                 "bgra8": slice(2, None, -1)}
+
+
+def image_to_rgb(msg: Image, accepted=tuple(RGB_ENCODINGS)) -> np.ndarray:
+    """Colour Image -> (H, W, 3) uint8 RGB: blue-first encodings reordered, alpha dropped. Any other
+    encoding raises ImageFormatError naming the accepted ones."""
+    unknown = [encoding for encoding in accepted if encoding not in RGB_ENCODINGS]
+    if unknown:
+        raise ValueError(f"image_to_rgb cannot read {unknown} (it reads {list(RGB_ENCODINGS)})")
+    array = image_to_numpy(msg, accepted)
+    return np.ascontiguousarray(array[..., RGB_ENCODINGS[msg.encoding]])
 
 
 def numpy_to_image(array: np.ndarray, encoding: str, header=None) -> Image:

@@ -7,6 +7,19 @@ tall objects, depth holes) stay empty: height 0 and black, never a spike. The sa
 any per-pixel label image along (the simulator's segmentation), which is how ground truth reaches
 heightmap coordinates.
 
+A camera whose pixels cover more of the table than a cell (`HeightmapProjector.footprint`, e.g.
+640x480 at 1.5 m: 2.4 mm per pixel on 2 mm cells) leaves cells between its samples unseen, lines of
+them across every object. Those gaps, and only gaps that narrow (`gap_reach` cells, from the
+footprint), are filled from the seen cells on both sides of them (`fill_sampling_gaps`): a gap
+between two object cells takes the lower of the two, so a gap bordered by table stays table and no
+object grows over the table. With pixels finer than the cells (the default camera: 1.2 mm) nothing
+is filled and the maps are exactly the projection.
+
+`HeightmapProjector.check_depth` tells whether a frame's depth fits the configured camera pose and
+table at all (`depth_problem` words the likely cause): integer depth in other units than
+`depth_scale` says (a D405 publishes 0.1 mm), or a wrong camera pose, puts most points far from the
+table plane.
+
 Pure numpy; no rclpy. One projection of a 640x480 frame takes a few milliseconds because the rays of
 a fixed camera are computed once and a cell's maximum uses `np.maximum.at` instead of a sort.
 """
@@ -21,9 +34,19 @@ import numpy as np
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
 
-# Depth encodings the camera driver may publish (realsense-ros: 16UC1 millimetres; sims: 32FC1 m).
-DEPTH_ENCODINGS = ("16UC1", "32FC1")
+# Depth encodings the camera driver may publish: integer depth in `depth_scale` m per unit (realsense-ros
+# 16UC1, millimetres on a D4xx and 0.1 mm on a D405; some drivers say mono16), or 32FC1 metres (sims).
+INTEGER_DEPTH_ENCODINGS = ("16UC1", "mono16")
+DEPTH_ENCODINGS = (*INTEGER_DEPTH_ENCODINGS, "32FC1")
+DEFAULT_DEPTH_SCALE = 0.001  # m per unit of integer depth: RealSense D4xx millimetres
 UNSEEN_LABEL = -1  # label of heightmap cells that no pixel reached
+
+# The depth sanity check: a point of a pixel that looks at the workspace is "far" from the table when it
+# lies more than this below the table plane, or higher than the grid's max_height; a frame is suspect
+# when MOST of them are far, or when fewer than MIN_VALID_FRACTION of those pixels have a depth.
+FAR_BELOW_TABLE = 0.05  # m
+MOST = 0.5
+MIN_VALID_FRACTION = 0.1
 
 
 class DepthFormatError(ValueError):
@@ -34,12 +57,20 @@ class DepthFormatError(ValueError):
 class Heightmaps:
     """color: (rows, cols, 3) uint8, black where unseen; height: (rows, cols) float32 m above the
     table, 0 where unseen; seen: bool, cells some pixel reached; labels: int32 per cell (the label of
-    the highest point, UNSEEN_LABEL where unseen) when a label image was projected, else None."""
+    the highest point, UNSEEN_LABEL where unseen) when a label image was projected, else None;
+    filled: bool, cells no pixel reached that took their values from the seen cells around them
+    (sampling gaps of a camera coarser than the cells; never set where `seen`; None: not computed)."""
 
     color: np.ndarray
     height: np.ndarray
     seen: np.ndarray
     labels: np.ndarray | None = None
+    filled: np.ndarray | None = None
+
+    @property
+    def known(self) -> np.ndarray:
+        """Cells with a value: seen, or filled from their neighbours."""
+        return self.seen if self.filled is None else self.seen | self.filled
 
 
 def pose_matrix(position, quaternion_xyzw) -> np.ndarray:
@@ -71,17 +102,21 @@ def default_intrinsics() -> np.ndarray:
                      [0.0, 0.0, 1.0]])
 
 
-def depth_to_meters(depth: np.ndarray, encoding: str) -> np.ndarray:
-    """16UC1 (mm) or 32FC1 (m) -> float32 metres, NaN where the camera saw nothing (0, NaN, inf)."""
+def depth_to_meters(depth: np.ndarray, encoding: str, depth_scale: float = DEFAULT_DEPTH_SCALE) -> np.ndarray:
+    """Integer depth (16UC1, mono16: `depth_scale` m per unit) or 32FC1 (m) -> float32 metres, NaN
+    where the camera saw nothing (0, NaN, inf). The scale is not on the topic: a RealSense D4xx
+    publishes millimetres (0.001), a D405 0.1 mm (0.0001)."""
     if encoding not in DEPTH_ENCODINGS:
         raise DepthFormatError(f"depth encoding '{encoding}' not accepted (expected one of "
                                f"{list(DEPTH_ENCODINGS)})")
     if depth.ndim != 2:
         raise DepthFormatError(f"depth must be one channel (H, W), got shape {depth.shape}")
-    if encoding == "16UC1":
+    if encoding in INTEGER_DEPTH_ENCODINGS:
         if depth.dtype != np.uint16:
-            raise DepthFormatError(f"16UC1 depth must be uint16, got {depth.dtype}")
-        meters = depth.astype(np.float32) * np.float32(0.001)
+            raise DepthFormatError(f"{encoding} depth must be uint16, got {depth.dtype}")
+        if not (math.isfinite(depth_scale) and depth_scale > 0):
+            raise DepthFormatError(f"depth_scale {depth_scale} is not usable (expected > 0 m per unit)")
+        meters = depth.astype(np.float32) * np.float32(depth_scale)
     else:
         if depth.dtype != np.float32:
             raise DepthFormatError(f"32FC1 depth must be float32, got {depth.dtype}")
@@ -95,6 +130,123 @@ def validate_intrinsics(intrinsics) -> np.ndarray:
     if not (np.all(np.isfinite(k)) and k[0, 0] > 0 and k[1, 1] > 0):
         raise ValueError(f"camera intrinsics are not usable (fx, fy must be > 0): {k.tolist()}")
     return k
+
+
+@dataclass(frozen=True)
+class DepthCheck:
+    """One frame's depth against the configured geometry (HeightmapProjector.check_depth)."""
+
+    pixels: int  # camera pixels whose ray meets the table plane inside the workspace (configured pose)
+    valid: int  # of them, pixels with a depth
+    below: float  # fraction of the valid ones lying more than FAR_BELOW_TABLE below the table plane
+    above: float  # fraction lying higher than the grid's max_height above it
+    depth_ratio: float  # median of measured depth / the table plane's depth along the same ray; NaN: none
+
+    @property
+    def far(self) -> float:
+        """Fraction of the valid points far from where the table and the objects on it can be."""
+        return self.below + self.above
+
+
+def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float = DEFAULT_DEPTH_SCALE
+                  ) -> str | None:
+    """None when the frame's depth fits the camera pose and the table; else one line naming what is
+    wrong and the likely causes, with the parameters to change."""
+    pose = "the camera pose (camera_position, camera_orientation: the optical frame in base_link)"
+    if check.pixels == 0:
+        return (f"no camera pixel looks at the workspace from the configured pose: check {pose} against "
+                "workspace_x, workspace_y and table_z")
+    if check.valid < MIN_VALID_FRACTION * check.pixels:
+        return (f"only {check.valid / check.pixels:.0%} of the {check.pixels} pixels that should see the "
+                f"workspace have a depth: the camera sees nothing there (covered, out of its range, an empty "
+                f"depth stream) or looks elsewhere: check {pose}")
+    if check.far <= MOST:
+        return None
+    ratio = check.depth_ratio
+    if encoding in INTEGER_DEPTH_ENCODINGS:
+        units = (f"the depth units: {encoding} depth is read with depth_scale={depth_scale:g} m per unit "
+                 "(RealSense D4xx: 0.001, D405: 0.0001)")
+        if math.isfinite(ratio) and ratio > 0:
+            units += f"; these depths fit depth_scale={float(f'{depth_scale / ratio:.1g}'):g}"
+    else:
+        units = f"the depth units: {encoding} depth must be metres"
+    # a unit mistake scales every depth by a power of ten; a pose mistake by anything
+    decades = math.log10(ratio) if math.isfinite(ratio) and ratio > 0 else 0.0
+    units_first = round(decades) != 0 and abs(decades - round(decades)) < 0.1
+    causes = f"{units}; or {pose}, or table_z" if units_first else f"{pose}, or table_z; or {units}"
+    return (f"{check.far:.0%} of the {check.valid} depth points in the workspace's view lie far from the "
+            f"table plane ({check.below:.0%} more than {FAR_BELOW_TABLE * 100:.0f} cm below table_z, "
+            f"{check.above:.0%} higher than max_height), at {ratio:.4g} times the table's distance along "
+            f"their rays. Likely cause: {causes}")
+
+
+# Along a row and along a column. Not the diagonals: between two objects that meet at a right angle an
+# unseen cell of the inner corner lies on a diagonal from one to the other, and would become object.
+_DIRECTIONS = ((0, 1), (1, 0))
+
+
+def _shifted(array: np.ndarray, d_row: int, d_col: int, fill) -> np.ndarray:
+    """out[r, c] = array[r + d_row, c + d_col], `fill` where that falls outside."""
+    out = np.full_like(array, fill)
+    rows, cols = array.shape[:2]
+    out[max(-d_row, 0):rows - max(d_row, 0), max(-d_col, 0):cols - max(d_col, 0)] = \
+        array[max(d_row, 0):rows - max(-d_row, 0), max(d_col, 0):cols - max(-d_col, 0)]
+    return out
+
+
+def fill_sampling_gaps(maps: Heightmaps, reach: int, passes: int | None = None) -> Heightmaps:
+    """Fill, in place, the unseen cells that lie between two known cells at most `reach` cells away on
+    opposite sides (along a row or a column): the gaps a camera coarser than the cells leaves between
+    its samples. Along each such line the cell takes the LOWER of its two nearest known neighbours
+    (height, colour, label): inside an object it is the object, and wherever table borders the gap it
+    stays table, so no object grows over the table. Of the two lines the higher such value wins. Later
+    passes (`passes`, default reach + 1) reach the cells where unsampled rows cross unsampled columns,
+    from the cells earlier passes filled. Holes wider than `reach` (shadows, depth holes) stay unseen.
+    Sets maps.filled; returns maps."""
+    maps.filled = np.zeros_like(maps.seen)
+    for _ in range((reach + 1 if passes is None else passes) if reach >= 1 else 0):
+        known = maps.known
+        if known.all() or not known.any() or not _fill_pass(maps, known, reach):
+            break
+    return maps
+
+
+def _fill_pass(maps: Heightmaps, known: np.ndarray, reach: int) -> bool:
+    """One pass of fill_sampling_gaps from the `known` cells; False when it filled nothing."""
+    rows, cols = known.shape
+    index = np.where(known, np.arange(rows * cols).reshape(rows, cols), -1)
+    flat_height = maps.height.reshape(-1)
+    best_height = np.full((rows, cols), -np.inf, dtype=np.float32)
+    best_source = np.full((rows, cols), -1, dtype=np.int64)
+    for d_row, d_col in _DIRECTIONS:
+        nearest = []
+        for sign in (1, -1):
+            found = np.full((rows, cols), -1, dtype=np.int64)
+            for step in range(reach, 0, -1):  # the nearest known cell wins: written last
+                there = _shifted(index, sign * step * d_row, sign * step * d_col, -1)
+                found = np.where(there >= 0, there, found)
+            nearest.append(found)
+        ahead, behind = nearest
+        between = ~known & (ahead >= 0) & (behind >= 0)
+        if not between.any():
+            continue
+        ahead_height = flat_height[np.maximum(ahead, 0)]
+        behind_height = flat_height[np.maximum(behind, 0)]
+        lower = np.where(ahead_height <= behind_height, ahead, behind)
+        lower_height = np.minimum(ahead_height, behind_height)
+        better = between & (lower_height > best_height)
+        best_height[better] = lower_height[better]
+        best_source[better] = lower[better]
+    filled = best_source >= 0
+    if not filled.any():
+        return False
+    source = best_source[filled]
+    maps.height[filled] = flat_height[source]
+    maps.color[filled] = maps.color.reshape(-1, 3)[source]
+    if maps.labels is not None:
+        maps.labels[filled] = maps.labels.reshape(-1)[source]
+    maps.filled |= filled
+    return True
 
 
 class HeightmapProjector:
@@ -120,15 +272,48 @@ class HeightmapProjector:
         # point(depth) = origin + depth * ray, all in base_link; heights measured from the table
         self._rays = rays_base.astype(np.float32)
         self._origin = self.camera_pose[:3, 3].astype(np.float32)
+        self._table_geometry(rays_base)
+
+    def _table_geometry(self, rays_base: np.ndarray) -> None:
+        """Where each pixel's ray meets the table plane: which pixels look at the workspace (and at
+        what depth the table lies along them), and the largest table footprint of one pixel there."""
+        grid, origin = self.grid, self.camera_pose[:3, 3]
+        height, width = self.image_shape
+        with np.errstate(divide="ignore", invalid="ignore"):
+            depth = (grid.table_z - origin[2]) / rays_base[2]
+        depth[~np.isfinite(depth) | (depth <= 0.0)] = np.nan
+        x = origin[0] + depth * rays_base[0]
+        y = origin[1] + depth * rays_base[1]
+        in_workspace = (x >= grid.x_min) & (x < grid.x_max) & (y >= grid.y_min) & (y < grid.y_max)
+        self._workspace_pixels = np.flatnonzero(in_workspace)
+        self._table_depth = depth[self._workspace_pixels].astype(np.float32)
+        self._workspace_ray_z = self._rays[2, self._workspace_pixels]
+        # a pixel's footprint: the extent along x and y of the parallelogram between neighbouring
+        # pixels' table points. When it is at most a cell everywhere, every cell holds a sample.
+        points = np.stack([x, y]).reshape(2, height, width)
+        along_cols = np.abs(np.diff(points, axis=2))[:, :-1, :]
+        along_rows = np.abs(np.diff(points, axis=1))[:, :, :-1]
+        extent = (along_cols + along_rows).max(axis=0)
+        looking = in_workspace.reshape(height, width)[:-1, :-1] & np.isfinite(extent)
+        # footprint: m of table one pixel covers at most (along x or y) over the workspace; NaN when the
+        # camera does not look at the workspace
+        self.footprint = float(extent[looking].max()) if looking.any() else math.nan
+        # gap_reach: the widest run of cells (along a row or a column) that can fall between two
+        # samples, what fill_sampling_gaps closes; 0 when pixels are finer than cells
+        ratio = self.footprint / grid.resolution
+        coarse = math.isfinite(ratio) and ratio > 1.0 + 1e-6
+        self.gap_reach = int(math.ceil(ratio - 1e-6)) - 1 if coarse else 0
 
     def matches(self, intrinsics, camera_pose, image_shape, grid: HeightmapGrid) -> bool:
         return (self.image_shape == tuple(image_shape) and self.grid == grid
                 and np.allclose(self.intrinsics, np.asarray(intrinsics).reshape(3, 3))
                 and np.allclose(self.camera_pose, np.asarray(camera_pose).reshape(4, 4)))
 
-    def project(self, color: np.ndarray, depth_m: np.ndarray, labels: np.ndarray | None = None
-                ) -> Heightmaps:
-        """color (H, W, 3) uint8, depth_m (H, W) metres with NaN/0 holes, labels (H, W) int or None."""
+    def project(self, color: np.ndarray, depth_m: np.ndarray, labels: np.ndarray | None = None,
+                fill_gaps: bool = True) -> Heightmaps:
+        """color (H, W, 3) uint8, depth_m (H, W) metres with NaN/0 holes, labels (H, W) int or None.
+        With `fill_gaps`, sampling gaps up to `gap_reach` cells wide are filled (fill_sampling_gaps);
+        nothing is filled when the camera's pixels are finer than the cells."""
         height, width = self.image_shape
         if color.shape != (height, width, 3) or color.dtype != np.uint8:
             raise ValueError(f"colour must be ({height}, {width}, 3) uint8, got {color.shape} {color.dtype}")
@@ -169,8 +354,33 @@ class HeightmapProjector:
             label_map = np.full(rows * cols, UNSEEN_LABEL, dtype=np.int32)
             label_map[seen_cells] = labels.reshape(-1)[source_pixel[seen_cells]]
             label_map = label_map.reshape(rows, cols)
-        return Heightmaps(color=color_map.reshape(rows, cols, 3), height=height_map.reshape(rows, cols),
-                          seen=seen.reshape(rows, cols), labels=label_map)
+        maps = Heightmaps(color=color_map.reshape(rows, cols, 3), height=height_map.reshape(rows, cols),
+                          seen=seen.reshape(rows, cols), labels=label_map,
+                          filled=np.zeros((rows, cols), dtype=bool))
+        if fill_gaps and self.gap_reach > 0:
+            fill_sampling_gaps(maps, self.gap_reach)
+        return maps
+
+    def check_depth(self, depth_m: np.ndarray) -> DepthCheck:
+        """Does this frame's depth fit the configured camera pose and table? Looks at the pixels whose
+        ray meets the table plane inside the workspace: their points should lie on the table or on
+        objects below max_height (see depth_problem for the verdict)."""
+        if depth_m.shape != self.image_shape:
+            raise ValueError(f"depth must be {self.image_shape}, got {depth_m.shape}")
+        depth = depth_m.reshape(-1)[self._workspace_pixels].astype(np.float32, copy=False)
+        valid = np.isfinite(depth) & (depth > 0.0)
+        count = int(np.count_nonzero(valid))
+        if count == 0:
+            return DepthCheck(pixels=len(self._workspace_pixels), valid=0, below=0.0, above=0.0,
+                              depth_ratio=math.nan)
+        d = depth[valid]
+        z = self._origin[2] + d * self._workspace_ray_z[valid] - np.float32(self.grid.table_z)
+        step = max(1, count // 8000)  # the median of ~8000 evenly spread points is plenty
+        ratio = float(np.median(d[::step] / self._table_depth[valid][::step]))
+        return DepthCheck(pixels=len(self._workspace_pixels), valid=count,
+                          below=float(np.count_nonzero(z < -FAR_BELOW_TABLE)) / count,
+                          above=float(np.count_nonzero(z > self.grid.max_height)) / count,
+                          depth_ratio=ratio)
 
 
 class ProjectorCache:

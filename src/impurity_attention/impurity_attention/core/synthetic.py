@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
 
-from .heightmap import default_camera_pose, default_intrinsics
+from .heightmap import default_camera_pose, default_intrinsics, pose_matrix
 
 TABLE_COLOR = (150, 150, 150)
 PRODUCT_COLOR = (40, 120, 200)
@@ -90,3 +91,30 @@ def random_boxes(seed: int, num_product: int = 20, num_impurities: int = 1, size
         boxes.append(Box(float(x), float(y), size, size, float(h),
                          impurity_color if is_impurity else product_color, i + 1))
     return boxes
+
+
+def overhead_camera(distance: float = cell.CAMERA_POSITION[2] - cell.TABLE_Z, width: int = cell.CAMERA_WIDTH,
+                    height: int = cell.CAMERA_HEIGHT, fx: float | None = None,
+                    centre: tuple = cell.CAMERA_POSITION[:2]) -> tuple:
+    """(intrinsics, camera_pose) of a camera `distance` m above the table looking straight down at
+    `centre` (x, y), image x along +x_base as the cell's camera; `fx` (= fy, px) defaults to the cell
+    camera's field of view at this width. Pass both to render_boxes."""
+    focal = cell.CAMERA_FX * width / cell.CAMERA_WIDTH if fx is None else float(fx)
+    intrinsics = np.array([[focal, 0.0, (width - 1) / 2.0], [0.0, focal, (height - 1) / 2.0],
+                           [0.0, 0.0, 1.0]])
+    pose = pose_matrix((centre[0], centre[1], cell.TABLE_Z + distance), cell.CAMERA_ORIENTATION)
+    return intrinsics, pose
+
+
+def footprint_labels(boxes, grid: HeightmapGrid = HeightmapGrid()) -> np.ndarray:
+    """(rows, cols) int32 ground truth on `grid`: the label of the highest box whose footprint holds
+    the cell's centre, 0 (table) elsewhere - what a perfect heightmap would show."""
+    rows, cols = grid.shape
+    x = grid.x_min + (np.arange(cols) + 0.5) * grid.resolution
+    y = grid.y_min + (np.arange(rows) + 0.5) * grid.resolution
+    labels = np.zeros((rows, cols), dtype=np.int32)
+    for box in sorted(boxes, key=lambda b: b.height):  # highest last: it is what a camera sees
+        inside = ((np.abs(y - box.y) <= box.size_y / 2)[:, None]
+                  & (np.abs(x - box.x) <= box.size_x / 2)[None, :])
+        labels[inside] = box.label
+    return labels

@@ -1,0 +1,204 @@
+"""Graph tests: heightmap_node (a real process) fed by cameras unlike the simulated one (issue 19):
+colour and depth stamped apart, depth in 0.1 mm, frames stamped on the camera's own clock, four-channel
+colour, pixels coarser than the cells. Each behaviour is seen on /heightmap or in the node's log."""
+
+import numpy as np
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
+
+from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
+from impurity_common import names
+from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
+from impurity_common.grid import HeightmapGrid
+from impurity_interfaces.msg import Heightmap
+from ros_harness import TopicRecorder, ros_args, spin_until, wait_for_subscribers
+
+RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+PERIOD_15HZ = 1_000_000_000 // 15
+WAIT = 60.0  # s for any one thing to show up
+GRID = HeightmapGrid()
+
+
+def colour_bytes(rgb: np.ndarray, encoding: str) -> np.ndarray:
+    alpha = np.full(rgb.shape[:2] + (1,), 255, np.uint8)
+    return {"rgb8": rgb, "bgr8": rgb[..., ::-1], "rgba8": np.concatenate([rgb, alpha], axis=2),
+            "bgra8": np.concatenate([rgb[..., ::-1], alpha], axis=2)}[encoding]
+
+
+class StreamingCamera:
+    """Publishes one synthetic scene as a 15 Hz stream (stamps a period apart, sent as often) until
+    `frames` were sent: colour stamped t, depth stamped t + depth_offset_ns, camera_info."""
+
+    def __init__(self, node, frame, first_stamp_ns: int, frames: int = 1000, depth_offset_ns: int = 0,
+                 color_encoding: str = "rgb8", depth_units: float | None = None):
+        self.node, self.frames, self.sent = node, frames, []
+        self.first_stamp_ns, self.depth_offset_ns = first_stamp_ns, depth_offset_ns
+        self.color = numpy_to_image(colour_bytes(frame.color, color_encoding), color_encoding)
+        self.depth = (numpy_to_image(frame.depth, "32FC1") if depth_units is None else
+                      numpy_to_image(np.round(frame.depth / depth_units).astype(np.uint16), "16UC1"))
+        self.info = CameraInfo(width=frame.color.shape[1], height=frame.color.shape[0])
+        self.info.k = [float(v) for v in frame.intrinsics.reshape(-1)]
+        for msg in (self.color, self.depth, self.info):
+            msg.header.frame_id = names.CAMERA_OPTICAL_FRAME
+        self.color_pub = node.create_publisher(Image, names.COLOR_TOPIC, RELIABLE)
+        self.depth_pub = node.create_publisher(Image, names.DEPTH_TOPIC, RELIABLE)
+        self.info_pub = node.create_publisher(CameraInfo, names.CAMERA_INFO_TOPIC, RELIABLE)
+        self.timer = None
+
+    def start(self, processes):
+        for publisher in (self.color_pub, self.depth_pub, self.info_pub):
+            wait_for_subscribers(self.node, publisher, 1, WAIT, processes)
+        self.timer = self.node.create_timer(PERIOD_15HZ / 1e9, self._publish)
+
+    def _publish(self):
+        if len(self.sent) >= self.frames:
+            return
+        stamp = self.first_stamp_ns + len(self.sent) * PERIOD_15HZ
+        self.info.header.stamp = self.color.header.stamp = ns_to_time(stamp)
+        self.depth.header.stamp = ns_to_time(stamp + self.depth_offset_ns)
+        self.info_pub.publish(self.info)
+        self.color_pub.publish(self.color)
+        self.depth_pub.publish(self.depth)
+        self.sent.append(stamp)
+
+    def destroy(self):
+        if self.timer is not None:
+            self.node.destroy_timer(self.timer)
+        for publisher in (self.color_pub, self.depth_pub, self.info_pub):
+            self.node.destroy_publisher(publisher)
+
+
+@pytest.fixture
+def heightmap_graph(ros_node, launch):
+    """start(parameters) -> (heightmap_node process, /heightmap recorder); cameras made with camera()."""
+    made = []
+
+    def start(parameters=None):
+        process = launch("impurity_attention", "heightmap_node",
+                         ros_args({"log_throttle": 0.2, **(parameters or {})}))
+        recorder = TopicRecorder(ros_node, Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
+        made.append(recorder)
+        spin_until(ros_node, lambda: recorder.subscription.get_publisher_count() >= 1, WAIT,
+                   "heightmap_node's /heightmap publisher", (process,))
+        return process, recorder
+
+    def camera(*args, **kwargs):
+        made.append(StreamingCamera(ros_node, *args, **kwargs))
+        return made[-1]
+
+    yield start, camera
+    for thing in made:
+        thing.destroy()
+
+
+def scene(seed=11, width=640, height=480):
+    """Boxes and their frame; small frames (320 x 240) where every frame counts: best-effort transport
+    loses more of the large ones."""
+    boxes = random_boxes(seed, num_product=15, num_impurities=1)
+    intrinsics, pose = overhead_camera(width=width, height=height)
+    return boxes, render_boxes(boxes, width, height, intrinsics, pose)
+
+
+def now_ns(node) -> int:
+    return node.get_clock().now().nanoseconds
+
+
+def logged(node, process, text, what=None):
+    spin_until(node, lambda: text in process.output(), WAIT, what or f"'{text}' in {process.name}'s log",
+               (process,))
+
+
+def test_frames_on_the_cameras_own_clock_are_warned_once(ros_node, heightmap_graph):
+    """Issue 19 item 4: frames stamped 1000 s before the nodes' clock."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    _, frame = scene()
+    stream = camera(frame, now_ns(ros_node) - 1000 * 1_000_000_000)
+    stream.start((process,))
+    heightmaps.wait_for(5, WAIT, processes=(process,))  # still turned into heightmaps
+    output = process.output()
+    assert output.count("camera frames are stamped") == 1, output[-3000:]
+    line = next(line for line in output.splitlines() if "camera frames are stamped" in line)
+    assert "stamped -1000." in line and "s from this node's clock" in line
+    assert "use_sim_time" in line and "global_time_enabled" in line
+
+
+def test_depth_stamped_20ms_after_colour_pairs_with_the_defaults(ros_node, heightmap_graph):
+    """Issue 19 item 2: a 15 Hz stream whose depth is stamped 20 ms after its colour."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    _, frame = scene(width=320, height=240)
+    stream = camera(frame, now_ns(ros_node), frames=30, depth_offset_ns=20_000_000, depth_units=0.001)
+    stream.start((process,))
+    spin_until(ros_node, lambda: len(stream.sent) == 30, WAIT, "30 frames sent", (process,))
+    # best-effort camera topics may lose a frame on a loaded machine; pairing loses none
+    received = heightmaps.wait_for(25, WAIT, processes=(process,))
+    assert {time_to_ns(m.header.stamp) for m in received} <= set(stream.sent)
+    assert "beyond the pairing tolerance" not in process.output()
+
+
+def test_a_tolerance_below_the_offset_is_warned_with_the_offset_and_the_parameter(ros_node, heightmap_graph):
+    start, camera = heightmap_graph
+    process, heightmaps = start({"sync_tolerance": 0.01})
+    _, frame = scene()
+    stream = camera(frame, now_ns(ros_node), depth_offset_ns=20_000_000)
+    stream.start((process,))
+    logged(ros_node, process, "depth is stamped +20.0 ms from its nearest colour frame, beyond the pairing "
+                              "tolerance of 10.0 ms (sync_tolerance=0.01 s); set sync_tolerance above the "
+                              "offset")
+    assert "frame(s) dropped unpaired" in process.output() and not heightmaps.messages
+
+
+def test_d405_depth_needs_depth_scale_and_says_so(ros_node, heightmap_graph):
+    """Issue 19 item 1: 16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    _, frame = scene()
+    camera(frame, now_ns(ros_node), depth_units=0.0001).start((process,))
+    logged(ros_node, process, "depth does not fit the table")
+    assert "these depths fit depth_scale=0.0001" in process.output()
+    heightmaps.wait_for(1, WAIT, processes=(process,))  # warned, not dropped
+
+
+def test_d405_depth_with_depth_scale_gives_the_right_map(ros_node, heightmap_graph):
+    start, camera = heightmap_graph
+    process, heightmaps = start({"depth_scale": 0.0001})
+    boxes, frame = scene()
+    camera(frame, now_ns(ros_node), depth_units=0.0001).start((process,))
+    heightmap = heightmaps.wait_for(2, WAIT, processes=(process,))[-1]
+    height = image_to_numpy(heightmap.height, ("32FC1",))
+    assert np.count_nonzero(height > 0.025) > 15 * 200  # 16 boxes of 15 x 15 cells, 3 cm high
+    assert float(height.max()) == pytest.approx(0.03, abs=1e-3)
+    assert "depth does not fit the table" not in process.output()
+
+
+@pytest.mark.parametrize("encoding", ["bgra8", "rgba8"])
+def test_four_channel_colour_is_accepted(ros_node, heightmap_graph, encoding):
+    """Issue 19 item 9: a ZED-like camera publishing bgra8 / rgba8."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    boxes, frame = scene()
+    camera(frame, now_ns(ros_node), color_encoding=encoding).start((process,))
+    heightmap = heightmaps.wait_for(1, WAIT, processes=(process,))[0]
+    colour = image_to_numpy(heightmap.color, ("rgb8",))
+    impurity = boxes[-1]
+    assert tuple(colour[GRID.base_to_pixel(impurity.x, impurity.y)]) == impurity.color
+    assert "not accepted" not in process.output()
+
+
+def test_a_camera_coarser_than_the_cells_is_warned_once_and_its_gaps_filled(ros_node, heightmap_graph):
+    """Issue 19 item 3: 640x480 at 1.5 m, 2.4 mm per pixel on 2 mm cells."""
+    start, camera = heightmap_graph
+    process, heightmaps = start({"camera_position": [0.5, 0.0, 1.5]})
+    boxes = random_boxes(11, num_product=15, num_impurities=1)
+    intrinsics, pose = overhead_camera(1.5)
+    frame = render_boxes(boxes, intrinsics=intrinsics, camera_pose=pose)
+    camera(frame, now_ns(ros_node)).start((process,))
+    received = heightmaps.wait_for(3, WAIT, processes=(process,))
+    output = process.output()
+    assert output.count("camera pixels cover up to 2.42 mm of the table") == 1, output[-3000:]
+    assert "set resolution to 0.0024 m or more" in output
+    colour = image_to_numpy(received[-1].color, ("rgb8",))
+    unseen = ~colour.any(axis=2)
+    assert unseen.mean() < 0.05  # a third without the gap filling
