@@ -13,6 +13,7 @@ import rclpy
 
 from impurity_common.enums import EPISODE_SCENARIOS, Scenario
 from impurity_interfaces.action import RunEpisode
+from impurity_policy.core.episode import is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 ROOT = BRINGUP.parent
@@ -61,7 +62,7 @@ def run_demo_episode(args, launcher) -> int:
                 shutil.copy(picture, args.out / "episode.png")
                 shutil.copy(record / "steps.jsonl", args.out / "episode.jsonl")
                 print(f"demo: picture {args.out / 'episode.png'}, record {args.out / 'episode.jsonl'}")
-            code = 1 if result.termination_reason.startswith(("node_lost", "error")) else 0
+            code = 1 if is_failure(result.termination_reason) else 0
     except TimeoutError as error:
         print(f"demo: {error}", file=sys.stderr)
     finally:
