@@ -7,6 +7,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from height_scenes import block, covered_heap
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
@@ -254,9 +255,6 @@ def test_checkpoint_round_trip_and_clear_rejections(tmp_path):
 
 
 # ---- pose geometry the rules are built on (rules.py; the rules themselves: test_rules.py) ----------
-def _block(height, centre, half_px, top):
-    height[centre[0] - half_px:centre[0] + half_px + 1, centre[1] - half_px:centre[1] + half_px + 1] = top
-
 
 def test_finger_kernel_puts_the_pads_where_the_open_fingers_land():
     kernel = finger_kernel(0.0)  # closing along +x = +column
@@ -273,17 +271,17 @@ def test_finger_kernel_puts_the_pads_where_the_open_fingers_land():
 
 def test_grasp_clearance_on_hand_built_layouts():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # a 26 mm cube alone
+    block(height, (112, 112), 6, 0.026)  # a 26 mm cube alone
     clear = grasp_clearance(height, (56, 56), 112)
     assert clear.shape == (16, 112, 112) and clear[:, 56, 56].all()
     # a taller neighbour 4 mm away along +x: grasps closing along x land a pad on it, along y do not
-    _block(height, (112, 112 + 6 + 2 + 7), 6, 0.035)
+    block(height, (112, 112 + 6 + 2 + 7), 6, 0.035)
     clear = grasp_clearance(height, (56, 56), 112)
     assert not clear[0, 56, 56] and not clear[8, 56, 56]  # rotation r and r + 8 close along one axis
     assert clear[4, 56, 56] and clear[12, 56, 56]
     # wedged between neighbours on all four sides: no grasp is clear
     for d_row, d_col in ((0, -15), (15, 0), (-15, 0), (15, 15), (-15, -15), (15, -15), (-15, 15)):
-        _block(height, (112 + d_row, 112 + d_col), 6, 0.035)
+        block(height, (112 + d_row, 112 + d_col), 6, 0.035)
     assert not grasp_clearance(height, (56, 56), 112)[:, 56, 56].any()
     # off the map counts as table: a crop hanging over the corner is computed, not an error
     assert grasp_clearance(height, (-56, -56), 112).shape == (16, 112, 112)
@@ -291,12 +289,12 @@ def test_grasp_clearance_on_hand_built_layouts():
 
 def test_grasp_clearance_keeps_the_palm_off_tall_piles():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # a 26 mm cube
-    _block(height, (112, 142), 3, 0.08)  # an 80 mm pile 54-66 mm away along +x: past the pads' reach
+    block(height, (112, 112), 6, 0.026)  # a 26 mm cube
+    block(height, (112, 142), 3, 0.08)  # an 80 mm pile 54-66 mm away along +x: past the pads' reach
     clear = grasp_clearance(height, (56, 56), 112)
     assert not clear[0, 56, 56]  # closing along x, the palm (140 mm long) comes down on the pile
     assert clear[4, 56, 56]  # closing along y, the palm (40 mm wide) passes beside it
-    _block(height, (112, 142), 3, 0.055)  # lower than the fingers are long: the tips still get down
+    block(height, (112, 142), 3, 0.055)  # lower than the fingers are long: the tips still get down
     assert grasp_clearance(height, (56, 56), 112)[0, 56, 56]
 
 
@@ -309,9 +307,9 @@ def test_pushes_passing_a_point_and_the_heap_top():
     assert passing[8, 56, 90] and passing[4, 20, 56]  # from the other side; along +row
     assert not passing[0, 70, 30]  # passes 14 px beside it
     height = np.zeros((112, 112), np.float32)
-    _block(height, (30, 80), 10, 0.02)
-    _block(height, (30, 80), 4, 0.05)  # a pile: its top is the highest point
-    _block(height, (2, 2), 1, 0.2)  # a tall speck outside the action disk does not count
+    block(height, (30, 80), 10, 0.02)
+    block(height, (30, 80), 4, 0.05)  # a pile: its top is the highest point
+    block(height, (2, 2), 1, 0.2)  # a tall speck outside the action disk does not count
     assert heap_top(height, valid_action_mask(112), 6.0) == (30, 80)
 
 
@@ -324,16 +322,9 @@ def test_pushes_ending_inside_the_workspace():
     assert not inside[4, 224 - push_px - margin_px + 2, 112]  # +y likewise
 
 
-def _covered_heap(top=0.09):
-    """A 50 mm slab 41 px wide with a pile on its middle, centred in a 224 px map (crop origin 56, 56)."""
-    height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 20, 0.05)
-    _block(height, (112, 112), 5, top)
-    return height
-
 
 def test_pushes_starting_on_the_heap_flank():
-    crop = _covered_heap()[56:168, 56:168]
+    crop = covered_heap()[56:168, 56:168]
     flank = pushes_starting_on_flank(crop, (56, 56), (0.5, 0.8), radius_px=3)
     assert flank[56, 40] and flank[40, 70]  # on the slab beside the pile: 50 mm of 90
     assert not flank[56, 56] and not flank[56, 52]  # on the pile, or within 3 px of it
@@ -343,8 +334,8 @@ def test_pushes_starting_on_the_heap_flank():
 
 def test_target_on_top_and_pixels_near_a_mask():
     height = np.zeros((112, 112), np.float32)
-    _block(height, (56, 56), 6, 0.026)  # the target
-    _block(height, (56, 70), 6, 0.045)  # a taller block lying against it (+col side)
+    block(height, (56, 56), 6, 0.026)  # the target
+    block(height, (56, 70), 6, 0.045)  # a taller block lying against it (+col side)
     mask = np.zeros((112, 112), np.uint8)
     mask[50:63, 50:63] = 255
     on_top = target_on_top(height, mask, radius_px=3, tolerance=0.005)

@@ -11,6 +11,7 @@ import math
 import numpy as np
 import pytest
 import torch
+from height_scenes import block, covered_heap
 
 from impurity_common.grid import HeightmapGrid
 from impurity_policy.core.change import CHANGE_PIXELS_TAU
@@ -25,9 +26,6 @@ CROP, ORIGIN, ROTATIONS = 112, (56, 56), 16
 
 
 # ---- scenes -----------------------------------------------------------------------------------------
-def _block(height, centre, half_px, top):
-    height[centre[0] - half_px:centre[0] + half_px + 1, centre[1] - half_px:centre[1] + half_px + 1] = top
-
 
 def _square_mask(rows=slice(50, 63), cols=slice(50, 63)):
     """The target's mask in the crop: by default a 13 px square around crop pixel (56, 56)."""
@@ -46,17 +44,10 @@ def _observation(mode, height, mask=None, origin=ORIGIN, grid=HeightmapGrid()):
 def _free_target_with_taller_neighbour():
     """The target (26 mm) at the crop's centre and a taller block (45 mm) lying against its +col side."""
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)
-    _block(height, (112, 126), 6, 0.045)
+    block(height, (112, 112), 6, 0.026)
+    block(height, (112, 126), 6, 0.045)
     return _observation(MODE_TARGET, height, _square_mask())
 
-
-def _covered_heap(top=0.09):
-    """A 50 mm slab 41 px wide with a pile on its middle, centred on crop pixel (56, 56)."""
-    height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 20, 0.05)
-    _block(height, (112, 112), 5, top)
-    return height
 
 
 def _wedged_target():
@@ -64,7 +55,7 @@ def _wedged_target():
     height = np.zeros((224, 224), np.float32)
     for d_row in (-15, 0, 15):
         for d_col in (-15, 0, 15):
-            _block(height, (112 + d_row, 112 + d_col), 6, 0.035)
+            block(height, (112 + d_row, 112 + d_col), 6, 0.035)
     return height
 
 
@@ -159,8 +150,8 @@ def test_tried_actions_rules_out_every_grasp_after_failed_grasps_in_a_row_until_
 
 def test_finger_clearance_rules_out_grasps_whose_open_fingers_land_on_a_neighbour():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # a 26 mm cube
-    _block(height, (112, 112 + 6 + 2 + 7), 6, 0.035)  # a taller one 4 mm away along +x (+col)
+    block(height, (112, 112), 6, 0.026)  # a 26 mm cube
+    block(height, (112, 112 + 6 + 2 + 7), 6, 0.035)  # a taller one 4 mm away along +x (+col)
     kept = _kept(["finger_clearance"], _observation(MODE_TARGET, height, _square_mask()))
     assert not kept[0, GRASP, 56, 56] and not kept[8, GRASP, 56, 56]  # closing along x: a pad on it
     assert kept[4, GRASP, 56, 56] and kept[12, GRASP, 56, 56]  # closing along y: clear
@@ -171,8 +162,8 @@ def test_finger_clearance_rules_out_grasps_whose_open_fingers_land_on_a_neighbou
 
 def test_grasp_on_target_keeps_only_grasps_on_the_targets_mask():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target
-    _block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
+    block(height, (112, 112), 6, 0.026)  # the target
+    block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
     mask = _square_mask()
     kept = _kept(["grasp_on_target"], _observation(MODE_TARGET, height, mask))
     assert (kept[:, GRASP] == (mask > 0)[None]).all()
@@ -180,7 +171,7 @@ def test_grasp_on_target_keeps_only_grasps_on_the_targets_mask():
 
 
 def test_occluded_push_through_heap_keeps_pushes_that_pass_the_heaps_top():
-    obs = _observation(MODE_OCCLUDED_REGION, _covered_heap())  # the heap's top at crop (56, 56)
+    obs = _observation(MODE_OCCLUDED_REGION, covered_heap())  # the heap's top at crop (56, 56)
     kept = _kept(["occluded_push_through_heap"], obs)
     assert kept[0, PUSH, 56, 20]  # 36 px before the top, pushing towards it (+col)
     assert not kept[8, PUSH, 56, 20]  # pushing away from it
@@ -204,7 +195,7 @@ def test_push_end_inside_rules_out_pushes_that_end_near_the_workspace_edge():
 
 
 def test_occluded_push_start_on_flank_prefers_pushes_that_start_on_the_heaps_flank():
-    kept = _kept(["occluded_push_start_on_flank"], _observation(MODE_OCCLUDED_REGION, _covered_heap()))
+    kept = _kept(["occluded_push_start_on_flank"], _observation(MODE_OCCLUDED_REGION, covered_heap()))
     assert kept[:, PUSH, 56, 40].all() and kept[:, PUSH, 40, 70].all()  # on the slab: 50 mm of 90
     assert not kept[:, PUSH, 56, 56].any() and not kept[:, PUSH, 56, 52].any()  # on the pile or by it
     assert not kept[:, PUSH, 56, 10].any()  # on the table
@@ -246,7 +237,7 @@ def test_target_rules_do_nothing_without_a_target_in_view(name):
 
 @pytest.mark.parametrize("name", ["occluded_push_through_heap", "occluded_push_start_on_flank"])
 def test_occluded_region_rules_do_nothing_with_a_target_in_view(name):
-    height = _covered_heap()
+    height = covered_heap()
     assert not _kept([name], _observation(MODE_OCCLUDED_REGION, height)).all()
     assert _kept([name], _observation(MODE_TARGET, height, _square_mask())).all()
 
@@ -254,7 +245,7 @@ def test_occluded_region_rules_do_nothing_with_a_target_in_view(name):
 # ---- masks, preferences and their order -----------------------------------------------------------------
 def test_a_preference_gives_way_when_it_would_leave_no_action_of_its_primitive():
     flat = np.zeros((224, 224), np.float32)
-    _block(flat, (112, 112), 20, 0.05)  # a flat block: no flank at 50-70 % of its top
+    block(flat, (112, 112), 20, 0.05)  # a flat block: no flank at 50-70 % of its top
     assert _kept(["occluded_push_start_on_flank"], _observation(MODE_OCCLUDED_REGION, flat)).all()
 
 
@@ -352,8 +343,8 @@ def test_policy_pushes_when_no_grasp_is_clear_and_grasps_without_rules():
 
 def test_policy_grasps_on_the_target_and_pushes_through_the_heap():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target, free
-    _block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
+    block(height, (112, 112), 6, 0.026)  # the target, free
+    block(height, (112, 140), 6, 0.026)  # a free neighbour, not the target
     mask = _square_mask()
     obs = Observation(MODE_TARGET, np.full((112, 112, 3), 150, np.uint8), height[56:168, 56:168].copy(), mask,
                       (56, 56), height)
@@ -374,7 +365,7 @@ def test_policy_grasps_on_the_target_and_pushes_through_the_heap():
 
 
 def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
-    height = _covered_heap()
+    height = covered_heap()
     occluded = Observation(MODE_OCCLUDED_REGION, np.full((112, 112, 3), 150, np.uint8),
                            height[56:168, 56:168].copy(), np.full((112, 112), 255, np.uint8), (56, 56),
                            height)
@@ -387,7 +378,7 @@ def test_policy_starts_occluded_region_pushes_on_the_heap_flank():
     assert Policy(QNetwork(SMALL), rules=no_flank).decide(occluded, q=q).decision.pixel == (56, 56)
     # a heap without a flank in the band (a flat block): the rule gives way instead of leaving no push
     flat = np.zeros((224, 224), np.float32)
-    _block(flat, (112, 112), 20, 0.05)
+    block(flat, (112, 112), 20, 0.05)
     flat_obs = Observation(MODE_OCCLUDED_REGION, occluded.color_crop, flat[56:168, 56:168].copy(),
                            occluded.mask, (56, 56), flat)
     assert cell.decide(flat_obs, q=q).decision.primitive == PUSH
@@ -410,7 +401,7 @@ def test_policy_pushes_next_to_the_target_and_grasps_where_it_is_on_top():
 
 def test_policy_grasps_the_middle_of_a_free_target_or_else_pushes():
     height = np.zeros((224, 224), np.float32)
-    _block(height, (112, 112), 6, 0.026)  # the target, free
+    block(height, (112, 112), 6, 0.026)  # the target, free
     obs = _observation(MODE_TARGET, height, _square_mask())
     q = _q(-1.0)
     q[:, PUSH] = -2.0
