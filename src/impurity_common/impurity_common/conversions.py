@@ -102,12 +102,9 @@ def grid_from_heightmap(msg):
     (resolution not a positive finite number, an empty image)."""
     from impurity_common.grid import HeightmapGrid
 
-    resolution = float(msg.resolution)
-    if not (np.isfinite(resolution) and resolution > 0):
-        raise ImageFormatError(f"heightmap resolution {resolution} is not usable (expected > 0 m/pixel)")
     origin = msg.origin
     try:
-        return HeightmapGrid.from_origin(resolution, float(origin.x), float(origin.y), float(origin.z),
-                                         int(msg.height.height), int(msg.height.width))
+        return HeightmapGrid.from_origin(float(msg.resolution), float(origin.x), float(origin.y),
+                                         float(origin.z), int(msg.height.height), int(msg.height.width))
     except ValueError as error:
         raise ImageFormatError(str(error)) from error

@@ -10,6 +10,7 @@ cell.HEIGHTMAP_RESOLUTION (224 x 224 px of 2 mm).
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from . import cell
@@ -58,9 +59,9 @@ class HeightmapGrid:
         """The grid of a heightmap whose pixel (0, 0) has its corner at (x_min, y_min) and which has
         rows x cols pixels of `resolution` m (what a Heightmap message carries). ValueError when
         degenerate (resolution <= 0 or not finite, no pixels)."""
-        if not (resolution > 0 and rows > 0 and cols > 0) or resolution != resolution:
-            raise ValueError(f"heightmap grid needs resolution > 0 and a non-empty size, got {resolution} m, "
-                             f"{rows} x {cols} px")
+        if not (math.isfinite(resolution) and resolution > 0 and rows > 0 and cols > 0):
+            raise ValueError(f"heightmap grid needs a finite resolution > 0 m and a non-empty size, got "
+                             f"{resolution} m, {rows} x {cols} px")
         return cls(x_min=x_min, x_max=x_min + cols * resolution, y_min=y_min, y_max=y_min + rows * resolution,
                    resolution=resolution, table_z=table_z, max_height=max_height)
 

@@ -92,14 +92,12 @@ class RuleParams:
 class RuleContext:
     """What the rules of one decision look at; shared quantities are computed once, on first use.
 
-    obs: policy.Observation; q: (R, 2, S, S) Q maps as they reach the rules; valid: (2, S, S) the
-    primitives' valid pixels (policy.Policy.masks); grid: the heightmap's geometry."""
+    obs: policy.Observation; rotations: R of the Q maps; grid: the heightmap's geometry."""
 
-    def __init__(self, obs, q: np.ndarray, valid: np.ndarray, pose_rules: PoseRules, params: RuleParams,
-                 grid: HeightmapGrid):
-        self.obs, self.q, self.valid, self.pose_rules, self.params, self.grid = (
-            obs, q, valid, pose_rules, params, grid)
-        self.rotations, self.size = q.shape[0], obs.mask.shape[0]
+    def __init__(self, obs, rotations: int, pose_rules: PoseRules, params: RuleParams, grid: HeightmapGrid):
+        self.obs, self.rotations, self.pose_rules, self.params, self.grid = (
+            obs, rotations, pose_rules, params, grid)
+        self.size = obs.mask.shape[0]
 
     @functools.cached_property
     def target(self) -> np.ndarray:
@@ -348,7 +346,7 @@ class RulePipeline:
         `q` itself otherwise). `valid` (2, S, S): where each primitive may act at all."""
         if not self.rules:
             return q
-        ctx = RuleContext(obs, q, valid, pose_rules, self.params, grid)
+        ctx = RuleContext(obs, q.shape[0], pose_rules, self.params, grid)
         ruled_out = np.zeros(q.shape, dtype=bool)
         for rule in self.rules:
             for verdict in rule.keeps(ctx):
