@@ -39,6 +39,7 @@ FINGER_THICKNESS = 0.008  # m, along the closing axis
 FINGER_WIDTH = 0.02  # m, across it
 FINGER_LENGTH = 0.05  # m, fingertips to the palm's underside
 PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)  # m: along the closing axis, across it, vertical
+FLANGE_TO_TCP = 0.20  # m, UR flange (tool0) to the gripper TCP along the tool axis (coupling + RG2 length)
 
 # Simulated RealSense colour stream (aligned depth shares the intrinsics).
 CAMERA_WIDTH = 640

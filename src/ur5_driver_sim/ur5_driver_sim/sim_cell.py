@@ -33,12 +33,12 @@ from impurity_common.conversions import numpy_to_image
 from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import ParameterError, declare_parameters, nonzero_norm, param
+from impurity_common.ur5_kinematics import JOINT_NAMES
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from ur5_driver_sim.core.camera import CameraModel
 from ur5_driver_sim.core.config import TIME_STEP
 from ur5_driver_sim.core.scenes import MAX_BLOCKS
-from ur5_driver_sim.core.ur5_model import JOINT_NAMES
 from ur5_driver_sim.core.world import MODES, CellWorld
 
 DEPTH_ENCODINGS = ("16UC1", "32FC1")

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from test_sim_world import oracle_grasp, write_single_block
 
-from ur5_driver_sim.core import ur5_model
+from impurity_common import ur5_kinematics as ur5_model
 from ur5_driver_sim.core.world import CellWorld, yaw_of_quaternion
 
 AGREEMENT_SEEDS = 30

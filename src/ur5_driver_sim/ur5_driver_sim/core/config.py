@@ -4,7 +4,7 @@ Cell-wide geometry (workspace, camera, push length, gripper stroke) comes from i
 what only the simulator needs lives here.
 """
 
-from impurity_common import cell
+from impurity_common import cell, ur5_kinematics
 
 # Physics. 1/240 s steps: 1/120 s halves grasp success (DESIGN.md, measured).
 TIME_STEP = 1.0 / 240.0
@@ -17,8 +17,8 @@ TABLE_COLOR = (150 / 255, 150 / 255, 150 / 255)
 PRODUCT_COLOR = (40 / 255, 120 / 255, 200 / 255)
 TARGET_COLOR = (220 / 255, 60 / 255, 40 / 255)
 PRODUCT_SHADE_JITTER = 0.04  # +- per channel
-GRIPPER_COLOR = (0.25, 0.25, 0.28)
-ARM_COLOR = (0.75, 0.78, 0.80)
+GRIPPER_COLOR = ur5_kinematics.GRIPPER_COLOR
+ARM_COLOR = ur5_kinematics.ARM_COLOR
 
 # Table: a plain box whose top is cell.TABLE_Z, larger than the workspace so nothing falls at the edge.
 TABLE_HALF_EXTENTS = (0.45, 0.45, 0.02)
@@ -43,12 +43,12 @@ FINGER_THICKNESS = cell.FINGER_THICKNESS  # m, x extent
 FINGER_WIDTH = cell.FINGER_WIDTH  # m, y extent
 FINGER_MAX_TRAVEL = cell.GRIPPER_MAX_OPENING / 2.0  # inner face distance from the centre when open
 PALM_HALF_EXTENTS = cell.PALM_HALF_EXTENTS
-PALM_MASS = 0.6
-FINGER_MASS = 0.05
-FINGER_FORCE = 10.0  # N per finger (30 N squeezes light cylinders out through the solver)
-FINGER_SPEED = 0.35  # m/s per finger
+PALM_MASS = ur5_kinematics.PALM_MASS  # kg; the robot model's gripper body (URDF inertials, finger limits)
+FINGER_MASS = ur5_kinematics.FINGER_MASS
+FINGER_FORCE = ur5_kinematics.FINGER_FORCE  # N per finger
+FINGER_SPEED = ur5_kinematics.FINGER_SPEED  # m/s per finger
 FINGER_LATERAL_FRICTION = 1.2
-FLANGE_TO_TCP = 0.20  # m, UR flange to TCP along the tool axis (coupling + RG2 length)
+FLANGE_TO_TCP = cell.FLANGE_TO_TCP  # m, UR flange to TCP along the tool axis (coupling + RG2 length)
 CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between the fingers
 
 # Primitive motion.

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 import math
 
-from . import config, ur5_model
+from impurity_common import ur5_kinematics as ur5_model
+
+from . import config
 
 
 class MotionCancelled(Exception):

@@ -10,7 +10,9 @@ import tempfile
 
 import numpy as np
 
-from . import config, ur5_model
+from impurity_common import ur5_kinematics as ur5_model
+
+from . import config
 from .gripper import Carrier
 
 SAFE_HEIGHT = 0.25  # m: joint-space moves only above this TCP height (reachable over all the workspace)

@@ -1,6 +1,7 @@
 """UR5 kinematics from its published DH parameters (pure numpy): forward kinematics, Jacobian and a
 damped-least-squares IK for the gripper's TCP. The PyBullet body (ur5.py) is generated from the same
-table, so the model and the simulated arm cannot disagree.
+table, so the model and the simulated arm cannot disagree. It lives in impurity_common because runtime
+nodes (cell_state_publisher's TF and /robot_description) need the same kinematics without the simulator.
 
 Frames: DH frame 0 is the UR controller's `base`, which is base_link turned by pi about z (as in the
 UR ROS driver). tool0 is DH frame 6 (z out of the flange); the TCP is FLANGE_TO_TCP further along
@@ -13,7 +14,15 @@ import math
 
 import numpy as np
 
-from . import config
+from .cell import (
+    FINGER_LENGTH,
+    FINGER_THICKNESS,
+    FINGER_WIDTH,
+    FLANGE_TO_TCP,
+    GRIPPER_MAX_OPENING,
+    PALM_HALF_EXTENTS,
+)
+from .names import BASE_FRAME
 
 JOINT_NAMES = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
                "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")
@@ -26,8 +35,17 @@ JOINT_LIMITS = ((-2 * math.pi, 2 * math.pi), (-2 * math.pi, 2 * math.pi), (-math
 JOINT_EFFORTS = (150.0, 150.0, 150.0, 28.0, 28.0, 28.0)  # N m
 JOINT_SPEED = 2.0  # rad/s for joint-space moves (UR5 limit: 3.15)
 
+# The robot model's gripper body and colours (RG2-like): what the URDF's inertials, finger limits and
+# visuals say; the simulator's config takes them from here.
+ARM_COLOR = (0.75, 0.78, 0.80)  # RGB 0..1
+GRIPPER_COLOR = (0.25, 0.25, 0.28)
+PALM_MASS = 0.6  # kg
+FINGER_MASS = 0.05  # kg
+FINGER_FORCE = 10.0  # N per finger (30 N squeezes light cylinders out through the simulator's solver)
+FINGER_SPEED = 0.35  # m/s per finger
+
 BASE_LINK_TO_DH_BASE = np.diag([-1.0, -1.0, 1.0, 1.0])  # Rz(pi)
-TOOL0_TO_TCP = np.array([[1.0, 0, 0, 0], [0, -1.0, 0, 0], [0, 0, -1.0, config.FLANGE_TO_TCP], [0, 0, 0, 1.0]])
+TOOL0_TO_TCP = np.array([[1.0, 0, 0, 0], [0, -1.0, 0, 0], [0, 0, -1.0, FLANGE_TO_TCP], [0, 0, 0, 1.0]])
 
 # Parked out of the camera's view, to the right of the base, elbow up (found with ik(), checked in tests).
 HOME_TCP = (0.22, -0.32, 0.35)
@@ -119,11 +137,11 @@ def nearest_equivalent_yaw(yaw: float, current_yaw: float) -> float:
     return min(candidates, key=lambda c: abs(c - current_yaw))
 
 
-def urdf_text(finger_travel: float = config.FINGER_MAX_TRAVEL) -> str:
+def urdf_text(finger_travel: float = GRIPPER_MAX_OPENING / 2.0) -> str:
     """URDF of the UR5 (links from the DH table, simple cylinders as collision geometry) with the RG2-like
     gripper at the flange. Generated here so kinematics and body share one source."""
-    color = " ".join(str(c) for c in config.ARM_COLOR)
-    grip_color = " ".join(str(c) for c in config.GRIPPER_COLOR)
+    color = " ".join(str(c) for c in ARM_COLOR)
+    grip_color = " ".join(str(c) for c in GRIPPER_COLOR)
 
     def link(name, mass, geometry="", origin="0 0 0", rpy="0 0 0", rgba=color):
         shape = ""
@@ -146,9 +164,9 @@ def urdf_text(finger_travel: float = config.FINGER_MAX_TRAVEL) -> str:
                 f"0 {pitch:.5f} 0")
 
     parts = ['<?xml version="1.0"?><robot name="ur5_rg2">',
-             link("base_link", 4.0, '<cylinder radius="0.075" length="0.06"/>', "0 0 0.03"),
+             link(BASE_FRAME, 4.0, '<cylinder radius="0.075" length="0.06"/>', "0 0 0.03"),
              link("base", 0.01),
-             '<joint name="base_link-base_fixed_joint" type="fixed"><parent link="base_link"/>'
+             f'<joint name="base_link-base_fixed_joint" type="fixed"><parent link="{BASE_FRAME}"/>'
              '<child link="base"/><origin xyz="0 0 0" rpy="0 0 3.141592653589793"/></joint>']
     parent = "base"
     link_names = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
@@ -169,26 +187,26 @@ def urdf_text(finger_travel: float = config.FINGER_MAX_TRAVEL) -> str:
                  '<child link="tool0"/>'
                  f'<origin xyz="{DH_A[5]} 0 {DH_D[5]}" rpy="{DH_ALPHA[5]} 0 0"/></joint>')
     # Gripper frame (TCP, z up the wrist) = tool0 * Trans(0, 0, FLANGE_TO_TCP) * Rx(pi).
-    palm = config.PALM_HALF_EXTENTS
-    palm_z = config.FINGER_LENGTH + palm[2]
-    coupling_len = config.FLANGE_TO_TCP - config.FINGER_LENGTH - 2 * palm[2]
-    parts.append(link("gripper_tcp", config.PALM_MASS,
+    palm = PALM_HALF_EXTENTS
+    palm_z = FINGER_LENGTH + palm[2]
+    coupling_len = FLANGE_TO_TCP - FINGER_LENGTH - 2 * palm[2]
+    parts.append(link("gripper_tcp", PALM_MASS,
                       f'<box size="{2 * palm[0]} {2 * palm[1]} {2 * palm[2]}"/>', f"0 0 {palm_z}",
                       rgba=grip_color))
     parts.append(f'<joint name="tool0-gripper" type="fixed"><parent link="tool0"/><child link="gripper_tcp"/>'
-                 f'<origin xyz="0 0 {config.FLANGE_TO_TCP}" rpy="3.141592653589793 0 0"/></joint>')
+                 f'<origin xyz="0 0 {FLANGE_TO_TCP}" rpy="3.141592653589793 0 0"/></joint>')
     parts.append(link("coupling", 0.2, f'<cylinder radius="0.03" length="{coupling_len:.4f}"/>',
                       "0 0 0", rgba=grip_color))
     coupling_z = palm_z + palm[2] + coupling_len / 2
     parts.append('<joint name="gripper-coupling" type="fixed"><parent link="gripper_tcp"/>'
                  f'<child link="coupling"/><origin xyz="0 0 {coupling_z:.4f}"/></joint>')
-    finger_box = f'<box size="{config.FINGER_THICKNESS} {config.FINGER_WIDTH} {config.FINGER_LENGTH}"/>'
+    finger_box = f'<box size="{FINGER_THICKNESS} {FINGER_WIDTH} {FINGER_LENGTH}"/>'
     for side, name in ((1, "left_finger"), (-1, "right_finger")):
-        parts.append(link(name, config.FINGER_MASS, finger_box, rgba=grip_color))
+        parts.append(link(name, FINGER_MASS, finger_box, rgba=grip_color))
         parts.append(f'<joint name="{name}_joint" type="prismatic"><parent link="gripper_tcp"/>'
-                     f'<child link="{name}"/><origin xyz="{side * config.FINGER_THICKNESS / 2} 0 '
-                     f'{config.FINGER_LENGTH / 2}"/><axis xyz="{side} 0 0"/>'
-                     f'<limit lower="0" upper="{finger_travel}" effort="{config.FINGER_FORCE}" '
-                     f'velocity="{config.FINGER_SPEED}"/></joint>')
+                     f'<child link="{name}"/><origin xyz="{side * FINGER_THICKNESS / 2} 0 '
+                     f'{FINGER_LENGTH / 2}"/><axis xyz="{side} 0 0"/>'
+                     f'<limit lower="0" upper="{finger_travel}" effort="{FINGER_FORCE}" '
+                     f'velocity="{FINGER_SPEED}"/></joint>')
     parts.append("</robot>")
     return "\n".join(parts)
