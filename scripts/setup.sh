@@ -155,7 +155,21 @@ if [ ! -x "$venv/bin/python" ] || [ "$(cat "$venv_stamp" 2>/dev/null)" != "$req_
   did+=("venv")
 fi
 
-build_sha=$( (echo "$req_sha"; find src -type f \( -name package.xml -o -name setup.py -o -name setup.cfg \
+# Interface packages the ROS environment may lack (ros2_ws/fallback/README.md): each is built only when
+# the venv's Python cannot import it without this workspace; where the real one exists, a fallback
+# built earlier is removed so it never shadows it.
+fallback=()
+for dir in ros2_ws/fallback/*/; do
+  pkg=${dir%/}; pkg=${pkg##*/}
+  if env -u PYTHONPATH -u AMENT_PREFIX_PATH "$venv/bin/python" -c "import $pkg.msg" >/dev/null 2>&1; then
+    rm -rf "ros2_ws/build/$pkg" "ros2_ws/install/$pkg"
+  else
+    fallback+=("fallback/$pkg")
+  fi
+done
+
+build_sha=$( (echo "$req_sha"; echo "fallback: ${fallback[*]+${fallback[*]}}";
+  find src ros2_ws/fallback -type f \( -name package.xml -o -name setup.py -o -name setup.cfg \
   -o -name CMakeLists.txt -o -name '*.msg' -o -name '*.srv' -o -name '*.action' \) -print0 \
   | sort -z | xargs -0 sha256sum) | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$build_stamp" 2>/dev/null)" != "$build_sha" ]; then
@@ -165,7 +179,9 @@ if [ "$(cat "$build_stamp" 2>/dev/null)" != "$build_sha" ]; then
     source "$venv/bin/activate"
     export AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv
     cd ros2_ws
+    # Explicit base paths: the cell's packages, and a fallback only when the environment lacks it.
     colcon --log-base log build --symlink-install --event-handlers console_direct- \
+      --base-paths src ${fallback[@]+"${fallback[@]}"} \
       --cmake-args -DPython3_EXECUTABLE="$venv/bin/python" -DBUILD_TESTING=OFF \
       > "$top/ros2_ws/colcon-build.log" 2>&1 \
       || { tail -40 "$top/ros2_ws/colcon-build.log" >&2; echo "setup: colcon build failed (ros2_ws/colcon-build.log)" >&2; exit 1; }

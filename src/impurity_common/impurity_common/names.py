@@ -30,6 +30,12 @@ RUN_EPISODE_ACTION = "/episode/run"  # impurity_interfaces/action/RunEpisode
 EXECUTE_PRIMITIVE_ACTION = "/ur5/execute_primitive"  # impurity_interfaces/action/ExecutePrimitive
 JOINT_STATES_TOPIC = "/joint_states"  # sensor_msgs/JointState
 
+# What RViz and Foxglove show (cell_state_publisher, decision_markers)
+TF_TOPIC = "/tf"  # tf2_msgs/TFMessage: base_link -> the UR5 links, tool0, the gripper TCP
+TF_STATIC_TOPIC = "/tf_static"  # tf2_msgs/TFMessage, transient local: fixed joints, the camera pose
+ROBOT_DESCRIPTION_TOPIC = "/robot_description"  # std_msgs/String URDF, transient local
+MARKERS_TOPIC = "/cell/markers"  # visualization_msgs/MarkerArray: chosen push/grasp, attended region
+
 # Simulator only
 RESET_SCENE_SERVICE = "/cell/reset_scene"  # impurity_interfaces/srv/ResetScene
 GROUND_TRUTH_SERVICE = "/cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth
