@@ -40,6 +40,23 @@ FINGER_WIDTH = 0.02  # m, across it
 FINGER_LENGTH = 0.05  # m, fingertips to the palm's underside
 PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)  # m: along the closing axis, across it, vertical
 FLANGE_TO_TCP = 0.20  # m, UR flange (tool0) to the gripper TCP along the tool axis (coupling + RG2 length)
+GRIP_FORCE = 20.0  # N, total closing force (10 N per finger: 30 N squeezes light cylinders out in sim)
+
+# Motion primitives (impurity_common.motion turns a primitive into waypoints with these; the simulated
+# arm and the real driver execute the same plan). Heights are TCP heights (fingertips) in base_link.
+APPROACH_HEIGHT = 0.10  # m above the primitive's z where grasps and pushes start and end
+SLOW_ZONE = 0.04  # m above z where descents slow down to CONTACT_SPEED
+LIFT_HEIGHT = 0.12  # m: grasps lift this far above z; success needs >= GRASP_LIFT_SUCCESS
+GRASP_LIFT_SUCCESS = 0.10  # m, issue 3
+MIN_TIP_HEIGHT = 0.005  # m: fingertips never go below table + this (z is clamped up)
+MAX_TIP_HEIGHT = 0.15  # m above the table: blocks are < 0.1 m; a higher z is clamped to this
+SAFE_TRAVEL_HEIGHT = 0.25  # m: the TCP travels between poses over the table only above this height
+FREE_SPEED = 0.5  # m/s, moves in free space
+CONTACT_SPEED = 0.25  # m/s, the last SLOW_ZONE of descents, and pushes
+LIFT_SPEED = 0.4  # m/s, lifting a grasped block
+LINEAR_ACCELERATION = 1.2  # m/s^2 of every Cartesian move (ur-rtde's moveL default)
+GUARD_FORCE = 15.0  # N: a guarded descent stops when the gripper presses down harder than this
+UR5_REACH = 0.85  # m: the UR5's reach (data sheet), measured here from the shoulder axis to tool0
 
 # Simulated RealSense colour stream (aligned depth shares the intrinsics).
 CAMERA_WIDTH = 640

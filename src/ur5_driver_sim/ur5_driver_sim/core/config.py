@@ -51,18 +51,19 @@ FINGER_LATERAL_FRICTION = 1.2
 FLANGE_TO_TCP = cell.FLANGE_TO_TCP  # m, UR flange to TCP along the tool axis (coupling + RG2 length)
 CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between the fingers
 
-# Primitive motion.
-APPROACH_HEIGHT = 0.10  # m above the primitive's z where grasps and pushes start and end
-SLOW_ZONE = 0.04  # m above z where descents slow down to CONTACT_SPEED
-LIFT_HEIGHT = 0.12  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
-GRASP_LIFT_SUCCESS = 0.10  # m, issue 3
-MIN_TIP_HEIGHT = 0.005  # m: fingertips never go below table + this (z is clamped up)
-FREE_SPEED = 0.5  # m/s, moves in free space
-CONTACT_SPEED = 0.25  # m/s, the last SLOW_ZONE of descents, and pushes
-LIFT_SPEED = 0.4  # m/s, lifting a grasped block
+# Primitive motion: the plan's constants live in impurity_common.cell (the real driver runs the same
+# plan, impurity_common.motion); what only the simulator needs stays here.
+APPROACH_HEIGHT = cell.APPROACH_HEIGHT  # m above the primitive's z where grasps and pushes start and end
+SLOW_ZONE = cell.SLOW_ZONE  # m above z where descents slow down to CONTACT_SPEED
+LIFT_HEIGHT = cell.LIFT_HEIGHT  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
+GRASP_LIFT_SUCCESS = cell.GRASP_LIFT_SUCCESS  # m, issue 3
+MIN_TIP_HEIGHT = cell.MIN_TIP_HEIGHT  # m: fingertips never go below table + this (z is clamped up)
+FREE_SPEED = cell.FREE_SPEED  # m/s, moves in free space
+CONTACT_SPEED = cell.CONTACT_SPEED  # m/s, the last SLOW_ZONE of descents, and pushes
+LIFT_SPEED = cell.LIFT_SPEED  # m/s, lifting a grasped block
+GUARD_FORCE = cell.GUARD_FORCE  # N: a descent stops when the gripper presses down harder than this
 CLOSE_SETTLE_STEPS = 45  # steps given to the fingers to close (0.19 s)
 RETREAT_SETTLE_STEPS = 60  # at most, after a primitive (ends early once every block rests)
-GUARD_FORCE = 15.0  # N: a descent stops when the gripper presses down harder than this
 CARRIER_MAX_FORCE = 500.0  # N, the floating gripper's drive constraint
 
 # Ground truth.

@@ -57,6 +57,8 @@ class Carrier:
     def __init__(self, pb, step_fn):
         self.pb = pb
         self._step = step_fn  # world.step(): one physics step plus hooks and the cancel check
+        self.executed_steps = []  # impurity_common.motion Steps of the last plan, in the order they ran
+        self.pending_retreat = None  # the last plan's RETREAT step, recorded when go_home runs it
 
     # --- fingers -------------------------------------------------------------------------------------
     def command_opening(self, width: float) -> None:
@@ -74,15 +76,15 @@ class Carrier:
             self._step()
         return self.opening()
 
-    def pressing_down(self) -> bool:
-        """True when something pushes the gripper up harder than GUARD_FORCE (a guarded descent)."""
+    def pressing_down(self, threshold: float = config.GUARD_FORCE) -> bool:
+        """True when something pushes the gripper up harder than threshold (N; a guarded descent)."""
         total = 0.0
         for contact in self.pb.getContactPoints(bodyA=self.body):
             if contact[2] == self.body:
                 continue
             normal_z = contact[7][2]  # normal on B pointing towards A: up when the gripper sits on B
             total += contact[9] * max(normal_z, 0.0)
-        return total > config.GUARD_FORCE
+        return total > threshold
 
     def touches(self, body: int) -> bool:
         return bool(self.pb.getContactPoints(bodyA=self.body, bodyB=body))
@@ -95,12 +97,20 @@ class Carrier:
         """Bring the gripper to a primitive's start pose (above the action) with the given opening."""
         raise NotImplementedError
 
-    def move_linear(self, target, yaw: float, speed: float, guarded: bool = False) -> bool:
-        """Straight TCP line to target; returns False when a guarded move stopped on contact."""
+    def move_linear(self, target, yaw: float, speed: float, guarded: bool = False,
+                    guard_force: float = config.GUARD_FORCE) -> bool:
+        """Straight TCP line to target (m) at speed (m/s); returns False when a guarded move stopped on
+        contact (pushed up harder than guard_force, N)."""
         raise NotImplementedError
 
     def go_home(self) -> None:
-        """Leave the camera's view."""
+        """Leave the camera's view; completes the last plan's pending RETREAT step (executed_steps)."""
+        self._go_home()
+        if self.pending_retreat is not None:
+            self.executed_steps.append(self.pending_retreat)
+            self.pending_retreat = None
+
+    def _go_home(self) -> None:
         raise NotImplementedError
 
     def joint_positions(self) -> dict:
@@ -155,7 +165,7 @@ class FloatingCarrier(Carrier):
     def go_to_start(self, position, yaw, opening):
         self._teleport(position, yaw, opening)
 
-    def move_linear(self, target, yaw, speed, guarded=False):
+    def move_linear(self, target, yaw, speed, guarded=False, guard_force=config.GUARD_FORCE):
         start = list(self._target)
         self.yaw = yaw
         distance = math.dist(start, target)
@@ -165,7 +175,7 @@ class FloatingCarrier(Carrier):
             self._target = [a + (b - a) * s for a, b in zip(start, target, strict=True)]
             self._drive(self._target, yaw)
             self._step()
-            if guarded and self.pressing_down():
+            if guarded and self.pressing_down(guard_force):
                 self._target = list(self.tcp_position())
                 self._drive(self._target, yaw)
                 return False
@@ -173,7 +183,7 @@ class FloatingCarrier(Carrier):
             self._step()
         return True
 
-    def go_home(self):
+    def _go_home(self):
         self._teleport(self.PARK_POSITION, 0.0, 0.0)
 
     def joint_positions(self) -> dict:

@@ -10,12 +10,13 @@ import tempfile
 
 import numpy as np
 
+from impurity_common import cell
 from impurity_common import ur5_kinematics as ur5_model
 
 from . import config
 from .gripper import Carrier
 
-SAFE_HEIGHT = 0.25  # m: joint-space moves only above this TCP height (reachable over all the workspace)
+SAFE_HEIGHT = cell.SAFE_TRAVEL_HEIGHT  # m: joint-space moves only above this TCP height
 TRACKING_TOLERANCE = 0.0005  # rad: a move ends when every joint is this close (0.3 mm at the TCP)
 MAX_SETTLE_STEPS = 120  # after a trajectory, steps allowed for the joints to catch up
 POSITION_GAIN = 0.4
@@ -90,7 +91,7 @@ class ArmCarrier(Carrier):
             self._step()
         self._settle_joints()
 
-    def move_linear(self, target, yaw, speed, guarded=False):
+    def move_linear(self, target, yaw, speed, guarded=False, guard_force=config.GUARD_FORCE):
         yaw = ur5_model.nearest_equivalent_yaw(yaw, self.yaw)
         start = np.array(ur5_model.tcp_pose(self.q)[:3, 3])
         target = np.asarray(target, dtype=float)
@@ -103,7 +104,7 @@ class ArmCarrier(Carrier):
             self.q = ur5_model.ik(start + (target - start) * s, start_yaw + (yaw - start_yaw) * s, previous)
             self._command_joints(self.q, (self.q - previous) / config.TIME_STEP)
             self._step()
-            if guarded and self.pressing_down():
+            if guarded and self.pressing_down(guard_force):
                 self.q = self.measured_joints()
                 self._command_joints(self.q)
                 return False
@@ -121,7 +122,7 @@ class ArmCarrier(Carrier):
         self.yaw = yaw
         self.move_linear(position, yaw, config.FREE_SPEED)
 
-    def go_home(self):
+    def _go_home(self):
         current = ur5_model.tcp_pose(self.q)[:3, 3]
         if current[2] < SAFE_HEIGHT - 0.01:
             self.move_linear((current[0], current[1], SAFE_HEIGHT), self.yaw, config.FREE_SPEED)
