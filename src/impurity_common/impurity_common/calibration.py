@@ -332,8 +332,8 @@ def detect_board(image: np.ndarray, spec: CharucoBoardSpec, intrinsics: CameraIn
             f"board?")
     required = max(4, int(min_corners))
     if found < required:
-        hint = ("markers were seen but no corner between them: do --squares and the dictionary match the "
-                "printed board?" if found == 0 else
+        hint = ("markers were seen but no corner between them: do the squares and the dictionary match the "
+                "printed board?" if found == 0 and markers >= 4 else
                 "show more of the board, bring the camera closer or light the board evenly")
         raise TooFewCorners(f"{found} chessboard corners found from {markers} markers, at least {required} "
                             f"needed (a full view has {spec.corner_count}): {hint}")
