@@ -137,9 +137,41 @@ def nearest_equivalent_yaw(yaw: float, current_yaw: float) -> float:
     return min(candidates, key=lambda c: abs(c - current_yaw))
 
 
-def urdf_text(finger_travel: float = GRIPPER_MAX_OPENING / 2.0) -> str:
+def rpy_matrix(roll: float, pitch: float, yaw: float) -> np.ndarray:
+    """URDF's fixed-axis roll-pitch-yaw (rad) as a rotation matrix: Rz(yaw) Ry(pitch) Rx(roll)."""
+    cr, sr, cp, sp, cy, sy = (math.cos(roll), math.sin(roll), math.cos(pitch), math.sin(pitch),
+                              math.cos(yaw), math.sin(yaw))
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def matrix_rpy(rotation) -> tuple[float, float, float]:
+    """(roll, pitch, yaw) (rad) with rpy_matrix(roll, pitch, yaw) == rotation (3 x 3, orthonormal)."""
+    r = np.asarray(rotation, dtype=float)
+    pitch = math.asin(max(-1.0, min(1.0, -r[2, 0])))
+    if abs(r[2, 0]) < 1.0 - 1e-9:
+        return math.atan2(r[2, 1], r[2, 2]), pitch, math.atan2(r[1, 0], r[0, 0])
+    return 0.0, pitch, math.atan2(-r[0, 1], r[1, 1])  # gimbal lock: roll folded into yaw
+
+
+def _numbers(values) -> str:
+    return " ".join(f"{v:.17g}" for v in values)
+
+
+# The UR ROS driver's tool0 is its flange frame turned by rpy (pi/2, 0, pi/2) (ur_description).
+FLANGE_TO_TOOL0_RPY = (math.pi / 2, 0.0, math.pi / 2)
+
+
+def urdf_text(finger_travel: float = GRIPPER_MAX_OPENING / 2.0, ros_frames: bool = False) -> str:
     """URDF of the UR5 (links from the DH table, simple cylinders as collision geometry) with the RG2-like
-    gripper at the flange. Generated here so kinematics and body share one source."""
+    gripper at the flange. Generated here so kinematics and body share one source.
+
+    Link i's frame is DH frame i-1 turned by joint i's angle (base = DH frame 0); tool0 is DH frame 6
+    and gripper_tcp the TCP of tcp_pose(). ros_frames=True (for /robot_description) adds, as the UR ROS
+    driver names them, `base_link_inertia` (base_link turned by pi about z, the parent of
+    shoulder_link) and `flange` (between wrist_3_link and tool0, x out of the flange); the kinematics
+    are the same. The simulator loads the default (no extra links, so no extra bodies in PyBullet)."""
     color = " ".join(str(c) for c in ARM_COLOR)
     grip_color = " ".join(str(c) for c in GRIPPER_COLOR)
 
@@ -169,6 +201,12 @@ def urdf_text(finger_travel: float = GRIPPER_MAX_OPENING / 2.0) -> str:
              f'<joint name="base_link-base_fixed_joint" type="fixed"><parent link="{BASE_FRAME}"/>'
              '<child link="base"/><origin xyz="0 0 0" rpy="0 0 3.141592653589793"/></joint>']
     parent = "base"
+    if ros_frames:
+        parts.append('<link name="base_link_inertia"/>')
+        parts.append(f'<joint name="base_link-base_link_inertia" type="fixed"><parent link="{BASE_FRAME}"/>'
+                     '<child link="base_link_inertia"/><origin xyz="0 0 0" rpy="0 0 3.141592653589793"/>'
+                     '</joint>')
+        parent = "base_link_inertia"
     link_names = ("shoulder_link", "upper_arm_link", "forearm_link", "wrist_1_link", "wrist_2_link",
                   "wrist_3_link")
     for i, name in enumerate(JOINT_NAMES):
@@ -183,9 +221,18 @@ def urdf_text(finger_travel: float = GRIPPER_MAX_OPENING / 2.0) -> str:
                      f'velocity="3.15"/></joint>')
         parent = link_names[i]
     parts.append(link("tool0", 0.01))
-    parts.append('<joint name="wrist_3-flange" type="fixed"><parent link="wrist_3_link"/>'
-                 '<child link="tool0"/>'
-                 f'<origin xyz="{DH_A[5]} 0 {DH_D[5]}" rpy="{DH_ALPHA[5]} 0 0"/></joint>')
+    if ros_frames:
+        flange_rpy = matrix_rpy(rpy_matrix(DH_ALPHA[5], 0.0, 0.0) @ rpy_matrix(*FLANGE_TO_TOOL0_RPY).T)
+        parts.append('<link name="flange"/>')
+        parts.append('<joint name="wrist_3-flange" type="fixed"><parent link="wrist_3_link"/>'
+                     '<child link="flange"/>'
+                     f'<origin xyz="{DH_A[5]} 0 {DH_D[5]}" rpy="{_numbers(flange_rpy)}"/></joint>')
+        parts.append('<joint name="flange-tool0" type="fixed"><parent link="flange"/><child link="tool0"/>'
+                     f'<origin xyz="0 0 0" rpy="{_numbers(FLANGE_TO_TOOL0_RPY)}"/></joint>')
+    else:
+        parts.append('<joint name="wrist_3-flange" type="fixed"><parent link="wrist_3_link"/>'
+                     '<child link="tool0"/>'
+                     f'<origin xyz="{DH_A[5]} 0 {DH_D[5]}" rpy="{DH_ALPHA[5]} 0 0"/></joint>')
     # Gripper frame (TCP, z up the wrist) = tool0 * Trans(0, 0, FLANGE_TO_TCP) * Rx(pi).
     palm = PALM_HALF_EXTENTS
     palm_z = FINGER_LENGTH + palm[2]
