@@ -19,6 +19,7 @@ setup(
     entry_points={"console_scripts": [
         "bag_recorder = impurity_common.bag_recorder_node:main",
         "bag_replay = impurity_common.bag_replay_node:main",
+        "calibrate_camera = impurity_common.calibrate_camera:main",
         "cell_state_publisher = impurity_common.cell_state_publisher:main",
         "decision_markers = impurity_common.decision_markers:main",
     ]},
