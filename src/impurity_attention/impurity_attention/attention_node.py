@@ -10,7 +10,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
-from impurity_attention.core.attention import BACKGROUNDS, AttentionParams, attend, debug_image
+from impurity_attention.core.attention import BACKGROUNDS, CONTRASTS, AttentionParams, attend, debug_image
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_common import cell, names
@@ -77,9 +77,14 @@ class AttentionNodeParameters:
                                    low=0.01, high=0.99)
     min_region_area: int = param(DEFAULTS.min_region_area, "Smallest salient region (cells)",
                                  low=1, high=cell.HEIGHTMAP_SIZE ** 2)
+    contrast: str = param(DEFAULTS.contrast, "relative: judge the best region against the scene's own "
+                          "product contrast (any palette, any exposure); absolute: opponent-colour units "
+                          "(calibrated for red among blue only)", choices=CONTRASTS)
+    min_relative_contrast: float = param(DEFAULTS.min_relative_contrast, "relative: mean relative saliency "
+                                         "of the best region below this: no visible target", low=0.0)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
-                                       "Mean saliency of the best region below this: no visible target",
-                                       low=0.0)
+                                       "absolute: mean saliency of the best region below this: no visible "
+                                       "target", low=0.0)
     mask_chroma_tolerance: float = param(DEFAULTS.mask_chroma_tolerance, "Target mask: object cells within "
                                          "this chroma distance of m_t (0 = m_t only)", low=0.0)
     crop_size: int = param(DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)",
@@ -92,7 +97,8 @@ class AttentionNodeParameters:
         return AttentionParams(
             saliency=SaliencyParams(**asdict(self.saliency)), density=DensityParams(**asdict(self.density)),
             background=self.background, region_fraction=self.region_fraction,
-            min_region_area=self.min_region_area, min_target_contrast=self.min_target_contrast,
+            min_region_area=self.min_region_area, contrast=self.contrast,
+            min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 

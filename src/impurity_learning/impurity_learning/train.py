@@ -5,7 +5,12 @@ One iteration: render -> heightmaps -> attention -> 32 Q maps -> epsilon-greedy 
 grasp -> reward (grasp: a target lifted; push: TCDD of the attended target rose by > delta) -> one DQN
 update on the new transition and `replay_per_step` rank-based replays.
 
-Scenes: random scenario only, each from a seeded scene index. A scene is replaced when every target
+Scenes: random scenario only, each from a seeded scene index, under an appearance (issue 17): with
+`palettes = "training"` each scene draws a palette from splits.py's training set (the default palette,
+the tuning palettes or a random palette of the training seed range) and an exposure, so that the
+network learns to key on the target mask and the geometry, not on one colour; `"default"` keeps the
+blue/red palette of the first releases. `init_from` starts from a network checkpoint (fine-tuning).
+A scene is replaced when every target
 is picked, when attention finds nothing to act on, when the same primitive failed 3 times in a row
 (paper 6.3), or after `max_scene_actions` (a guard against endless shuffling).
 
@@ -50,18 +55,22 @@ from impurity_policy.core.policy import (
 from impurity_policy.core.pose import PoseRules
 from impurity_policy.core.rules import PRESETS, RulePipeline
 
-from . import tcdd
+from . import splits, tcdd
 from .replay import RankedReplay, Transition
 from .trainer import Trainer, TrainerConfig
 
 TRAIN_FORMAT_VERSION = 1
+PALETTE_SETS = ("training", "default")
+# Appearance draw per training scene ("training" set): default palette, a named tuning palette, or a
+# random palette of the training seed range; then an exposure drawn log-uniformly (splits.py).
+PALETTE_MIX = (0.2, 0.3, 0.5)
 METHODS = ("ours", "no_t", "no_oi", "no_tsd", "vpg")
 SCENE_SEED_STRIDE = 1_000_003  # scene index i of run seed s uses sim seed s * stride + i
 CSV_FIELDS = ("iteration", "scene", "scene_step", "mode", "primitive", "rotation", "crop_row", "crop_col",
               "x", "y", "z", "yaw", "q_value", "explored", "epsilon", "reward", "label", "loss", "td_error",
               "replay_loss", "alpha_before", "alpha_after", "grasp_lifted", "target_grasped",
               "targets_remaining", "scene_reset", "seconds", "t_decide", "t_act", "t_sense", "t_learn",
-              "message")
+              "message", "palette")
 
 
 @dataclass
@@ -86,6 +95,8 @@ class TrainConfig:
     # Test-time rules preset while training (rules.PRESETS). "none" by default: the shipped checkpoint
     # was trained without rules; evaluation and the policy node apply them at test time.
     rules: str = "none"
+    palettes: str = "training"  # PALETTE_SETS: "training" (random appearances) or "default"
+    init_from: str = ""  # a network checkpoint to start from (weights only); "" = from scratch
     progress: bool = True
     trainer: TrainerConfig = field(default_factory=TrainerConfig)
 
@@ -96,6 +107,9 @@ class TrainConfig:
             raise ValueError(f"unknown rules preset '{self.rules}' (expected one of {', '.join(PRESETS)})")
         if self.scenario != "random":
             raise ValueError("training uses the random scenario only (paper 6.2)")
+        if self.palettes not in PALETTE_SETS:
+            raise ValueError(f"unknown palette set '{self.palettes}' "
+                             f"(expected one of {', '.join(PALETTE_SETS)})")
 
 
 def network_config_for(method: str) -> NetworkConfig:
@@ -195,6 +209,9 @@ class TrainingRun:
         self.world = CellWorld(mode="floating")
         self._projectors = {}
         self.resumed = self._resume()
+        if not self.resumed and config.init_from:
+            self.trainer.load(config.init_from, weights_only_network=True)
+        self.palette = ""
 
     # -- persistence
     def _resume(self) -> bool:
@@ -229,11 +246,28 @@ class TrainingRun:
     def new_scene(self):
         self.scene_index += 1
         seed = self.config.seed * SCENE_SEED_STRIDE + self.scene_index
+        self.palette = self.draw_palette()
         self.world.reset_scene(self.config.scenario, seed=seed, num_targets=self.config.num_targets,
-                               num_objects=self.config.num_objects)
+                               num_objects=self.config.num_objects, palette=self.palette)
         self.scene_step, self.failures = 0, {PUSH: 0, GRASP: 0}
         self.policy.rules.clear()
         return self.sense()
+
+    def draw_palette(self) -> str:
+        """The next scene's palette name (with an exposure suffix), drawn from self.rng."""
+        if self.config.palettes == "default":
+            return ""
+        pick = self.rng.choice(len(PALETTE_MIX), p=PALETTE_MIX)
+        if pick == 0:
+            name = splits.DEFAULT_PALETTE
+        elif pick == 1:
+            name = str(self.rng.choice(splits.TUNING_NAMED))
+        else:
+            seeds = splits.TRAINING_RANDOM_SEEDS
+            name = f"random-{int(self.rng.integers(seeds.start, seeds.stop))}"
+        low, high = splits.TRAINING_EXPOSURE
+        exposure = float(np.exp(self.rng.uniform(np.log(low), np.log(high))))
+        return f"{name}@x{exposure:.3f}"
 
     # -- one action
     def push_reward(self, obs, truth_before, truth_after, maps_before, maps_after) -> tuple:
@@ -355,7 +389,8 @@ class TrainingRun:
                "targets_remaining": next_truth.targets_remaining, "scene_reset": int(scene_reset),
                "seconds": round(time.perf_counter() - t0, 3), "t_decide": round(t1 - t0, 3),
                "t_act": round(t2 - t1, 3), "t_sense": round(t3 - t2, 3),
-               "t_learn": round(time.perf_counter() - t3, 3), "message": outcome.message}
+               "t_learn": round(time.perf_counter() - t3, 3), "message": outcome.message,
+               "palette": self.palette}
         if scene_reset:
             next_obs, next_truth, next_maps = self.new_scene()
         return row, next_obs, next_truth, next_maps

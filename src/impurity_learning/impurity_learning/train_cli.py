@@ -12,7 +12,7 @@ import sys
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT, read_checkpoint
 from impurity_policy.core.rules import PRESETS
 
-from .train import METHODS, TrainConfig, TrainingRun
+from .train import METHODS, PALETTE_SETS, TrainConfig, TrainingRun
 from .trainer import Trainer, TrainerConfig
 
 # The baselines' and ablations' networks (make train-baselines exports them here).
@@ -36,6 +36,12 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="stop and save after this much wall time (0: no limit); rerun to resume")
     p.add_argument("--rules", default="none", choices=sorted(PRESETS),
                    help="test-time rules preset applied while training too (none: the paper's argmax)")
+    p.add_argument("--palettes", default="training", choices=PALETTE_SETS,
+                   help="training: a random appearance per scene (splits.py); default: blue/red only")
+    p.add_argument("--init-from", default="", metavar="CHECKPOINT",
+                   help="start from this network checkpoint (weights only), e.g. the shipped one")
+    p.add_argument("--epsilon-start", type=float, default=TrainerConfig.epsilon_start,
+                   help="exploration at iteration 0 (decays 0.9998^t to 0.1); lower when fine-tuning")
     p.add_argument("--no-progress", action="store_true")
     p.add_argument("--export", metavar="PATH", nargs="?", const=str(SHIPPED_CHECKPOINT),
                    help=f"after training, write the network-only checkpoint (default {SHIPPED_CHECKPOINT})")
@@ -68,8 +74,8 @@ def main(argv=None) -> int:
                          replay_per_step=args.replay_per_step, checkpoint_every=args.checkpoint_every,
                          threads=args.threads, device=args.device, max_hours=args.max_hours,
                          progress=not args.no_progress,
-                         rules=args.rules,
-                         trainer=TrainerConfig(learning_rate=args.lr))
+                         rules=args.rules, palettes=args.palettes, init_from=args.init_from,
+                         trainer=TrainerConfig(learning_rate=args.lr, epsilon_start=args.epsilon_start))
     run = TrainingRun(config)
     if run.resumed:
         print(f"resuming {config.run_dir} at iteration {run.iteration}", file=sys.stderr)

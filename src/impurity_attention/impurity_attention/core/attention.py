@@ -19,8 +19,17 @@ Cell-specific choices on top of the paper, all parameters (see AttentionParams):
 - salient regions are restricted to object cells, and a region must cover `min_region_area`.
 - the target mask is m_t grown to the whole object (`mask_chroma_tolerance`): m_t alone is often
   only the most contrasted part of the target, and the policy uses the mask as "where the target is".
-The decision threshold `min_target_contrast` is a mean saliency (opponent-colour contrast units)
-calibrated on rendered scenes by scripts/calibrate_attention.py.
+- the decision is relative to the scene (`contrast = "relative"`, issue 17): each VOCUS2 conspicuity
+  map (I, RG, BY) is divided by its own mean over the object cells - the product's typical contrast in
+  that channel - and the relative saliency is their maximum. A region is an impurity when its mean
+  relative saliency reaches `min_relative_contrast`: "this much more contrasted than the product usually
+  is", whatever the product's colour and the exposure (a brighter or darker image scales every
+  conspicuity map alike; the ratio is unchanged). Taking the maximum over channels keeps an impurity
+  that differs from the product in one channel only (lightness: slate in coal; hue: a green flake among
+  blue ones) from being averaged away by the shading contrast every product block has in I.
+  `contrast = "absolute"` is the earlier rule (mean saliency >= `min_target_contrast`, opponent-colour
+  units, calibrated for red among blue only).
+Both thresholds are calibrated on rendered tuning scenes by scripts/calibrate_attention.py.
 
 DBSCAN only runs when no target is visible: Algorithm 1 uses its result only then, and it is the
 more expensive half.
@@ -39,9 +48,11 @@ from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-ex
 from impurity_common.grid import HeightmapGrid
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
-from .saliency import CELL_SALIENCY, SaliencyParams, normalised, opponent_colour, vocus2
+from .saliency import CELL_SALIENCY, CHANNELS, SaliencyParams, normalised, opponent_colour, vocus2
 
 BACKGROUNDS = ("objects", "table")
+CONTRASTS = ("relative", "absolute")
+MIN_CHANNEL_LEVEL = 1e-4  # opponent-colour units: a channel flatter than this over the objects is noise
 MEDIAN_SAMPLES = 2000  # object cells sampled for the objects' median colour
 
 
@@ -53,8 +64,12 @@ class AttentionParams:
     background: str = "objects"  # "objects": paint table/unseen cells with the objects' median colour
     region_fraction: float = 0.5  # a salient region: connected object cells >= this x the peak saliency
     min_region_area: int = 30  # px (2 mm cells): smaller regions are specks, not objects
-    # mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99): targets >= 0.054,
-    # scenes without impurity <= 0.021; 0.034 is their geometric mean (a 1.6x margin either side).
+    contrast: str = "relative"  # CONTRASTS: how the best region is judged (module docstring)
+    # relative: mean relative saliency of m_t below this -> no visible target. Provenance: see
+    # scripts/calibrate_attention.py (tuning palettes and tuning seeds only) and docs/experiments.md.
+    min_relative_contrast: float = 3.3
+    # absolute: mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99, default
+    # palette only): targets >= 0.054, scenes without impurity <= 0.021; 0.034 is their geometric mean.
     min_target_contrast: float = 0.034
     # The target mask: object cells connected to m_t whose shading-free chroma (RG, BY divided by
     # intensity) lies within this distance of m_t's. 0 = the salient region itself.
@@ -65,6 +80,8 @@ class AttentionParams:
             raise ValueError(f"crop_size must be even and >= 2, got {self.crop_size}")
         if self.background not in BACKGROUNDS:
             raise ValueError(f"background '{self.background}' not one of {BACKGROUNDS}")
+        if self.contrast not in CONTRASTS:
+            raise ValueError(f"contrast '{self.contrast}' not one of {CONTRASTS}")
         if not 0.0 < self.region_fraction < 1.0:
             raise ValueError(f"region_fraction must be in (0, 1), got {self.region_fraction}")
 
@@ -120,6 +137,26 @@ def saliency_input(color: np.ndarray, objects: np.ndarray, background: str) -> n
     return painted
 
 
+def relative_saliency(conspicuity: dict, objects: np.ndarray) -> np.ndarray:
+    """(H, W) float32: max over the I, RG, BY conspicuity maps of each map divided by its mean over the
+    object cells (module docstring). Dimensionless: 1 = as contrasted as the product on average."""
+    planes = []
+    for name in CHANNELS:
+        plane = conspicuity[name]
+        level = float(plane[objects].mean()) if np.any(objects) else 0.0
+        planes.append(plane / max(level, MIN_CHANNEL_LEVEL))
+    return np.max(planes, axis=0).astype(np.float32)
+
+
+def scene_saliency(color: np.ndarray, objects: np.ndarray, params: AttentionParams) -> np.ndarray:
+    """The saliency map the decision reads: relative (dimensionless) or absolute (opponent-colour
+    units), per params.contrast."""
+    image = saliency_input(color, objects, params.background)
+    if params.contrast == "absolute":
+        return vocus2(image, params.saliency).saliency
+    return relative_saliency(vocus2(image, params.saliency, keep_features=True).conspicuity, objects)
+
+
 def salient_regions(saliency: np.ndarray, objects: np.ndarray, params: AttentionParams) -> list:
     """Connected object cells at >= region_fraction x the peak saliency, best (mean saliency) first."""
     if not np.any(objects):
@@ -173,10 +210,11 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
     color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
-    saliency = vocus2(saliency_input(color, objects, params.background), params.saliency).saliency
+    saliency = scene_saliency(color, objects, params)
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
-    if best is not None and best.score >= params.min_target_contrast:
+    threshold = params.min_relative_contrast if params.contrast == "relative" else params.min_target_contrast
+    if best is not None and best.score >= threshold:
         target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
@@ -186,7 +224,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
     no_target = ("no salient region" if best is None else
-                 f"best region contrast {best.score:.4f} < {params.min_target_contrast:.4f}")
+                 f"best region {params.contrast} contrast {best.score:.4f} < {threshold:.4f}")
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,

@@ -131,11 +131,11 @@ def summarize(verdicts) -> dict:
 
 
 def record_from_world(world, scenario: str, seed: int, num_targets: int, num_objects: int,
-                      grid: HeightmapGrid = HeightmapGrid(), keep_frame: bool = False):
+                      grid: HeightmapGrid = HeightmapGrid(), keep_frame: bool = False, palette: str = ""):
     """Reset the simulator's scene (a ur5_driver_sim CellWorld, duck-typed: no import here), render it
     and project colour, depth and segmentation onto the heightmap grid. Returns a SceneRecord (and
     the camera frame when keep_frame)."""
-    world.reset_scene(scenario, seed=seed, num_targets=num_targets, num_objects=num_objects)
+    world.reset_scene(scenario, seed=seed, num_targets=num_targets, num_objects=num_objects, palette=palette)
     frame = world.render()
     truth = world.ground_truth(frame)
     maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose, grid,

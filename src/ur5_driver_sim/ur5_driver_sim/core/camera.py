@@ -76,10 +76,15 @@ class CameraModel:
         p[3, 2] = -1.0
         return list(p.T.reshape(-1))
 
-    def render(self, pb, depth_noise_std: float = 0.0, rng: np.random.Generator | None = None) -> CameraFrame:
+    def render(self, pb, depth_noise_std: float = 0.0, rng: np.random.Generator | None = None,
+               palette=None) -> CameraFrame:
+        """Render colour, depth and segmentation. `palette` (appearance.Palette) sets the light and the
+        exposure; None: the default light, exposure 1."""
+        light = (palette.light_direction, palette.ambient, palette.diffuse) if palette is not None else (
+            [0.3, 0.2, 1.0], 0.6, 0.45)
         _, _, rgba, zbuffer, seg = pb.getCameraImage(
             self.width, self.height, viewMatrix=self.view_matrix(), projectionMatrix=self.projection_matrix(),
-            shadow=0, lightDirection=[0.3, 0.2, 1.0], lightAmbientCoeff=0.6, lightDiffuseCoeff=0.45,
+            shadow=0, lightDirection=list(light[0]), lightAmbientCoeff=light[1], lightDiffuseCoeff=light[2],
             lightSpecularCoeff=0.05, renderer=pb.ER_TINY_RENDERER)
         rgba = np.asarray(rgba, dtype=np.uint8).reshape(self.height, self.width, 4)
         zbuffer = np.asarray(zbuffer, dtype=np.float64).reshape(self.height, self.width)
@@ -88,5 +93,8 @@ class CameraModel:
             rng = rng or np.random.default_rng()
             depth = depth + rng.normal(0.0, depth_noise_std, depth.shape)
         seg = np.asarray(seg, dtype=np.int32).reshape(self.height, self.width)
-        return CameraFrame(color=np.ascontiguousarray(rgba[:, :, :3]), depth=depth.astype(np.float32),
+        color = np.ascontiguousarray(rgba[:, :, :3])
+        if palette is not None:
+            color = palette.expose(color)
+        return CameraFrame(color=color, depth=depth.astype(np.float32),
                            segmentation=seg, intrinsics=self.intrinsics, camera_pose=self.pose)

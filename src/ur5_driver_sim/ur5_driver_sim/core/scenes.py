@@ -1,7 +1,9 @@
 """Scenario layouts (paper 6.1): where blocks start before physics settles them.
 
-Each generator is pure: (rng, counts, colours) -> list of BlockSpec. The world spawns them, lets them
-settle and checks the scenario's invariants (all in the workspace; invisible: no target pixel).
+Each generator is pure: (rng, counts, colours) -> list of BlockSpec, where `colours` is the scene's
+appearance.BlockColours (product blocks draw their jitter from `rng`, as before palettes existed).
+The world spawns them, lets them settle and checks the scenario's invariants (all in the workspace;
+invisible: no target pixel).
 """
 
 from __future__ import annotations
@@ -14,8 +16,7 @@ import numpy as np
 
 from impurity_common import cell
 
-from . import config
-from .shapes import SHAPES, BlockSpec, product_color, random_dims, yaw_quaternion
+from .shapes import SHAPES, BlockSpec, random_dims, yaw_quaternion
 
 SCENARIOS = ("random", "challenging", "invisible", "file", "empty")
 DEFAULT_COUNTS = {  # (targets, non-target blocks)
@@ -66,9 +67,9 @@ def check_invisible_counts(num_targets: int, num_objects: int) -> int:
     return heaps
 
 
-def _block(rng, shape, is_target, target_color, dims=None) -> BlockSpec:
+def _block(rng, shape, is_target, colours, dims=None) -> BlockSpec:
     dims = dims or random_dims(shape, rng)
-    color = tuple(target_color) if is_target else product_color(rng)
+    color = colours.impurity() if is_target else colours.product(rng)
     return BlockSpec(shape=shape, dims=dims, color=color, is_target=is_target)
 
 
@@ -88,10 +89,10 @@ def stack_without_overlap(specs, xy_points, rng, base_z=cell.TABLE_Z, random_ori
     return specs
 
 
-def random_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+def random_layout(rng, num_targets, num_objects, colours):
     flags = [True] * num_targets + [False] * num_objects
     rng.shuffle(flags)
-    specs = [_block(rng, SHAPES[rng.integers(len(SHAPES))], is_target, target_color) for is_target in flags]
+    specs = [_block(rng, SHAPES[rng.integers(len(SHAPES))], is_target, colours) for is_target in flags]
     points = [(CENTER[0] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE),
                CENTER[1] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE)) for _ in specs]
     return stack_without_overlap(specs, points, rng)
@@ -102,7 +103,7 @@ def _rotate(dx, dy, yaw):
     return c * dx - s * dy, s * dx + c * dy
 
 
-def challenging_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+def challenging_layout(rng, num_targets, num_objects, colours):
     """Blocks standing side by side on a grid with gaps of a few mm; targets in interior cells."""
     total = num_targets + num_objects
     if total == 0:
@@ -132,7 +133,7 @@ def challenging_layout(rng, num_targets, num_objects, target_color=config.TARGET
         height = rng.uniform(0.03, 0.045)
         dims = {"cube": (edge, edge, height), "cylinder": (edge, edge, height), "prism": (edge, edge, height),
                 "half_cylinder": (edge, edge, edge / 2)}[shape]
-        spec = _block(rng, shape, is_target, target_color, dims)
+        spec = _block(rng, shape, is_target, colours, dims)
         dx = (cell_rc[1] - (cols - 1) / 2) * pitch
         dy = (cell_rc[0] - (rows - 1) / 2) * pitch
         ox, oy = _rotate(dx, dy, yaw)
@@ -153,7 +154,7 @@ def _heap_centers(rng, count):
     raise RuntimeError("could not place the heaps apart")
 
 
-def invisible_layout(rng, num_targets, num_objects, target_color=config.TARGET_COLOR):
+def invisible_layout(rng, num_targets, num_objects, colours):
     """Two or three heaps; each hides its targets in a box of two bars and two pillars under a slab,
     and the remaining blocks are dropped onto the heaps."""
     heaps = check_invisible_counts(num_targets, num_objects)
@@ -172,21 +173,21 @@ def invisible_layout(rng, num_targets, num_objects, target_color=config.TARGET_C
             specs.append(spec)
 
         for i in range(k):
-            target = _block(rng, "cube", True, target_color, (t, t, t))
+            target = _block(rng, "cube", True, colours, (t, t, t))
             place(target, -row_half + t / 2 + i * (t + 0.002), 0.0, cell.TABLE_Z + t / 2 + 0.001)
         wall_h = rng.uniform(0.032, 0.036)
         bar_len = 2 * row_half + 2 * HEAP_WALL_GAP + 0.07
         for side in (-1, 1):
-            bar = _block(rng, "bar", False, target_color, (min(bar_len, 0.1), 0.028, wall_h))
+            bar = _block(rng, "bar", False, colours, (min(bar_len, 0.1), 0.028, wall_h))
             place(bar, 0.0, side * (t / 2 + HEAP_WALL_GAP + 0.014), cell.TABLE_Z + wall_h / 2 + 0.001)
         for side in (-1, 1):
-            pillar = _block(rng, "cube", False, target_color, (0.03, 0.03, wall_h))
+            pillar = _block(rng, "cube", False, colours, (0.03, 0.03, wall_h))
             place(pillar, side * (row_half + HEAP_WALL_GAP + 0.015), 0.0, cell.TABLE_Z + wall_h / 2 + 0.001)
         slab_h = 0.02
-        cover = _block(rng, "slab", False, target_color, (0.1, 0.085, slab_h))
+        cover = _block(rng, "slab", False, colours, (0.1, 0.085, slab_h))
         place(cover, 0.0, 0.0, cell.TABLE_Z + wall_h + slab_h / 2 + 0.003)
     extra = num_objects - heaps * HEAP_BLOCKS_PER_HEAP
-    loose = [_block(rng, SHAPES[rng.integers(len(SHAPES))], False, target_color) for _ in range(extra)]
+    loose = [_block(rng, SHAPES[rng.integers(len(SHAPES))], False, colours) for _ in range(extra)]
     on_top = loose[: extra // 2]  # piled on the cover slabs: the heaps
     around = loose[extra // 2:]  # leaning on the heaps' sides
     top_points, side_points = [], []

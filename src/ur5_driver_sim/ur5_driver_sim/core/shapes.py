@@ -81,13 +81,6 @@ def random_dims(shape: str, rng: np.random.Generator | None) -> tuple:
     return tuple(values)
 
 
-def product_color(rng: np.random.Generator | None, base=config.PRODUCT_COLOR,
-                  jitter: float = config.PRODUCT_SHADE_JITTER) -> tuple:
-    if rng is None:
-        return tuple(base)
-    return tuple(float(np.clip(c + rng.uniform(-jitter, jitter), 0.0, 1.0)) for c in base)
-
-
 def _prism_mesh(dims):
     """Triangular prism: triangle in the x-z plane (base width dims[0], apex height dims[2]), length
     along y. Vertices centred on the bounding box."""

@@ -22,7 +22,7 @@ from pybullet_utils import bullet_client
 from impurity_common import cell
 from impurity_common.ur5_kinematics import IKError
 
-from . import config, scenes
+from . import appearance, config, scenes
 from .camera import CameraFrame, CameraModel
 from .gripper import FloatingCarrier, MotionCancelled
 from .primitives import GRASP, PUSH, PrimitiveOutcome, execute_grasp, execute_push, validate_primitive
@@ -46,6 +46,7 @@ class SceneInfo:
     generation_seconds: float = 0.0
     targets_outside_workspace: int = 0  # of num_targets: outside the workspace or off the table
     objects_outside_workspace: int = 0
+    palette: str = "blocks"  # appearance.Palette name
 
 
 @dataclass
@@ -64,13 +65,13 @@ class GroundTruth:
 
 class CellWorld:
     def __init__(self, mode: str = "floating", gui: bool = False, camera: CameraModel | None = None,
-                 target_color=config.TARGET_COLOR, solver_iterations: int = config.SOLVER_ITERATIONS,
+                 solver_iterations: int = config.SOLVER_ITERATIONS,
                  depth_noise_std: float = 0.0):
         if mode not in MODES:
             raise ValueError(f"mode must be one of {MODES}, got {mode!r}")
         self.mode = mode
         self.camera = camera or CameraModel()
-        self.target_color = tuple(target_color)
+        self.palette = appearance.palette_named("")  # set by reset_scene
         self.solver_iterations = int(solver_iterations)
         self.depth_noise_std = float(depth_noise_std)
         self.pb = bullet_client.BulletClient(connection_mode=pybullet.GUI if gui else pybullet.DIRECT)
@@ -133,10 +134,13 @@ class CellWorld:
 
     # ---------------------------------------------------------------------------------------- scenes
     def reset_scene(self, scenario: str = "random", seed: int = 0, num_targets: int = -1,
-                    num_objects: int = -1, scene_file: str | None = None) -> SceneInfo:
-        """Build a new scene. Raises ValueError for an unknown scenario or impossible counts."""
+                    num_objects: int = -1, scene_file: str | None = None,
+                    palette: str | appearance.Palette = "") -> SceneInfo:
+        """Build a new scene under `palette` (a Palette, or a name for appearance.palette_named: "" is
+        the default). Raises ValueError for an unknown scenario or palette, or impossible counts."""
         if scenario not in scenes.SCENARIOS:
             raise ValueError(f"unknown scenario {scenario!r} (expected one of {scenes.SCENARIOS})")
+        chosen = palette if isinstance(palette, appearance.Palette) else appearance.palette_named(palette)
         started = time.perf_counter()
         if scenario == "file":
             if not scene_file:
@@ -146,7 +150,9 @@ class CellWorld:
             n_objects = len(file_specs) - n_targets
         else:
             n_targets, n_objects = scenes.resolve_counts(scenario, num_targets, num_objects)
+        self.palette = chosen
         rng = np.random.default_rng(seed)
+        colours = chosen.colours(seed)
         attempts = 0
         for attempts in range(1, MAX_SCENE_ATTEMPTS + 1):  # noqa: B007 (reported in SceneInfo)
             self._build_world()
@@ -157,17 +163,17 @@ class CellWorld:
             if scenario == "empty" or n_targets + n_objects == 0:
                 break
             if scenario == "random":
-                self._spawn(scenes.random_layout(rng, n_targets, n_objects, self.target_color))
+                self._spawn(scenes.random_layout(rng, n_targets, n_objects, colours))
                 self._settle()
                 if self._keep_inside_workspace(rng):
                     break
             elif scenario == "challenging":
-                self._spawn(scenes.challenging_layout(rng, n_targets, n_objects, self.target_color))
+                self._spawn(scenes.challenging_layout(rng, n_targets, n_objects, colours))
                 self._settle(200)
                 if self._all_in_workspace():
                     break
             elif scenario == "invisible":
-                self._spawn(scenes.invisible_layout(rng, n_targets, n_objects, self.target_color))
+                self._spawn(scenes.invisible_layout(rng, n_targets, n_objects, colours))
                 self._settle()
                 if self._keep_inside_workspace(rng) and self.visible_target_pixels() == 0:
                     break
@@ -180,7 +186,8 @@ class CellWorld:
         self.scene = SceneInfo(scenario, int(seed), len(targets), len(others), targets, others, attempts,
                                time.perf_counter() - started,
                                targets_outside_workspace=sum(not self._in_workspace(b) for b in targets),
-                               objects_outside_workspace=sum(not self._in_workspace(b) for b in others))
+                               objects_outside_workspace=sum(not self._in_workspace(b) for b in others),
+                               palette=chosen.name)
         return self.scene
 
     def _spawn(self, specs) -> None:
@@ -219,7 +226,7 @@ class CellWorld:
     # ---------------------------------------------------------------------------------------- sensing
     def render(self) -> CameraFrame:
         rng = self._noise_rng if self.depth_noise_std > 0 else None
-        return self.camera.render(self.pb, self.depth_noise_std, rng)
+        return self.camera.render(self.pb, self.depth_noise_std, rng, palette=self.palette)
 
     def visible_target_pixels(self, frame: CameraFrame | None = None) -> int:
         frame = frame or self.render()

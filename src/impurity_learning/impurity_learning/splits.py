@@ -1,0 +1,56 @@
+"""The split that is kept (issue 17): which palettes and seeds tune, which only measure. One place.
+
+Thresholds, rules and hyperparameters are chosen on TUNING palettes and TUNING seeds only. HELD-OUT
+palettes and the EVALUATION seeds are only ever measured (make eval, scripts/calibrate_attention.py
+evaluate). Training draws appearances from TRAINING palettes (tuning palettes and random palettes of
+their own seed range), never from held-out ones.
+
+Palettes are names for ur5_driver_sim.core.appearance.palette_named: named palettes and
+`random-<seed>`. The groups of the generalisation table are "default", "tuning" and "held_out".
+"""
+
+from __future__ import annotations
+
+DEFAULT_PALETTE = "blocks"
+# Named palettes: the tuning ones were chosen to span dark/light/multi-shade products before any
+# measurement; the held-out ones were fixed at the same time (2026-11-30) and never tuned on.
+TUNING_NAMED = ("coal_slate", "beans_stones", "plastic_flakes", "rice_husks")
+HELD_OUT_NAMED = ("mushrooms_stones", "almonds_shells", "peas_stones", "wood_plastic")
+TUNING_RANDOM_SEEDS = range(0, 1000)  # random-<seed> for tuning
+HELD_OUT_RANDOM_SEEDS = range(1000, 2000)  # random-<seed>, only measured
+TRAINING_RANDOM_SEEDS = range(10_000, 1_000_000)  # random-<seed> drawn while training
+TRAINING_EXPOSURE = (0.5, 2.0)  # exposure factor drawn log-uniformly while training
+
+
+def tuning_palettes(random_count: int = 8) -> list:
+    return [DEFAULT_PALETTE, *TUNING_NAMED] + [f"random-{s}" for s in TUNING_RANDOM_SEEDS[:random_count]]
+
+
+def held_out_palettes(random_count: int = 8) -> list:
+    return list(HELD_OUT_NAMED) + [f"random-{s}" for s in HELD_OUT_RANDOM_SEEDS[:random_count]]
+
+
+def palette_group(name: str) -> str:
+    """"default", "tuning", "held_out" or "training" for a palette name (exposure suffix ignored)."""
+    base = name.split("@", 1)[0] or DEFAULT_PALETTE
+    if base == DEFAULT_PALETTE:
+        return "default"
+    if base in TUNING_NAMED:
+        return "tuning"
+    if base in HELD_OUT_NAMED:
+        return "held_out"
+    if base.startswith("random-") and base[7:].isdigit():
+        seed = int(base[7:])
+        if seed in TUNING_RANDOM_SEEDS:
+            return "tuning"
+        if seed in HELD_OUT_RANDOM_SEEDS:
+            return "held_out"
+        if seed in TRAINING_RANDOM_SEEDS:
+            return "training"
+    raise ValueError(f"palette {name!r} belongs to no group of the split")
+
+
+# Seeds. Scene seeds for tuning (attention calibration, rules) are below 100 000; evaluation episodes
+# use EVAL_SEED_BASE + k (evaluate.EVAL_SEED_BASE); training scenes use run seed * 1 000 003 + index.
+TUNING_SEED_RANGE = range(0, 100_000)
+EVAL_SEED_BASE = 900_000_000

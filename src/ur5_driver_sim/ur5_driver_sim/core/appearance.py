@@ -1,0 +1,244 @@
+"""What a simulated scene looks like: product and impurity colours, light and camera exposure (issue 17).
+
+The cell's promise (paper sections 1 and 5.1.1) is that nobody tells it what the impurities look like,
+so the simulator renders the same layouts under many appearances:
+
+- `Palette`: the product's colour distribution (one or several base shades, a per-block jitter), the
+  impurity colours (one or several per scene; they may be close to the product), the light (direction,
+  ambient and diffuse strength of PyBullet's TinyRenderer) and the camera's exposure (a factor on the
+  rendered RGB, clipped to 255 like a saturating sensor).
+- `PALETTES`: named palettes modelled on real sorting jobs, plus `random_palette(seed)`, addressed by
+  name as `random-<seed>`. `palette_named(name)` refuses an unknown name with the list of known ones.
+- `BlockColours`: the per-scene colour draw. Product blocks take their jitter from the layout's random
+  generator exactly as before palettes existed (so the default palette renders the scenes of earlier
+  releases bit for bit); the choice of shade and impurity colour comes from a second generator seeded
+  by the scene seed, so one seed gives the same layout under every palette.
+
+Colours are RGB in [0, 1] (PyBullet's rgbaColor); `delta_e` is the CIE76 distance in CIE Lab (OpenCV's
+float Lab, L in [0, 100]), the usual measure of "how different do two colours look".
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass, replace
+
+import cv2
+import numpy as np
+
+from . import config
+
+LEGACY_JITTER = config.PRODUCT_SHADE_JITTER  # the layout rng draws uniform(-this, this) per channel
+RANDOM_PREFIX = "random-"
+DEFAULT_PALETTE = "blocks"
+DEFAULT_LIGHT_DIRECTION = (0.3, 0.2, 1.0)
+DEFAULT_AMBIENT = 0.6
+DEFAULT_DIFFUSE = 0.45
+# random palettes: how far (CIE76 Delta E) an impurity lies from the product's mean shade. 12 is about
+# what a sorting operator calls "clearly different" on a matte surface; 60 is red among blue.
+RANDOM_IMPURITY_DELTA_E = (12.0, 60.0)
+RANDOM_SHADE_DELTA_E = 4.0  # at most this between a random palette's product shades
+COLOUR_SEED_SALT = 0x5EED_C010  # the colour generator's seed: scene seed XOR this
+
+
+def _rgb(values) -> tuple:
+    return tuple(float(v) / 255.0 for v in values)
+
+
+def delta_e(a, b) -> float:
+    """CIE76 colour difference of two RGB colours in [0, 1] (Lab via OpenCV, D65)."""
+    pixels = np.array([[a, b]], dtype=np.float32)
+    lab = cv2.cvtColor(pixels, cv2.COLOR_RGB2Lab)[0]
+    return float(np.linalg.norm(lab[0] - lab[1]))
+
+
+@dataclass(frozen=True)
+class Palette:
+    """One appearance. Raises ValueError naming the bad field when a value is out of range."""
+
+    name: str
+    product_shades: tuple  # ((r, g, b), ...) in [0, 1]: each product block takes one of these
+    impurity_colors: tuple  # ((r, g, b), ...) in [0, 1]: each impurity takes one of these
+    product_jitter: float = LEGACY_JITTER  # +- per channel and block
+    impurity_jitter: float = 0.02  # +- per channel and block
+    light_direction: tuple = DEFAULT_LIGHT_DIRECTION  # towards the light, base_link, any length > 0
+    ambient: float = DEFAULT_AMBIENT  # TinyRenderer ambient coefficient
+    diffuse: float = DEFAULT_DIFFUSE  # TinyRenderer diffuse coefficient
+    exposure: float = 1.0  # factor on the rendered RGB (0.5: one stop darker), clipped at 255
+    description: str = ""
+
+    def __post_init__(self):
+        for field_name in ("product_shades", "impurity_colors"):
+            colours = getattr(self, field_name)
+            if not colours:
+                raise ValueError(f"palette {self.name!r}: {field_name} needs at least one colour")
+            for colour in colours:
+                if len(colour) != 3 or not all(math.isfinite(c) and 0.0 <= c <= 1.0 for c in colour):
+                    raise ValueError(f"palette {self.name!r}: {field_name} holds {colour}; "
+                                     f"expected (r, g, b) in [0, 1]")
+        for field_name, low, high in (("product_jitter", 0.0, 0.2), ("impurity_jitter", 0.0, 0.2),
+                                      ("ambient", 0.0, 1.5), ("diffuse", 0.0, 1.5), ("exposure", 0.05, 8.0)):
+            value = getattr(self, field_name)
+            if not (math.isfinite(value) and low <= value <= high):
+                raise ValueError(f"palette {self.name!r}: {field_name} = {value} is outside [{low}, {high}]")
+        direction = self.light_direction
+        if len(direction) != 3 or not all(math.isfinite(v) for v in direction) or \
+                math.hypot(*direction) < 1e-6 or direction[2] <= 0.0:
+            raise ValueError(f"palette {self.name!r}: light_direction = {direction}; expected a finite "
+                             f"(x, y, z) with z > 0 (the light is above the table)")
+
+    def with_exposure(self, exposure: float) -> Palette:
+        return replace(self, name=f"{self.name}@x{exposure:g}", exposure=float(exposure))
+
+    def colours(self, scene_seed: int) -> BlockColours:
+        return BlockColours(self, scene_seed)
+
+    def min_impurity_delta_e(self) -> float:
+        """The smallest Delta E between an impurity colour and a product shade (how hard the job is)."""
+        return min(delta_e(i, p) for i in self.impurity_colors for p in self.product_shades)
+
+    def expose(self, rgb: np.ndarray) -> np.ndarray:
+        """Apply the exposure to a rendered (H, W, 3) uint8 image (a saturating sensor)."""
+        if self.exposure == 1.0:
+            return rgb
+        return np.clip(rgb.astype(np.float32) * np.float32(self.exposure) + 0.5, 0, 255).astype(np.uint8)
+
+    def to_json(self) -> dict:
+        return {"name": self.name, "product_shades": [list(c) for c in self.product_shades],
+                "impurity_colors": [list(c) for c in self.impurity_colors],
+                "product_jitter": self.product_jitter, "impurity_jitter": self.impurity_jitter,
+                "light_direction": list(self.light_direction), "ambient": self.ambient,
+                "diffuse": self.diffuse, "exposure": self.exposure}
+
+
+class BlockColours:
+    """The colour draw of one scene (see the module docstring for which generator draws what)."""
+
+    def __init__(self, palette: Palette, scene_seed: int):
+        self.palette = palette
+        self.rng = np.random.default_rng(int(scene_seed) ^ COLOUR_SEED_SALT)
+
+    def product(self, layout_rng: np.random.Generator) -> tuple:
+        """A product block's colour; draws 3 uniforms from `layout_rng` (as the legacy jitter did)."""
+        noise = [layout_rng.uniform(-LEGACY_JITTER, LEGACY_JITTER) for _ in range(3)]
+        shades = self.palette.product_shades
+        base = shades[self.rng.integers(len(shades))] if len(shades) > 1 else shades[0]
+        scale = self.palette.product_jitter / LEGACY_JITTER
+        return tuple(float(np.clip(c + (n * scale if scale != 1.0 else n), 0.0, 1.0))
+                     for c, n in zip(base, noise, strict=True))
+
+    def impurity(self) -> tuple:
+        colours = self.palette.impurity_colors
+        base = colours[self.rng.integers(len(colours))] if len(colours) > 1 else colours[0]
+        jitter = self.palette.impurity_jitter
+        if jitter <= 0.0:
+            return tuple(base)
+        return tuple(float(np.clip(c + self.rng.uniform(-jitter, jitter), 0.0, 1.0)) for c in base)
+
+
+def _palette(name, product, impurities, description, **kwargs) -> Palette:
+    return Palette(name=name, product_shades=tuple(_rgb(c) for c in product),
+                   impurity_colors=tuple(_rgb(c) for c in impurities), description=description, **kwargs)
+
+
+# Named palettes, modelled on real sorting jobs. Colours are sRGB 0..255 as a camera sees them under
+# the cell's light; jitter is per channel (0..1 scale).
+PALETTES = {p.name: p for p in (
+    Palette(name="blocks", product_shades=(config.PRODUCT_COLOR,), impurity_colors=(config.TARGET_COLOR,),
+            impurity_jitter=0.0, description="our blue product blocks with red impurities (the default)"),
+    _palette("coal_slate", [(38, 36, 36), (30, 30, 32), (46, 43, 41)], [(78, 82, 92)],
+             "near-black coal with slightly lighter blue-grey slate", product_jitter=0.015),
+    _palette("mushrooms_stones", [(226, 212, 184), (214, 198, 168)], [(128, 126, 122), (108, 104, 100)],
+             "light cream mushrooms with grey stones", product_jitter=0.02),
+    _palette("beans_stones", [(120, 72, 44), (104, 62, 38), (134, 84, 52)], [(62, 60, 58)],
+             "brown beans of several shades with dark stones", product_jitter=0.02),
+    _palette("plastic_flakes", [(176, 204, 222), (190, 214, 228)], [(72, 150, 84), (206, 96, 64)],
+             "pale blue PET flakes with foreign green and orange flakes", product_jitter=0.02,
+             light_direction=(-0.4, 0.3, 1.0), ambient=0.55, diffuse=0.5),
+    _palette("almonds_shells", [(160, 104, 66), (150, 96, 60)], [(196, 166, 124)],
+             "almond kernels with lighter shell pieces", product_jitter=0.02,
+             light_direction=(0.1, -0.5, 1.0)),
+    _palette("peas_stones", [(96, 150, 64), (84, 140, 56)], [(150, 140, 120)],
+             "green peas with light stones", product_jitter=0.02, ambient=0.5, diffuse=0.55),
+    _palette("rice_husks", [(232, 228, 214)], [(186, 150, 92)],
+             "white rice with yellow-brown husks", product_jitter=0.015, exposure=0.8),
+    _palette("wood_plastic", [(172, 128, 84), (186, 140, 94), (160, 118, 76)], [(64, 98, 160)],
+             "wood chips with blue plastic pieces", product_jitter=0.025,
+             light_direction=(0.5, 0.5, 1.0), ambient=0.65, diffuse=0.4),
+)}
+
+
+def _lab_to_rgb(lab) -> tuple | None:
+    rgb = cv2.cvtColor(np.array([[lab]], dtype=np.float32), cv2.COLOR_Lab2RGB)[0, 0]
+    back = cv2.cvtColor(np.clip(rgb, 0, 1).reshape(1, 1, 3).astype(np.float32), cv2.COLOR_RGB2Lab)[0, 0]
+    if np.any(rgb < -1e-3) or np.any(rgb > 1 + 1e-3) or np.linalg.norm(back - np.asarray(lab)) > 1.0:
+        return None  # outside the sRGB gamut
+    return tuple(float(v) for v in np.clip(rgb, 0.0, 1.0))
+
+
+def random_palette(seed: int) -> Palette:
+    """A seeded random appearance: a product base colour anywhere in sRGB with 1-3 shades within
+    RANDOM_SHADE_DELTA_E, 1-2 impurity colours at RANDOM_IMPURITY_DELTA_E from the product (some close),
+    a random light direction, ambient, diffuse and an exposure between 0.7 and 1.4."""
+    rng = np.random.default_rng([int(seed), 17])
+    while True:
+        base_lab = np.array([rng.uniform(12.0, 92.0), rng.uniform(-45.0, 45.0), rng.uniform(-45.0, 55.0)])
+        base = _lab_to_rgb(base_lab)
+        if base is not None:
+            break
+    shades = [base]
+    for _ in range(int(rng.integers(0, 3))):
+        for _attempt in range(50):
+            offset = rng.normal(size=3)
+            step = offset / np.linalg.norm(offset) * rng.uniform(1.0, RANDOM_SHADE_DELTA_E)
+            shade = _lab_to_rgb(base_lab + step)
+            if shade is not None:
+                shades.append(shade)
+                break
+    impurities = []
+    for _ in range(int(rng.integers(1, 3))):
+        for _attempt in range(200):
+            direction = rng.normal(size=3)
+            distance = rng.uniform(*RANDOM_IMPURITY_DELTA_E)
+            colour = _lab_to_rgb(base_lab + direction / np.linalg.norm(direction) * distance)
+            if colour is not None and min(delta_e(colour, s) for s in shades) >= RANDOM_IMPURITY_DELTA_E[0]:
+                impurities.append(colour)
+                break
+    if not impurities:  # a base at the gamut's edge: take the farthest grey
+        impurities.append((0.5, 0.5, 0.5) if base_lab[0] < 40 or base_lab[0] > 70 else (0.9, 0.9, 0.9))
+    azimuth, elevation = rng.uniform(0, 2 * math.pi), rng.uniform(math.radians(45), math.radians(85))
+    light = (math.cos(azimuth) * math.cos(elevation), math.sin(azimuth) * math.cos(elevation),
+             math.sin(elevation))
+    return Palette(name=f"{RANDOM_PREFIX}{int(seed)}", product_shades=tuple(shades),
+                   impurity_colors=tuple(impurities), product_jitter=float(rng.uniform(0.005, 0.03)),
+                   impurity_jitter=float(rng.uniform(0.0, 0.02)),
+                   light_direction=light, ambient=float(rng.uniform(0.45, 0.75)),
+                   diffuse=float(rng.uniform(0.3, 0.6)), exposure=float(rng.uniform(0.7, 1.4)),
+                   description=f"random palette {int(seed)}")
+
+
+def known_palette_names() -> list:
+    return sorted(PALETTES) + [f"{RANDOM_PREFIX}<seed>"]
+
+
+_EXPOSURE_SUFFIX = re.compile(r"^(?P<name>.+)@x(?P<exposure>[0-9.]+)$")
+
+
+def palette_named(name: str) -> Palette:
+    """A palette by name: "" (the default), a named palette, `random-<seed>`, and any of them with an
+    exposure suffix `@x<factor>` (e.g. `blocks@x0.5`). ValueError lists the known names otherwise."""
+    name = (name or DEFAULT_PALETTE).strip()
+    suffix = _EXPOSURE_SUFFIX.match(name)
+    if suffix:
+        try:
+            exposure = float(suffix.group("exposure"))
+        except ValueError:
+            exposure = float("nan")
+        return palette_named(suffix.group("name")).with_exposure(exposure)
+    if name in PALETTES:
+        return PALETTES[name]
+    if name.startswith(RANDOM_PREFIX) and name[len(RANDOM_PREFIX):].isdigit():
+        return random_palette(int(name[len(RANDOM_PREFIX):]))
+    raise ValueError(f"unknown palette {name!r}; known: {', '.join(known_palette_names())} "
+                     f"(any of them with @x<exposure>, e.g. blocks@x0.5)")
