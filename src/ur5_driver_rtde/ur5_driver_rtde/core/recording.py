@@ -1,0 +1,242 @@
+"""Dry run: stand-ins for ur-rtde's interfaces that record every command instead of sending it.
+
+`DryRunRobot` offers the three objects the driver would get from ur-rtde (`control` like
+rtde_control.RTDEControlInterface, `receive` like rtde_receive.RTDEReceiveInterface) and a gripper
+(`DryRunGripper`), all writing to one `CommandLog`. The driver's code runs unchanged on them, so the log
+is exactly the sequence of ur-rtde calls (name and arguments) a real cell would receive. The simulated
+robot arrives at every commanded pose at once, reports no contact and connection until told otherwise
+(`drop_after`: lose the connection at the n-th motion command, to test recovery).
+
+Each record (one JSON object per line of the log file):
+    {"seq": 3, "interface": "rtde_control", "command": "moveL",
+     "args": {"pose": [...], "speed": 0.5, "acceleration": 1.2, "asynchronous": true},
+     "goal": 1, "step": 2, "phase": "descend", "step_kind": "guarded"}
+`goal`, `step`, `phase`, `step_kind` are the executor's context when the command was sent.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import threading
+from collections.abc import Callable
+
+import numpy as np
+
+from impurity_common import ur5_kinematics
+
+from .poses import tcp_from_ur_pose, ur_tool0_pose
+
+MOTION_COMMANDS = ("moveL", "moveJ")
+
+
+class CommandLog:
+    """Ordered record of the commands a backend sent (or would send); optional JSONL file and echo."""
+
+    def __init__(self, path: str | None = None, echo: Callable[[str], None] | None = None):
+        self.records: list[dict] = []
+        self.context: dict = {}
+        self.echo = echo  # called with a one-line summary of each record (e.g. a ROS logger)
+        self._lock = threading.Lock()
+        self._file = open(path, "a", encoding="utf-8") if path else None  # noqa: SIM115 (kept open)
+
+    def record(self, interface: str, command: str, **args) -> dict:
+        with self._lock:
+            entry = {"seq": len(self.records), "interface": interface, "command": command,
+                     "args": _plain(args), **self.context}
+            self.records.append(entry)
+            line = json.dumps(entry, sort_keys=True)
+            if self._file is not None:
+                self._file.write(line + "\n")
+                self._file.flush()
+        if self.echo is not None:
+            self.echo(f"dry run: {interface}.{command}({_short(args)})")
+        return entry
+
+    def close(self) -> None:
+        if self._file is not None:
+            self._file.close()
+            self._file = None
+
+
+def _plain(value):
+    if isinstance(value, dict):
+        return {k: _plain(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return [_plain(v) for v in value]
+    if isinstance(value, (np.floating, np.integer)):
+        return value.item()
+    return value
+
+
+def _short(args: dict) -> str:
+    def fmt(v):
+        if isinstance(v, (list, tuple)):
+            return "[" + ", ".join(fmt(x) for x in v) + "]"
+        return f"{v:.4f}" if isinstance(v, float) else repr(v)
+    return ", ".join(f"{k}={fmt(v)}" for k, v in args.items())
+
+
+class ConnectionDropped(RuntimeError):
+    """What the dry-run robot raises once its simulated connection is gone (ur-rtde raises RuntimeError)."""
+
+
+class _DryRunState:
+    """The simulated controller: where the arm is, and whether it still answers."""
+
+    def __init__(self, drop_after: int | None):
+        self.q = np.array(ur5_kinematics.HOME_JOINTS, dtype=float)
+        self.pose = self._pose_of(self.q)
+        self.connected = True
+        self.motions = 0
+        self.drop_after = drop_after
+        self.progress = -1  # getAsyncOperationProgress: toggles -1/-2 at each finished async operation
+
+    @staticmethod
+    def _pose_of(q) -> list:
+        tcp = ur5_kinematics.tcp_pose(q)
+        return ur_tool0_pose(tcp[:3, 3], math.atan2(tcp[1, 0], tcp[0, 0]))
+
+    def motion(self, pose=None, q=None) -> None:
+        """A motion command arrives: lose the connection if scripted, else be there at once."""
+        self.check()
+        self.motions += 1
+        if self.drop_after is not None and self.motions > self.drop_after:
+            self.connected = False
+            raise ConnectionDropped("dry run: connection to the controller dropped (scripted)")
+        if q is not None:
+            self.q = np.asarray(q, dtype=float)
+            self.pose = self._pose_of(self.q)
+        else:
+            position, yaw = tcp_from_ur_pose(pose)
+            try:
+                self.q = ur5_kinematics.ik(position, yaw, self.q)
+            except ur5_kinematics.IKError:
+                pass  # joint states keep the last solution; the pose is what was commanded
+            self.pose = list(pose)
+        self.progress = -2 if self.progress == -1 else -1
+
+    def check(self) -> None:
+        if not self.connected:
+            raise ConnectionDropped("dry run: not connected")
+
+
+class DryRunControl:
+    """Records what rtde_control.RTDEControlInterface would be asked to do (queries are not recorded)."""
+
+    def __init__(self, log: CommandLog, state: _DryRunState):
+        self._log, self._state = log, state
+
+    def _send(self, command, **args):
+        self._state.check()
+        self._log.record("rtde_control", command, **args)
+        return True
+
+    def setTcp(self, tcp_offset):  # noqa: N802 (ur-rtde's names)
+        return self._send("setTcp", tcp_offset=list(tcp_offset))
+
+    def moveL(self, pose, speed=0.25, acceleration=1.2, asynchronous=False):  # noqa: N802
+        self._log.record("rtde_control", "moveL", pose=list(pose), speed=speed, acceleration=acceleration,
+                         asynchronous=asynchronous)
+        self._state.motion(pose=pose)
+        return True
+
+    def moveJ(self, q, speed=1.05, acceleration=1.4, asynchronous=False):  # noqa: N802
+        self._log.record("rtde_control", "moveJ", q=list(q), speed=speed, acceleration=acceleration,
+                         asynchronous=asynchronous)
+        self._state.motion(q=q)
+        return True
+
+    def stopL(self, a=10.0, asynchronous=False):  # noqa: N802
+        # Recorded even without a connection: the driver's attempt to stop the arm is what matters.
+        self._log.record("rtde_control", "stopL", a=a, asynchronous=asynchronous)
+
+    def stopJ(self, a=2.0, asynchronous=False):  # noqa: N802
+        self._log.record("rtde_control", "stopJ", a=a, asynchronous=asynchronous)
+
+    def startContactDetection(self, direction):  # noqa: N802
+        return self._send("startContactDetection", direction=list(direction))
+
+    def stopContactDetection(self):  # noqa: N802
+        return self._send("stopContactDetection")
+
+    def readContactDetection(self):  # noqa: N802
+        self._state.check()
+        return False
+
+    def getAsyncOperationProgress(self):  # noqa: N802
+        self._state.check()
+        return self._state.progress
+
+    def isConnected(self):  # noqa: N802
+        return self._state.connected
+
+    def stopScript(self):  # noqa: N802
+        self._log.record("rtde_control", "stopScript")
+
+    def disconnect(self):
+        self._log.record("rtde_control", "disconnect")
+
+
+class DryRunReceive:
+    """Answers like rtde_receive.RTDEReceiveInterface from the simulated controller's state."""
+
+    def __init__(self, state: _DryRunState):
+        self._state = state
+
+    def getActualQ(self):  # noqa: N802
+        self._state.check()
+        return [float(v) for v in self._state.q]
+
+    def getActualTCPPose(self):  # noqa: N802
+        self._state.check()
+        return list(self._state.pose)
+
+    def getActualTCPForce(self):  # noqa: N802
+        self._state.check()
+        return [0.0] * 6
+
+    def isConnected(self):  # noqa: N802
+        return self._state.connected
+
+    def disconnect(self):
+        pass
+
+
+class DryRunGripper:
+    """Records gripper commands; after closing it reports `held_width` (m) between the fingers: > 0
+    simulates an object held, 0 fingers closed on nothing."""
+
+    def __init__(self, log: CommandLog, held_width: float = 0.03, max_width: float = 0.085):
+        self._log, self._held_width, self.max_width = log, float(held_width), float(max_width)
+        self._width = self.max_width
+        self._closed = False
+
+    def open(self, width: float, force: float, wait: bool = True) -> None:
+        self._log.record("gripper", "open", width=float(width), force=float(force), wait=bool(wait))
+        self._width, self._closed = min(float(width), self.max_width), False
+
+    def close(self, force: float, wait: bool = True) -> None:
+        self._log.record("gripper", "close", force=float(force), wait=bool(wait))
+        self._width, self._closed = self._held_width, True
+
+    def width(self) -> float:
+        return self._width
+
+    def holding(self) -> bool:
+        return self._closed and self._width > 0.0
+
+    def disconnect(self) -> None:
+        pass
+
+
+class DryRunRobot:
+    """control + receive (ur-rtde stand-ins) and a gripper sharing one CommandLog and one simulated
+    controller. drop_after: the connection drops at motion command number drop_after + 1 (None: never)."""
+
+    def __init__(self, log: CommandLog, drop_after: int | None = None, held_width: float = 0.03):
+        self.log = log
+        self.state = _DryRunState(drop_after)
+        self.control = DryRunControl(log, self.state)
+        self.receive = DryRunReceive(self.state)
+        self.gripper = DryRunGripper(log, held_width)
