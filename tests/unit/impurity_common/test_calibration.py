@@ -295,6 +295,40 @@ def test_the_shipped_calibration_file_holds_the_simulated_cameras_pose():
     assert orientation == pytest.approx(cell.CAMERA_ORIENTATION)
 
 
+def parameters_as_rcl_reads_them(path, node_name: str) -> tuple:
+    """camera_position and camera_orientation as a node `node_name` started with --params-file gets them."""
+    import rclpy
+
+    context = rclpy.Context()
+    rclpy.init(args=["test", "--ros-args", "--params-file", str(path)], context=context)
+    try:
+        node = rclpy.create_node(node_name, context=context)
+        try:
+            return tuple(tuple(node.declare_parameter(name, [0.0] * length).value)
+                         for name, length in (("camera_position", 3), ("camera_orientation", 4)))
+        finally:
+            node.destroy_node()
+    finally:
+        rclpy.shutdown(context=context)
+
+
+@pytest.mark.parametrize("node_name", ["heightmap", "sim_cell"])
+def test_rcl_reads_the_written_file_as_double_arrays_for_every_node(tmp_path, node_name):
+    result = a_calibration()
+    path = calibration.write_calibration_file(tmp_path / "camera_calibration.yaml", result)
+    position, orientation = parameters_as_rcl_reads_them(path, node_name)
+    assert position == pytest.approx(result.position, abs=1e-6)
+    assert orientation == pytest.approx(result.orientation, abs=1e-7)
+
+
+def test_rcl_reads_the_shipped_file():
+    import pathlib
+
+    shipped = pathlib.Path(__file__).resolve().parents[3] / calibration.CALIBRATION_FILE
+    assert parameters_as_rcl_reads_them(shipped, "heightmap") == (tuple(cell.CAMERA_POSITION),
+                                                                 tuple(cell.CAMERA_ORIENTATION))
+
+
 def test_writing_into_a_missing_directory_says_where_to_run_from(tmp_path):
     with pytest.raises(CalibrationFileError, match="does not exist .*repository root"):
         calibration.write_calibration_file(tmp_path / "no" / "c.yaml", a_calibration())
