@@ -24,15 +24,16 @@ RUNTIME_EXECUTABLES = [
     ("impurity_policy", "impurity_policy.episode_node"),
     ("impurity_common", "impurity_common.bag_recorder_node"),
     ("impurity_common", "impurity_common.bag_replay_node"),
+    ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node"),
 ]
 # Executables that never run the network, so never load torch.
 NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_recorder_node",
                           "impurity_common.bag_replay_node", "impurity_attention.heightmap_node",
-                          "impurity_attention.attention_node")
+                          "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node")
 # Never on a real cell: the simulator, its physics engine, training and evaluation.
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
-RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy")
+RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy", "ur5_driver_rtde")
 # Dependencies on a package's installed files rather than its modules.
 DATA_DEPENDENCIES = {"impurity_common": {"impurity_interfaces"}}  # bags.py reads its .msg files
 
