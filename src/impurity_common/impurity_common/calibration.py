@@ -45,8 +45,9 @@ from scipy.spatial.transform import Rotation
 from impurity_common import names
 
 DEFAULT_MIN_CORNERS = 6  # chessboard corners: 4 determine a planar pose, 6 give a check on it
-# A sharp, well-lit board at 0.75 m: about 0.1 px (measured in the simulator, docs/calibration.md).
-# Above this the geometry given (square / marker length, intrinsics) likely does not match the board.
+# Renders of the simulated camera measure 0.0-0.4 px RMS (docs/calibration.md). Above this the pinhole
+# model does not fit the corners: intrinsics of another stream or resolution, distortion left out, a
+# board that is not flat, motion blur. (A wrong square length does not show here: it scales the pose.)
 REPROJECTION_WARNING_PX = 1.0
 QUATERNION_NORM_TOLERANCE = 1e-3  # a file's quaternion is renormalised within this, refused beyond
 CALIBRATION_FILE = "bringup/config/camera_calibration.yaml"  # relative to the repository root
@@ -513,9 +514,9 @@ def summary(calibration: CameraCalibration) -> str:
              + (f", {c.frames} frames within {c.spread_mm:.2f} mm and {c.spread_deg:.3f} deg" if c.frames > 1
                 else "")]
     if c.rms_px > REPROJECTION_WARNING_PX:
-        lines.append(f"WARNING: reprojection error above {REPROJECTION_WARNING_PX} px: check the square and "
-                     "marker lengths you gave against the printed board, that the board lies flat, and the "
-                     "camera's intrinsics (camera_info)")
+        lines.append(f"WARNING: reprojection error above {REPROJECTION_WARNING_PX} px: check the camera's "
+                     "intrinsics (the camera_info of this stream and resolution), that the board lies flat "
+                     "and the camera stands still")
     return "\n".join(lines)
 
 

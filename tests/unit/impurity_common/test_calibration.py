@@ -114,6 +114,18 @@ def test_the_overhead_camera_sees_the_page_upright():
     assert marker0[0] < WIDTH / 2 and marker0[1] < HEIGHT / 2
 
 
+def test_intrinsics_that_do_not_fit_the_image_raise_the_reprojection_error_and_a_warning():
+    """fx 10 % off (the camera_info of another stream): the corners no longer fit one pinhole pose."""
+    stretched = K.copy()
+    stretched[0, 0] *= 1.1
+    wrong = CameraIntrinsics(stretched, [], WIDTH, HEIGHT)
+    result = calibration.calibrate(synthetic_view(OVERHEAD), SPEC, wrong, BOARD_ON_TABLE)
+    assert result.rms_px > calibration.REPROJECTION_WARNING_PX
+    assert "WARNING: reprojection error above 1.0 px" in calibration.summary(result)
+    fitting = calibration.calibrate(synthetic_view(OVERHEAD), SPEC, INTRINSICS, BOARD_ON_TABLE)
+    assert "WARNING" not in calibration.summary(fitting)
+
+
 def test_a_rgb_image_and_its_grayscale_give_the_same_pose():
     gray = synthetic_view(CAMERA_POSES["tilted_from_the_front"])
     rgb = np.repeat(gray[:, :, None], 3, axis=2)
