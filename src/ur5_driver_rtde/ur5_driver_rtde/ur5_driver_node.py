@@ -46,6 +46,8 @@ class Ur5DriverParameters:
                                       "0 = closed on nothing", low=0.0, high=0.085)
     dry_run_drop_after: int = param(-1, "Dry run: the connection drops at motion command n + 1 "
                                     "(-1 = never; for tests of the driver_lost path)", low=-1)
+    dry_run_contact_height: float = param(-1.0, "Dry run: TCP height (m, base_link) where guarded descents "
+                                          "meet an object (-1 = they never do)", low=-1.0, high=1.0)
     gripper: str = param("robotiq_2f85", "Gripper driver: robotiq_2f85 (URCap socket) or dry_run (record "
                          "only, e.g. a first run of the arm without the gripper)", choices=GRIPPERS)
     gripper_port: int = param(URCAP_PORT, "TCP port of the Robotiq URCap's socket", low=1, high=65535)
@@ -100,7 +102,9 @@ class Ur5DriverNode(Node):
         """(control, receive, gripper): recording stand-ins in a dry run, else ur-rtde and the gripper."""
         if params.dry_run:
             robot = DryRunRobot(self._log, drop_after=None if params.dry_run_drop_after < 0
-                                else params.dry_run_drop_after, held_width=params.dry_run_held_width)
+                                else params.dry_run_drop_after, held_width=params.dry_run_held_width,
+                                contact_height=None if params.dry_run_contact_height < 0
+                                else params.dry_run_contact_height)
             return robot.control, robot.receive, robot.gripper
         import rtde_control  # ur-rtde (requirements.txt); only a real cell needs it
         import rtde_receive

@@ -3,7 +3,8 @@ push, the ur-rtde and gripper commands it would send are, step by step, the moti
 simulated UR5 executed for the same primitive (a PyBullet CellWorld in arm mode); a connection lost
 mid-motion aborts with driver_lost after a stop command; a cancel stops, opens and leaves."""
 
-import math  # noqa: I001  (sorted for ur5_driver_rtde as first party: pyproject.toml's isort list)
+import json  # noqa: I001  (sorted for ur5_driver_rtde as first party: pyproject.toml's isort list)
+import math
 
 import pytest
 
@@ -16,14 +17,19 @@ from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunRobo
 
 GRASP = ("grasp", 0.50, 0.10, 0.02, 0.3)  # on the empty table: the descent runs its full length
 PUSH = ("push", 0.45, -0.10, 0.02, math.pi / 4)
+TALL_BLOCK = dict(shape="cube", dims=[0.05, 0.05, 0.09], position=[0.45, -0.10, 0.046], is_target=False)
 MOTIONS = ("moveL", "moveJ")
 
 
 @pytest.fixture(scope="module")
-def sim_executed():
-    """The steps the simulated UR5 executed for GRASP and PUSH (needs PyBullet: the simulator)."""
+def sim_executed(tmp_path_factory):
+    """The steps the simulated UR5 executed for GRASP and PUSH on the empty table, and for PUSH onto a
+    block 9 cm tall (key "push_on_block", with the TCP height where the descent stopped) (needs PyBullet:
+    the simulator)."""
     from ur5_driver_sim.core.world import CellWorld
 
+    scene = tmp_path_factory.mktemp("scenes") / "tall_block.json"
+    scene.write_text(json.dumps([TALL_BLOCK]))
     world = CellWorld(mode="arm")
     try:
         executed = {}
@@ -32,6 +38,11 @@ def sim_executed():
             outcome = world.execute(kind, x, y, z, yaw)
             assert kind == "grasp" or outcome.success, outcome.message
             executed[kind] = list(world.carrier.executed_steps)
+        world.reset_scene("file", scene_file=str(scene))
+        stroke_height = []
+        world.execute(*PUSH, phase=lambda name, progress: name == "push" and stroke_height.append(
+            world.carrier.tcp_position()[2]))
+        executed["push_on_block"] = (list(world.carrier.executed_steps), stroke_height[0])
         return executed
     finally:
         world.close()
@@ -111,6 +122,22 @@ def test_dry_run_commands_are_the_plan_the_simulated_arm_executed(request_, sim_
     assert list(by_step) == sorted(by_step)  # in the plan's order, each step's commands together
     for index, commands in by_step.items():
         assert_commands_carry_out(plan.steps[index], commands)
+
+
+def test_a_descent_stopped_on_an_object_is_cut_short_as_in_the_simulator(sim_executed):
+    simulated, contact_height = sim_executed["push_on_block"]
+    plan = motion.plan_primitive(*PUSH)
+    guarded = [s for s in plan.steps if s.kind is StepKind.GUARDED]
+    assert guarded[1] not in simulated and guarded[0] in simulated  # the block stopped the first part
+    result, records = dry_run(PUSH, contact_height=contact_height)
+    assert result.motion_completed and "descent stopped on contact" in result.message
+    by_step = commands_by_step(records)
+    assert [plan.steps[i] for i in sorted(by_step)] == simulated
+    first_descent = [c["command"] for c in by_step[plan.steps.index(guarded[0])]]
+    assert first_descent == ["startContactDetection", "moveL", "stopL", "stopContactDetection"]
+    stroke = plan.steps.index(next(s for s in plan.steps if s.kind is StepKind.STROKE))
+    end = plan.steps[stroke].position
+    assert_lands_on(by_step[stroke][0], (end[0], end[1], contact_height), PUSH[4], cell.CONTACT_SPEED)
 
 
 def test_a_held_object_is_released_in_the_bin_between_lift_and_retreat():

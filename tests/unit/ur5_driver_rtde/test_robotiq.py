@@ -26,7 +26,10 @@ class FakeUrcap:
         self.thread.start()
 
     def _serve(self):
-        connection, _ = self.server.accept()
+        try:
+            connection, _ = self.server.accept()
+        except OSError:  # closed before a client came
+            return
         with connection, connection.makefile("rwb") as stream:
             for raw in stream:
                 line = raw.decode().strip()

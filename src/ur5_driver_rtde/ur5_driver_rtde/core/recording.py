@@ -4,8 +4,10 @@
 rtde_control.RTDEControlInterface, `receive` like rtde_receive.RTDEReceiveInterface) and a gripper
 (`DryRunGripper`), all writing to one `CommandLog`. The driver's code runs unchanged on them, so the log
 is exactly the sequence of ur-rtde calls (name and arguments) a real cell would receive. The simulated
-robot arrives at every commanded pose at once, reports no contact and connection until told otherwise
-(`drop_after`: lose the connection at the n-th motion command, to test recovery).
+robot arrives at every commanded pose at once and keeps its connection until told otherwise
+(`drop_after`: lose the connection at the n-th motion command, to test recovery); a guarded move meets
+an object only when `contact_height` says where (TCP height in base_link, m): it then stops there and the
+controller's contact detection reports it.
 
 Each record (one JSON object per line of the log file):
     {"seq": 3, "interface": "rtde_control", "command": "moveL",
@@ -84,7 +86,10 @@ class ConnectionDropped(RuntimeError):
 class _DryRunState:
     """The simulated controller: where the arm is, and whether it still answers."""
 
-    def __init__(self, drop_after: int | None):
+    def __init__(self, drop_after: int | None, contact_height: float | None = None):
+        self.contact_height = contact_height
+        self.detecting = False  # between startContactDetection and stopContactDetection
+        self.touched = False
         self.q = np.array(ur5_kinematics.HOME_JOINTS, dtype=float)
         self.pose = self._pose_of(self.q)
         self.connected = True
@@ -109,6 +114,10 @@ class _DryRunState:
             self.pose = self._pose_of(self.q)
         else:
             position, yaw = tcp_from_ur_pose(pose)
+            if self.detecting and self.contact_height is not None and position[2] < self.contact_height:
+                position = (position[0], position[1], self.contact_height)  # stopped on the object
+                pose = ur_tool0_pose(position, yaw)
+                self.touched = True
             try:
                 self.q = ur5_kinematics.ik(position, yaw, self.q)
             except ur5_kinematics.IKError:
@@ -155,14 +164,16 @@ class DryRunControl:
         self._log.record("rtde_control", "stopJ", a=a, asynchronous=asynchronous)
 
     def startContactDetection(self, direction):  # noqa: N802
+        self._state.detecting, self._state.touched = True, False
         return self._send("startContactDetection", direction=list(direction))
 
     def stopContactDetection(self):  # noqa: N802
+        self._state.detecting = False
         return self._send("stopContactDetection")
 
     def readContactDetection(self):  # noqa: N802
         self._state.check()
-        return False
+        return self._state.touched
 
     def getAsyncOperationProgress(self):  # noqa: N802
         self._state.check()
@@ -232,11 +243,13 @@ class DryRunGripper:
 
 class DryRunRobot:
     """control + receive (ur-rtde stand-ins) and a gripper sharing one CommandLog and one simulated
-    controller. drop_after: the connection drops at motion command number drop_after + 1 (None: never)."""
+    controller. drop_after: the connection drops at motion command number drop_after + 1 (None: never);
+    contact_height: TCP height (m, base_link) where guarded moves meet an object (None: never)."""
 
-    def __init__(self, log: CommandLog, drop_after: int | None = None, held_width: float = 0.03):
+    def __init__(self, log: CommandLog, drop_after: int | None = None, held_width: float = 0.03,
+                 contact_height: float | None = None):
         self.log = log
-        self.state = _DryRunState(drop_after)
+        self.state = _DryRunState(drop_after, contact_height)
         self.control = DryRunControl(log, self.state)
         self.receive = DryRunReceive(self.state)
         self.gripper = DryRunGripper(log, held_width)
