@@ -120,7 +120,10 @@ def test_the_tool_calibrates_from_a_saved_image_and_writes_the_file(tmp_path, re
     camera = CAMERAS["tilted_and_rolled"]
     picture, info = save_view(tmp_path, renders["tilted_and_rolled"], camera)
     output = tmp_path / "camera_calibration.yaml"
-    status = calibrate_camera.main(["--image", str(picture), "--camera-info", str(info), *board_arguments(),
+    x_point = (BOARD_ORIGIN[0] + SPEC.width, BOARD_ORIGIN[1], BOARD_ORIGIN[2])  # the bottom row's other end
+    status = calibrate_camera.main(["--image", str(picture), "--camera-info", str(info),
+                                    "--board-position", *(str(v) for v in BOARD_ORIGIN),
+                                    "--board-x-point", *(str(v) for v in x_point),
                                     "--output", str(output), "--note", "simulated cell"])
     printed = capsys.readouterr().out
     assert status == 0, printed

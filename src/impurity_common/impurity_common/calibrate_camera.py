@@ -3,9 +3,11 @@ calibration file (bringup/config/camera_calibration.yaml) that heightmap_node an
 
 Live, on a cell: with the camera driver running (realsense2_camera), lay the printed board flat on the
 table, measure where its origin lies in base_link (the lower-left outer corner of the squares, the
-page upright as read; see impurity_common.calibration), and run
+page upright as read; see impurity_common.calibration) and its yaw, or touch the origin and the
+other end of the bottom row of squares with the tool tip, and run
 
   ros2 run impurity_common calibrate_camera --board-position 0.32 -0.14 0.0 --board-yaw 0.0
+  ros2 run impurity_common calibrate_camera --board-position 0.32 -0.14 0.0 --board-x-point 0.68 -0.14 0.0
 
 It subscribes to the colour image and camera_info (impurity_common.names: COLOR_TOPIC,
 CAMERA_INFO_TOPIC; rename with `--ros-args -r`), waits at most --timeout s, calibrates on --frames
@@ -67,8 +69,12 @@ def build_parser() -> argparse.ArgumentParser:
     place.add_argument("--board-position", nargs=3, type=float, metavar=("X", "Y", "Z"),
                        help=f"board origin in {names.BASE_FRAME}, m (z: the table top plus the board's "
                             "thickness)")
-    place.add_argument("--board-yaw", type=float, default=0.0,
-                       help="board x from +x_base about +z_base, rad (default: %(default)s)")
+    turn = place.add_mutually_exclusive_group()
+    turn.add_argument("--board-yaw", type=float, default=0.0,
+                      help="board x from +x_base about +z_base, rad (default: %(default)s)")
+    turn.add_argument("--board-x-point", nargs=3, type=float, metavar=("X", "Y", "Z"),
+                      help="instead of --board-yaw: the outer corner at the other end of the bottom row of "
+                           f"squares in {names.BASE_FRAME}, m (touched with the tool tip, as the origin)")
     source = parser.add_argument_group("the image (default: live, from the camera driver)")
     source.add_argument("--image", type=pathlib.Path,
                         help="offline: a colour image of the board (PNG, JPEG)")
@@ -247,8 +253,10 @@ def main(argv: list[str] | None = None) -> int:
             say(f"wrote {args.print_board} ({image.shape[1]}x{image.shape[0]} px): print it at 100 % scale "
                 f"({args.dpi:g} dpi), {spec.describe()}; measure a square and a marker on the print")
             return 0
+        if args.board_x_point is not None:
+            args.board_yaw = calibration.board_yaw_from_points(args.board_position, args.board_x_point, spec)
         base_from_board = calibration.board_pose_on_table(args.board_position, args.board_yaw)
-        say(f"board {spec.describe()} at {list(args.board_position)} m, yaw {args.board_yaw:g} rad")
+        say(f"board {spec.describe()} at {list(args.board_position)} m, yaw {args.board_yaw:.4f} rad")
         if args.image is not None:
             return calibrate_offline(args, spec, base_from_board)
         return calibrate_live(args, spec, base_from_board, ["calibrate_camera", *argv])

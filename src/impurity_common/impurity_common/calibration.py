@@ -49,6 +49,7 @@ DEFAULT_MIN_CORNERS = 6  # chessboard corners: 4 determine a planar pose, 6 give
 # model does not fit the corners: intrinsics of another stream or resolution, distortion left out, a
 # board that is not flat, motion blur. (A wrong square length does not show here: it scales the pose.)
 REPROJECTION_WARNING_PX = 1.0
+BOARD_EDGE_TOLERANCE = 0.005  # m: two touched corners of the board must lie its width apart within this
 QUATERNION_NORM_TOLERANCE = 1e-3  # a file's quaternion is renormalised within this, refused beyond
 CALIBRATION_FILE = "bringup/config/camera_calibration.yaml"  # relative to the repository root
 POSITION_PARAMETER = "camera_position"  # the parameters heightmap_node and sim_cell declare
@@ -409,6 +410,26 @@ def board_pose_on_table(position: Sequence[float], yaw: float = 0.0) -> np.ndarr
     if not math.isfinite(yaw):
         raise CalibrationError(f"board yaw must be finite, got {yaw}")
     return pose_matrix(position, Rotation.from_euler("z", yaw).as_quat())
+
+
+def board_yaw_from_points(origin: Sequence[float], x_point: Sequence[float], spec: CharucoBoardSpec,
+                          tolerance: float = BOARD_EDGE_TOLERANCE) -> float:
+    """Yaw (rad) of a board lying face up from two touched points (m, base_link): its origin and the
+    outer corner at the other end of its bottom row of squares (spec.width along the board's x).
+    Touching both with the robot's tool tip measures the board where the camera's pose is wanted: in
+    the robot's frame. Raises CalibrationError when the points lie closer together or further apart
+    than spec.width by more than `tolerance` m (another corner touched, or another board)."""
+    origin, x_point = (np.asarray(v, dtype=np.float64).reshape(-1) for v in (origin, x_point))
+    if origin.size != 3 or x_point.size != 3 or not np.all(np.isfinite(np.r_[origin, x_point])):
+        raise CalibrationError(f"two finite points [x, y, z] are needed, got {origin.tolist()}, "
+                               f"{x_point.tolist()}")
+    edge = float(np.linalg.norm((x_point - origin)[:2]))
+    if abs(edge - spec.width) > tolerance:
+        raise CalibrationError(
+            f"the two points lie {edge * 1000:.1f} mm apart on the table, the squares' bottom edge is "
+            f"{spec.width * 1000:.1f} mm ({spec.squares_x} squares of {spec.square_length * 1000:.1f} mm): "
+            f"touch the outer corners of the bottom row of squares, or give the board's geometry")
+    return math.atan2(x_point[1] - origin[1], x_point[0] - origin[0])
 
 
 def position_and_quaternion(transform: np.ndarray) -> tuple[tuple[float, ...], tuple[float, ...]]:

@@ -95,6 +95,21 @@ def test_the_board_pose_on_the_table_carries_the_camera_pose_with_it():
     assert result.board_yaw == pytest.approx(math.pi / 2)
 
 
+def test_the_board_yaw_follows_from_two_touched_corners():
+    origin = np.array([0.32, -0.14, 0.001])
+    along = np.array([math.cos(0.3), math.sin(0.3), 0.0]) * SPEC.width
+    assert calibration.board_yaw_from_points(origin, origin + along, SPEC) == pytest.approx(0.3)
+
+
+@pytest.mark.parametrize("x_point,message", [
+    ((0.32 + 0.28, -0.14, 0.001), "lie 280.0 mm apart on the table, the squares' bottom edge is 360.0 mm"),
+    ((0.32, math.nan, 0.001), "two finite points"),
+])
+def test_touched_corners_that_do_not_fit_the_board_are_refused(x_point, message):
+    with pytest.raises(CalibrationError, match=message):
+        calibration.board_yaw_from_points((0.32, -0.14, 0.001), x_point, SPEC)
+
+
 def test_the_board_frame_has_its_origin_at_the_lower_left_corner_with_z_out_of_the_face():
     """OpenCV's board frame: origin upper-left, y down the page; ours: lower-left, y up, z out."""
     board_from_cv = calibration.board_from_opencv(SPEC)
