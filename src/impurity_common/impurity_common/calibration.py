@@ -360,8 +360,10 @@ class BoardPose:
 
 def estimate_board_pose(detection: BoardDetection, spec: CharucoBoardSpec,
                         intrinsics: CameraIntrinsics) -> BoardPose:
-    """solvePnP of the detected corners (IPPE for a plane, refined by Levenberg-Marquardt) and the
-    reprojection error (px) of every corner under the refined pose."""
+    """solvePnP of the detected corners and the reprojection error (px) of every corner under the pose.
+    IPPE (Collins and Bartoli, "Infinitesimal Plane-Based Pose Estimation", IJCV 2014) solves the
+    planar case in closed form; Levenberg-Marquardt (cv2.solvePnPRefineLM) then minimises the
+    reprojection error. Raises TooFewCorners (fewer than 4 matched), CalibrationError (no pose)."""
     object_points, image_points = spec.cv_board().matchImagePoints(
         detection.corners.reshape(-1, 1, 2).astype(np.float32), detection.ids)
     object_points = object_points.reshape(-1, 3).astype(np.float64)
