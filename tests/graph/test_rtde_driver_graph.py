@@ -15,7 +15,7 @@ from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import Primitive
 from ros_harness import ActionHelper, TopicRecorder, ros_args, spin_until
 
-MOTIONS = ("moveL", "moveJ")
+MOTIONS = ("moveL", "moveJ", "moveJ_IK")
 
 
 def goal(kind, x, y, z, yaw):

@@ -18,7 +18,7 @@ from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunRobo
 GRASP = ("grasp", 0.50, 0.10, 0.02, 0.3)  # on the empty table: the descent runs its full length
 PUSH = ("push", 0.45, -0.10, 0.02, math.pi / 4)
 TALL_BLOCK = dict(shape="cube", dims=[0.05, 0.05, 0.09], position=[0.45, -0.10, 0.046], is_target=False)
-MOTIONS = ("moveL", "moveJ")
+MOTIONS = ("moveL", "moveJ", "moveJ_IK")
 
 
 @pytest.fixture(scope="module")
@@ -66,14 +66,16 @@ def commands_by_step(records) -> dict:
     return steps
 
 
-def assert_lands_on(command, position, yaw, speed):
-    """A moveL whose tool0 pose puts the TCP at position with the gripper turned to yaw (mod pi)."""
-    assert command["command"] == "moveL" and command["args"]["asynchronous"] is True
+def assert_lands_on(command, position, yaw, speed, move="moveL"):
+    """A move whose tool0 pose puts the TCP at position with the gripper turned to yaw (mod pi); moveL at
+    the plan's speed (m/s) and acceleration, moveJ_IK at the arm's joint speed."""
+    assert command["command"] == move and command["args"]["asynchronous"] is True
     tcp, tcp_yaw = tcp_from_ur_pose(command["args"]["pose"])
     assert tcp == pytest.approx(position, abs=1e-9)
     assert math.remainder(tcp_yaw - yaw, math.pi) == pytest.approx(0.0, abs=1e-9)
-    assert command["args"]["speed"] == pytest.approx(speed)
-    assert command["args"]["acceleration"] == pytest.approx(cell.LINEAR_ACCELERATION)
+    if move == "moveL":
+        assert command["args"]["speed"] == pytest.approx(speed)
+        assert command["args"]["acceleration"] == pytest.approx(cell.LINEAR_ACCELERATION)
 
 
 def assert_commands_carry_out(step: motion.Step, commands: list) -> None:
@@ -85,8 +87,9 @@ def assert_commands_carry_out(step: motion.Step, commands: list) -> None:
         gripper = commands[0]
         assert gripper["interface"] == "gripper" and gripper["args"]["wait"] is False
         assert gripper["command"] == ("open" if step.width > 0 else "close")
-        assert_lands_on(moves[0], (*step.position[:2], cell.SAFE_TRAVEL_HEIGHT), step.yaw, step.speed)
-        assert_lands_on(moves[-1], step.position, step.yaw, step.speed)
+        assert [m["command"] for m in moves] == ["moveJ_IK", "moveL"]  # across in joint space, down
+        assert_lands_on(moves[0], (*step.position[:2], cell.SAFE_TRAVEL_HEIGHT), step.yaw, None, "moveJ_IK")
+        assert_lands_on(moves[1], step.position, step.yaw, step.speed)
     elif step.kind is StepKind.GRIPPER:
         assert len(commands) == 1 and commands[0]["interface"] == "gripper"
         args = commands[0]["args"]

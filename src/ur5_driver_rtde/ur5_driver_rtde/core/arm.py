@@ -1,7 +1,7 @@
 """The UR5 through ur-rtde: straight moves, guarded moves and joint moves that can be stopped.
 
-Every move is sent asynchronously (moveL / moveJ with asynchronous=True) and watched until it ends, so
-the driver can stop the arm (stopL) on contact, on a cancel or when the connection drops:
+Every move is sent asynchronously (moveL / moveJ / moveJ_IK with asynchronous=True) and watched until
+it ends, so the driver can stop the arm (stopL) on contact, on a cancel or when the connection drops:
 
     end of the move   getAsyncOperationProgress() turns negative again, to a value other than the one
                       read before the move was sent (ur-rtde toggles -1/-2 at each finished operation)
@@ -154,6 +154,21 @@ class UrArm:
                 return self._call("getActualTCPForce", self.receive.getActualTCPForce)[2] > force_threshold
             return False
         return touched
+
+    def move_joints_to_pose(self, position, yaw: float, should_stop=lambda: False) -> None:
+        """Joint-space move to the TCP pose (base_link, m, rad) with moveJ_IK (the controller's IK, the
+        solution nearest the current joints): how the arm travels across the table, above
+        SAFE_TRAVEL_HEIGHT, as the simulated arm does (a straight line there may pass near a singularity)."""
+        self._require_connection("moveJ_IK")
+        yaw = self._unwrapped_yaw(yaw)
+        pose = ur_tool0_pose(position, yaw)
+        before = self._call("getAsyncOperationProgress", self.control.getAsyncOperationProgress)
+        if not self._call("moveJ_IK", self.control.moveJ_IK, pose, self.joint_speed, self.joint_acceleration,
+                          True):
+            self._require_connection("moveJ_IK")
+            raise MotionFailed(f"the controller refused moveJ_IK to {[round(v, 4) for v in pose]}")
+        self.yaw = yaw
+        self._wait("moveJ_IK", before, 2.0 * math.pi / max(self.joint_speed, 1e-3), should_stop)
 
     def move_joints(self, q, should_stop=lambda: False) -> None:
         """Joint move (moveJ) to q (rad) at joint_speed (rad/s)."""

@@ -4,7 +4,8 @@ The plan is the one the simulated UR5 executes; motion.run_plan does the steppin
 descent after a guarded stop), and this module says what each step kind means on a UR5:
 
     APPROACH  gripper set to the step's width (not waited for); straight up to SAFE_TRAVEL_HEIGHT when
-              lower; moveL across at that height; moveL down to the approach pose
+              lower; moveJ_IK (joint space) across to above the target at that height; moveL down to
+              the approach pose (the simulated arm's go_to_start: linear up, joint move, linear down)
     GRIPPER   gripper.open(width, force) or gripper.close(force) (0 width), waiting if the step says so
     GUARDED   moveL with contact detection; a contact stops the arm (stopL) and ends the descent
     LINEAR    moveL;  LIFT: moveL straight up from the measured TCP;  STROKE: moveL at the measured height
@@ -157,10 +158,11 @@ class PlanExecutor:
         return True
 
     def _travel_to(self, position, yaw, speed, acceleration, should_cancel) -> None:
-        """Up to the travel height, across above the target, straight down (never through clutter)."""
+        """Up to the travel height, across in joint space above the target, straight down (never through
+        clutter)."""
         self.arm.up_to_travel_height(speed, acceleration, should_cancel)
         high = (position[0], position[1], max(cell.SAFE_TRAVEL_HEIGHT, position[2]))
-        self.arm.move_linear(high, yaw, speed, acceleration, should_stop=should_cancel)
+        self.arm.move_joints_to_pose(high, yaw, should_cancel)
         if high[2] != position[2]:
             self.arm.move_linear(position, yaw, speed, acceleration, should_stop=should_cancel)
 

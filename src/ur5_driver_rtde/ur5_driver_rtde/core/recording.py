@@ -29,7 +29,7 @@ from impurity_common import ur5_kinematics
 
 from .poses import tcp_from_ur_pose, ur_tool0_pose
 
-MOTION_COMMANDS = ("moveL", "moveJ")
+MOTION_COMMANDS = ("moveL", "moveJ", "moveJ_IK")
 
 
 class CommandLog:
@@ -154,6 +154,12 @@ class DryRunControl:
         self._log.record("rtde_control", "moveJ", q=list(q), speed=speed, acceleration=acceleration,
                          asynchronous=asynchronous)
         self._state.motion(q=q)
+        return True
+
+    def moveJ_IK(self, pose, speed=1.05, acceleration=1.4, asynchronous=False):  # noqa: N802
+        self._log.record("rtde_control", "moveJ_IK", pose=list(pose), speed=speed, acceleration=acceleration,
+                         asynchronous=asynchronous)
+        self._state.motion(pose=pose)
         return True
 
     def stopL(self, a=10.0, asynchronous=False):  # noqa: N802
