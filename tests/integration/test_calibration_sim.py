@@ -124,7 +124,8 @@ def test_the_tool_calibrates_from_a_saved_image_and_writes_the_file(tmp_path, re
     status = calibrate_camera.main(["--image", str(picture), "--camera-info", str(info),
                                     "--board-position", *(str(v) for v in BOARD_ORIGIN),
                                     "--board-x-point", *(str(v) for v in x_point),
-                                    "--output", str(output), "--note", "simulated cell"])
+                                    "--output", str(output), "--note", "simulated cell",
+                                    "--debug-image", str(tmp_path / "debug.png")])
     printed = capsys.readouterr().out
     assert status == 0, printed
     position, orientation = calibration.read_calibration_file(output)
@@ -132,6 +133,9 @@ def test_the_tool_calibrates_from_a_saved_image_and_writes_the_file(tmp_path, re
     assert distance < POSITION_TOLERANCE and angle < ANGLE_TOLERANCE
     assert "reprojection error" in printed and f"wrote {output}" in printed
     assert "# simulated cell" in output.read_text() and "on board.png" in output.read_text()
+    debug = cv2.imread(str(tmp_path / "debug.png"))
+    assert debug.shape == (camera.height, camera.width, 3)
+    assert np.any(debug != cv2.imread(str(picture)))  # corners and axes drawn
 
 
 def test_the_tool_says_what_to_change_when_the_board_is_not_in_view(tmp_path, world, board, capsys):

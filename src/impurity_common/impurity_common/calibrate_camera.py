@@ -141,7 +141,7 @@ def draw_debug_image(path: pathlib.Path, rgb: np.ndarray, spec: CharucoBoardSpec
     image = cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)
     detection = calibration.detect_board(rgb, spec, intrinsics)
     cv2.aruco.drawDetectedCornersCharuco(image, detection.corners.reshape(-1, 1, 2).astype(np.float32),
-                                         detection.ids.reshape(-1, 1))
+                                         cornerColor=(0, 0, 255))
     camera_from_board = np.linalg.inv(result.pose) @ base_from_board
     rvec = cv2.Rodrigues(camera_from_board[:3, :3])[0]
     cv2.drawFrameAxes(image, intrinsics.matrix, intrinsics.distortion, rvec, camera_from_board[:3, 3],
