@@ -22,7 +22,7 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from impurity_common import motion, names, ur5_kinematics
+from impurity_common import cell, motion, names, ur5_kinematics
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import ParameterError, declare_parameters, param
@@ -53,6 +53,9 @@ class Ur5DriverParameters:
     gripper_port: int = param(URCAP_PORT, "TCP port of the Robotiq URCap's socket", low=1, high=65535)
     rtde_frequency: float = param(125.0, "RTDE frequency (Hz): 125 for a CB3 UR5, up to 500 on e-Series",
                                   low=1.0, high=500.0)
+    flange_to_tcp: float = param(cell.FLANGE_TO_TCP, "The mounted gripper's TCP (between the fingertips) "
+                                 "from the flange along tool0 z (m); the simulator's RG2-like default",
+                                 low=0.0, high=0.5)
     speed_scale: float = param(1.0, "Plan speeds times this (e.g. 0.25 for a first run)", low=0.05, high=1.0)
     joint_speed: float = param(1.05, "Joint speed of the move home (rad/s)", low=0.1, high=3.0)
     force_threshold_check: bool = param(False, "Guarded descents also stop when the measured TCP force along "
@@ -72,7 +75,8 @@ class Ur5DriverNode(Node):
                                echo=self.get_logger().info if params.dry_run else None)
         control, receive, gripper = self._connect(params)
         self._arm = UrArm(control, receive, joint_speed=params.joint_speed,
-                          force_threshold_check=params.force_threshold_check)
+                          force_threshold_check=params.force_threshold_check,
+                          flange_to_tcp=params.flange_to_tcp)
         self._gripper = gripper
         try:
             self._arm.prepare()
@@ -104,7 +108,7 @@ class Ur5DriverNode(Node):
             robot = DryRunRobot(self._log, drop_after=None if params.dry_run_drop_after < 0
                                 else params.dry_run_drop_after, held_width=params.dry_run_held_width,
                                 contact_height=None if params.dry_run_contact_height < 0
-                                else params.dry_run_contact_height)
+                                else params.dry_run_contact_height, flange_to_tcp=params.flange_to_tcp)
             return robot.control, robot.receive, robot.gripper
         import rtde_control  # ur-rtde (requirements.txt); only a real cell needs it
         import rtde_receive

@@ -48,10 +48,11 @@ def sim_executed(tmp_path_factory):
         world.close()
 
 
-def dry_run(request, goal=1, robot=None, should_cancel=lambda: False, **robot_options):
+def dry_run(request, goal=1, robot=None, should_cancel=lambda: False, flange_to_tcp=cell.FLANGE_TO_TCP,
+            **robot_options):
     log = robot.log if robot is not None else CommandLog()
-    robot = robot or DryRunRobot(log, **robot_options)
-    arm = UrArm(robot.control, robot.receive, poll_period=0.0)
+    robot = robot or DryRunRobot(log, flange_to_tcp=flange_to_tcp, **robot_options)
+    arm = UrArm(robot.control, robot.receive, flange_to_tcp=flange_to_tcp, poll_period=0.0)
     arm.prepare()
     result = PlanExecutor(arm, robot.gripper, log).execute(motion.plan_primitive(*request), goal,
                                                            should_cancel=should_cancel)
@@ -141,6 +142,14 @@ def test_a_descent_stopped_on_an_object_is_cut_short_as_in_the_simulator(sim_exe
     stroke = plan.steps.index(next(s for s in plan.steps if s.kind is StepKind.STROKE))
     end = plan.steps[stroke].position
     assert_lands_on(by_step[stroke][0], (end[0], end[1], contact_height), PUSH[4], cell.CONTACT_SPEED)
+
+
+def test_the_mounted_gripper_length_moves_tool0_not_the_tcp():
+    plan = motion.plan_primitive(*PUSH)
+    _, records = dry_run(PUSH, flange_to_tcp=0.16)  # e.g. a 2F-85 on a short coupling
+    stroke = plan.steps.index(next(s for s in plan.steps if s.kind is StepKind.STROKE))
+    command = commands_by_step(records)[stroke][0]
+    assert command["args"]["pose"][2] == pytest.approx(plan.steps[stroke].position[2] + 0.16)
 
 
 def test_a_held_object_is_released_in_the_bin_between_lift_and_retreat():

@@ -35,6 +35,13 @@ def test_tool0_is_flange_to_tcp_above_the_tcp_and_base_is_turned_by_pi():
     assert pose[:3] == pytest.approx([-0.5, -0.1, 0.02 + cell.FLANGE_TO_TCP])
 
 
+def test_another_gripper_length_shifts_tool0_along_its_axis():
+    pose = ur_tool0_pose((0.5, 0.1, 0.02), 0.7, flange_to_tcp=0.16)
+    assert pose[2] == pytest.approx(0.18)
+    back, _ = tcp_from_ur_pose(pose, flange_to_tcp=0.16)
+    assert back == pytest.approx((0.5, 0.1, 0.02))
+
+
 def test_bad_poses_are_refused():
     with pytest.raises(ValueError, match="non-finite"):
         ur_tool0_pose((0.5, float("nan"), 0.0), 0.0)

@@ -45,11 +45,12 @@ class MotionCancelled(RuntimeError):
 
 class UrArm:
     def __init__(self, control, receive, *, joint_speed: float = 1.05, joint_acceleration: float = 1.4,
-                 force_threshold_check: bool = False, poll_period: float = POLL_PERIOD,
-                 clock=time.monotonic, sleep=time.sleep):
+                 force_threshold_check: bool = False, flange_to_tcp: float = cell.FLANGE_TO_TCP,
+                 poll_period: float = POLL_PERIOD, clock=time.monotonic, sleep=time.sleep):
         self.control, self.receive = control, receive
         self.joint_speed, self.joint_acceleration = joint_speed, joint_acceleration
         self.force_threshold_check = force_threshold_check
+        self.flange_to_tcp = flange_to_tcp  # m, the mounted gripper's TCP along tool0 z
         self.poll_period, self._clock, self._sleep = poll_period, clock, sleep
         self.yaw: float | None = None  # last commanded yaw (the wrist turns at most a quarter turn)
 
@@ -79,7 +80,8 @@ class UrArm:
     def tcp(self) -> tuple:
         """(TCP position in base_link (m), yaw (rad)) from the measured tool0 pose."""
         self._require_connection("getActualTCPPose")
-        return tcp_from_ur_pose(self._call("getActualTCPPose", self.receive.getActualTCPPose))
+        pose = self._call("getActualTCPPose", self.receive.getActualTCPPose)
+        return tcp_from_ur_pose(pose, self.flange_to_tcp)
 
     def joint_positions(self) -> list:
         """Measured joint angles (rad), ur5_kinematics.JOINT_NAMES order."""
@@ -129,7 +131,7 @@ class UrArm:
         self._require_connection("moveL")
         start, _ = self.tcp()
         yaw = self._unwrapped_yaw(yaw)
-        pose = ur_tool0_pose(position, yaw)
+        pose = ur_tool0_pose(position, yaw, self.flange_to_tcp)
         duration = math.dist(start, position) / max(speed, 1e-3) + speed / max(acceleration, 1e-3)
         contact = None
         if force_threshold is not None:
@@ -161,7 +163,7 @@ class UrArm:
         SAFE_TRAVEL_HEIGHT, as the simulated arm does (a straight line there may pass near a singularity)."""
         self._require_connection("moveJ_IK")
         yaw = self._unwrapped_yaw(yaw)
-        pose = ur_tool0_pose(position, yaw)
+        pose = ur_tool0_pose(position, yaw, self.flange_to_tcp)
         before = self._call("getAsyncOperationProgress", self.control.getAsyncOperationProgress)
         if not self._call("moveJ_IK", self.control.moveJ_IK, pose, self.joint_speed, self.joint_acceleration,
                           True):

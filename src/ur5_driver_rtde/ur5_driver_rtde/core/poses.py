@@ -22,14 +22,15 @@ import numpy as np
 from impurity_common import cell
 
 
-def ur_tool0_pose(position, yaw: float) -> list:
+def ur_tool0_pose(position, yaw: float, flange_to_tcp: float = cell.FLANGE_TO_TCP) -> list:
     """ur-rtde pose [x, y, z, rx, ry, rz] (m, rad, controller `base` frame) of tool0 when the TCP is at
-    `position` (x, y, z in base_link, m) with the gripper pointing down and closing along `yaw` (rad)."""
+    `position` (x, y, z in base_link, m) with the gripper pointing down and closing along `yaw` (rad);
+    flange_to_tcp (m): the gripper's TCP along tool0 z (the real gripper's, on a real cell)."""
     x, y, z = (float(v) for v in position)
     if not all(math.isfinite(v) for v in (x, y, z, float(yaw))):
         raise ValueError(f"non-finite TCP pose: position {(x, y, z)}, yaw {yaw}")
     half = (float(yaw) + math.pi) / 2.0
-    return [-x, -y, z + cell.FLANGE_TO_TCP, math.pi * math.cos(half), math.pi * math.sin(half), 0.0]
+    return [-x, -y, z + flange_to_tcp, math.pi * math.cos(half), math.pi * math.sin(half), 0.0]
 
 
 def rotation_matrix(rotation_vector) -> np.ndarray:
@@ -43,7 +44,7 @@ def rotation_matrix(rotation_vector) -> np.ndarray:
     return np.eye(3) + math.sin(angle) * skew + (1.0 - math.cos(angle)) * skew @ skew
 
 
-def tcp_from_ur_pose(pose) -> tuple:
+def tcp_from_ur_pose(pose, flange_to_tcp: float = cell.FLANGE_TO_TCP) -> tuple:
     """((x, y, z) of the TCP in base_link (m), yaw (rad)) from a ur-rtde tool0 pose in `base`; the
     inverse of ur_tool0_pose for a gripper pointing down (yaw from tool0's x axis)."""
     if len(pose) != 6:
@@ -51,6 +52,6 @@ def tcp_from_ur_pose(pose) -> tuple:
     rotation_base = rotation_matrix(pose[3:])
     flip = np.diag([-1.0, -1.0, 1.0])  # base -> base_link (Rz(pi))
     rotation = flip @ rotation_base  # tool0 in base_link = Rz(yaw) Rx(pi): x axis (cos yaw, sin yaw, 0)
-    tcp_offset = rotation @ np.array([0.0, 0.0, cell.FLANGE_TO_TCP])  # along tool0 z (down)
+    tcp_offset = rotation @ np.array([0.0, 0.0, flange_to_tcp])  # along tool0 z (down)
     position = flip @ np.asarray(pose[:3], dtype=float) + tcp_offset
     return tuple(float(v) for v in position), math.atan2(rotation[1, 0], rotation[0, 0])

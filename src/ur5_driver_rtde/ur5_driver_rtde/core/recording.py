@@ -25,7 +25,7 @@ from collections.abc import Callable
 
 import numpy as np
 
-from impurity_common import ur5_kinematics
+from impurity_common import cell, ur5_kinematics
 
 from .poses import tcp_from_ur_pose, ur_tool0_pose
 
@@ -40,7 +40,7 @@ class CommandLog:
         self.context: dict = {}
         self.echo = echo  # called with a one-line summary of each record (e.g. a ROS logger)
         self._lock = threading.Lock()
-        self._file = open(path, "a", encoding="utf-8") if path else None  # noqa: SIM115 (kept open)
+        self._file = open(path, "a", encoding="utf-8") if path else None  # appended to, kept open
 
     def record(self, interface: str, command: str, **args) -> dict:
         with self._lock:
@@ -86,8 +86,10 @@ class ConnectionDropped(RuntimeError):
 class _DryRunState:
     """The simulated controller: where the arm is, and whether it still answers."""
 
-    def __init__(self, drop_after: int | None, contact_height: float | None = None):
-        self.contact_height = contact_height
+    def __init__(self, drop_after: int | None, contact_height: float | None = None,
+                 flange_to_tcp: float = cell.FLANGE_TO_TCP):
+        self.contact_height = contact_height  # m, TCP height (base_link) where guarded moves meet an object
+        self.flange_to_tcp = flange_to_tcp  # m, the driver's TCP along tool0 z (for contact_height)
         self.detecting = False  # between startContactDetection and stopContactDetection
         self.touched = False
         self.q = np.array(ur5_kinematics.HOME_JOINTS, dtype=float)
@@ -99,8 +101,9 @@ class _DryRunState:
 
     @staticmethod
     def _pose_of(q) -> list:
+        """tool0's pose at q (through the kinematic model's TCP, which sits cell.FLANGE_TO_TCP below)."""
         tcp = ur5_kinematics.tcp_pose(q)
-        return ur_tool0_pose(tcp[:3, 3], math.atan2(tcp[1, 0], tcp[0, 0]))
+        return ur_tool0_pose(tcp[:3, 3], math.atan2(tcp[1, 0], tcp[0, 0]), cell.FLANGE_TO_TCP)
 
     def motion(self, pose=None, q=None) -> None:
         """A motion command arrives: lose the connection if scripted, else be there at once."""
@@ -113,11 +116,11 @@ class _DryRunState:
             self.q = np.asarray(q, dtype=float)
             self.pose = self._pose_of(self.q)
         else:
-            position, yaw = tcp_from_ur_pose(pose)
-            if self.detecting and self.contact_height is not None and position[2] < self.contact_height:
-                position = (position[0], position[1], self.contact_height)  # stopped on the object
-                pose = ur_tool0_pose(position, yaw)
-                self.touched = True
+            tcp, yaw = tcp_from_ur_pose(pose, self.flange_to_tcp)
+            if self.detecting and self.contact_height is not None and tcp[2] < self.contact_height:
+                pose = ur_tool0_pose((tcp[0], tcp[1], self.contact_height), yaw, self.flange_to_tcp)
+                self.touched = True  # stopped on the object
+            position, yaw = tcp_from_ur_pose(pose, cell.FLANGE_TO_TCP)  # the model's TCP, for its IK
             try:
                 self.q = ur5_kinematics.ik(position, yaw, self.q)
             except ur5_kinematics.IKError:
@@ -253,9 +256,9 @@ class DryRunRobot:
     contact_height: TCP height (m, base_link) where guarded moves meet an object (None: never)."""
 
     def __init__(self, log: CommandLog, drop_after: int | None = None, held_width: float = 0.03,
-                 contact_height: float | None = None):
+                 contact_height: float | None = None, flange_to_tcp: float = cell.FLANGE_TO_TCP):
         self.log = log
-        self.state = _DryRunState(drop_after, contact_height)
+        self.state = _DryRunState(drop_after, contact_height, flange_to_tcp)
         self.control = DryRunControl(log, self.state)
         self.receive = DryRunReceive(self.state)
         self.gripper = DryRunGripper(log, held_width)
