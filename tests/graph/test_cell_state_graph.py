@@ -98,6 +98,32 @@ def test_tf_follows_joint_states_with_the_ur5_kinematics(ros_node, cell_state):
     ros_node.destroy_publisher(publisher)
 
 
+def test_a_burst_of_joint_states_ends_on_tf_with_the_latest_at_a_bounded_rate(ros_node, cell_state):
+    """A UR driver publishes joint states at 500 Hz: /tf carries the latest ones, not every one."""
+    tf = TopicRecorder(ros_node, TFMessage, names.TF_TOPIC, QoSProfile(depth=100,
+                                                                      reliability=ReliabilityPolicy.RELIABLE))
+    publisher = ros_node.create_publisher(JointState, names.JOINT_STATES_TOPIC, 1000)
+
+    def joint_states(i):
+        msg = JointState(name=list(kin.JOINT_NAMES), position=[0.001 * i] * 6)
+        msg.header.stamp = ns_to_time(1_800_000_000_000_000_000 + i)
+        return msg
+
+    publish_until_answered(ros_node, publisher, lambda: joint_states(0), tf, WAIT, processes=[cell_state])
+    heard = len(tf.messages)
+    burst = 300
+    for i in range(1, burst + 1):
+        publisher.publish(joint_states(i))
+
+    def last_stamp_ns(msg):
+        return msg.transforms[0].header.stamp.sec * 1_000_000_000 + msg.transforms[0].header.stamp.nanosec
+
+    tf.wait_for(1, WAIT, processes=[cell_state],
+                predicate=lambda m: last_stamp_ns(m) == 1_800_000_000_000_000_000 + burst)
+    assert len(tf.messages) - heard < burst  # at most publish_frequency (30 Hz), not one per message
+    ros_node.destroy_publisher(publisher)
+
+
 def test_malformed_joint_states_are_dropped_with_a_reason_and_the_node_goes_on(ros_node, cell_state):
     tf = TopicRecorder(ros_node, TFMessage, names.TF_TOPIC, RELIABLE)
     publisher = ros_node.create_publisher(JointState, names.JOINT_STATES_TOPIC, 10)

@@ -1,19 +1,21 @@
 """Cell state publisher: what RViz and Foxglove need for a 3-D view of the cell, from /joint_states and
 the camera pose parameters.
 
-  /joint_states (sensor_msgs/JointState)  ->  /tf         (tf2_msgs/TFMessage): the arm's joints, per message
+  /joint_states (sensor_msgs/JointState)  ->  /tf         (tf2_msgs/TFMessage): the arm's joints
                                               /tf_static  (transient local): fixed joints and the camera
                                               /robot_description (std_msgs/String URDF, transient local)
 
 The robot_state_publisher of this cell (which has none: it is a C++ package outside the PyPI wheels):
-the URDF is visualisation.robot_description() (UR5 from its DH table + the RG2-like gripper) and each
-/joint_states message becomes one /tf message of every movable joint's transform (parent -> child link,
-stamped as the joint states), so TF holds base_link -> base_link_inertia -> shoulder_link .. wrist_3_link
--> flange -> tool0 -> gripper_tcp. Joints absent from /joint_states (the fingers: the UR driver and
-sim_cell publish the six arm joints) are drawn at 0. The camera's optical frame is published as a static
-base_link -> camera_color_optical_frame from camera_position / camera_orientation, the same parameters
-(bringup/config/cell.yaml, `/**`) heightmap_node projects with. On a real cell, start the RealSense driver
-with publish_tf:=false so that frame has one parent.
+the URDF is visualisation.robot_description() (UR5 from its DH table + the RG2-like gripper) and the
+latest /joint_states message becomes one /tf message of every movable joint's transform (parent ->
+child link, stamped as the joint states) at most `publish_frequency` times a second (a UR driver
+publishes joint states at 500 Hz; one /tf message costs ~0.6 ms of Python). TF then holds base_link ->
+base_link_inertia -> shoulder_link .. wrist_3_link -> flange -> tool0 -> gripper_tcp. Joints absent
+from /joint_states (the fingers: the UR driver and sim_cell publish the six arm joints) are drawn at 0.
+The camera's optical frame is published as a static base_link -> camera_color_optical_frame from
+camera_position / camera_orientation, the same parameters (bringup/config/cell.yaml, `/**`)
+heightmap_node projects with. On a real cell, start the RealSense driver with publish_tf:=false so that
+frame has one parent.
 """
 
 from dataclasses import dataclass
@@ -54,6 +56,9 @@ class CellStateParameters:
     publish_camera_transform: bool = param(
         True, "Publish base_link -> camera_color_optical_frame on /tf_static (false when another node, e.g. "
         "the RealSense driver with a calibrated parent, already does)")
+    publish_frequency: float = param(30.0, "Most /tf messages per second: the latest joint states are "
+                                     "published at this rate when new ones arrived (Hz)",
+                                     low=0.1, high=1000.0)
     log_throttle: float = param(5.0, "s between repeated warnings about bad joint states", low=0.0,
                                 high=3600.0)
 
@@ -68,7 +73,9 @@ class CellStatePublisher(Node):
             TFMessage, names.TF_TOPIC, QoSProfile(depth=TF_DEPTH, reliability=ReliabilityPolicy.RELIABLE))
         self._static_pub = self.create_publisher(TFMessage, names.TF_STATIC_TOPIC, LATCHED)
         self._description_pub = self.create_publisher(String, names.ROBOT_DESCRIPTION_TOPIC, LATCHED)
+        self._latest: JointState | None = None  # joint states not yet published on /tf
         self.create_subscription(JointState, names.JOINT_STATES_TOPIC, self._on_joint_states, 10)
+        self.create_timer(1.0 / params.publish_frequency, self._publish_tf)
 
         stamp = self.get_clock().now().to_msg()
         static = [transform_stamped(parent, child, pose, stamp)
@@ -87,6 +94,12 @@ class CellStatePublisher(Node):
             f"{len(self._tree.links)} links on {names.ROBOT_DESCRIPTION_TOPIC}")
 
     def _on_joint_states(self, msg: JointState) -> None:
+        self._latest = msg
+
+    def _publish_tf(self) -> None:
+        msg, self._latest = self._latest, None
+        if msg is None:
+            return
         try:
             positions = joint_positions(list(msg.name), list(msg.position))
         except ValueError as error:
