@@ -16,7 +16,7 @@ from visualization_msgs.msg import Marker, MarkerArray
 from impurity_common import cell, names
 from impurity_common import ur5_kinematics as kin
 from impurity_common import visualisation as vis
-from impurity_common.conversions import ns_to_time
+from impurity_common.conversions import ns_to_time, numpy_to_image
 from impurity_interfaces.msg import AttentionResult, Primitive
 from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until
 
@@ -160,6 +160,9 @@ def attended() -> AttentionResult:
     msg.heightmap.resolution = cell.HEIGHTMAP_RESOLUTION
     msg.heightmap.origin = Point(x=cell.WORKSPACE_X[0], y=cell.WORKSPACE_Y[0], z=cell.TABLE_Z)
     msg.center = Point(x=0.45, y=-0.02, z=cell.TABLE_Z)
+    colour = np.full((8, 8, 3), 120, np.uint8)  # a small heightmap, every cell seen
+    msg.heightmap.color = numpy_to_image(colour, "rgb8")
+    msg.heightmap.height = numpy_to_image(np.full((8, 8), 0.02, np.float32), "32FC1")
     return msg
 
 
@@ -187,6 +190,8 @@ def test_markers_show_the_chosen_primitive_and_the_attended_crop(ros_node, launc
     corner = (cell.WORKSPACE_X[0] + 60 * resolution, cell.WORKSPACE_Y[0] + 40 * resolution)
     assert (square.points[0].x, square.points[0].y) == pytest.approx(corner)
     assert (vis.PRIMITIVE_NS, vis.GRASP_LEFT_JAW) in shown  # the picture holds both
+    cloud = shown[(vis.HEIGHTMAP_NS, vis.HEIGHTMAP_POINTS)]  # heightmap_stride 4: 2 x 2 of the 8 x 8 cells
+    assert len(cloud.points) == 4 and cloud.points[0].z == pytest.approx(cell.TABLE_Z + 0.02)
 
     latest = publish_until_answered(ros_node, primitives, push, markers, WAIT, processes=[process])
     shown = active(latest)

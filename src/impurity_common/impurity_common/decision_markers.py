@@ -5,9 +5,12 @@ for RViz and Foxglove.
   /attention/result (impurity_interfaces/AttentionResult)
 
 Every update publishes the whole current picture (the last primitive's markers and the last attention
-result's, visualisation.primitive_markers / attention_markers, frame base_link), so a late viewer gets
-it at once. A message the markers cannot be drawn from is dropped with a rate-limited warning.
+result's, visualisation.primitive_markers / attention_markers, frame base_link, and the heightmap the
+attention result carries as coloured points, visualisation.heightmap_marker), so a late viewer gets it
+at once. A message the markers cannot be drawn from is dropped with a rate-limited warning.
 """
+
+from dataclasses import dataclass
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
@@ -15,16 +18,26 @@ from visualization_msgs.msg import MarkerArray
 
 from impurity_common import names
 from impurity_common.node_main import spin_node
+from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Primitive
 
-from .visualisation import attention_markers, primitive_markers
+from .visualisation import attention_markers, heightmap_marker, primitive_markers
 
-LOG_THROTTLE = 5.0  # s between repeated warnings about undrawable messages
+
+@dataclass(frozen=True)
+class DecisionMarkersParameters:
+    """Every parameter of the node."""
+
+    heightmap_stride: int = param(4, "Draw every n-th heightmap cell (rows and columns) as a point; 0 = no "
+                                  "heightmap points", low=0, high=32)
+    log_throttle: float = param(5.0, "s between repeated warnings about undrawable messages", low=0.0,
+                                high=3600.0)
 
 
 class DecisionMarkers(Node):
     def __init__(self):
         super().__init__("decision_markers")
+        self.params = declare_parameters(self, DecisionMarkersParameters)
         self._primitive: list = []
         self._attention: list = []
         reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -42,17 +55,21 @@ class DecisionMarkers(Node):
         try:
             self._primitive = primitive_markers(msg)
         except ValueError as error:
-            self.get_logger().warning(f"primitive not drawn: {error}", throttle_duration_sec=LOG_THROTTLE)
+            self.get_logger().warning(f"primitive not drawn: {error}",
+                                      throttle_duration_sec=self.params.log_throttle)
             return
         self._publish()
 
     def _on_attention(self, msg: AttentionResult) -> None:
         try:
-            self._attention = attention_markers(msg)
+            markers = attention_markers(msg)
+            if self.params.heightmap_stride > 0 and msg.heightmap.height.width > 0:
+                markers.append(heightmap_marker(msg.heightmap, self.params.heightmap_stride))
         except ValueError as error:
             self.get_logger().warning(f"attention result not drawn: {error}",
-                                      throttle_duration_sec=LOG_THROTTLE)
+                                      throttle_duration_sec=self.params.log_throttle)
             return
+        self._attention = markers
         self._publish()
 
     def _publish(self) -> None:

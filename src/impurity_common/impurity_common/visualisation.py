@@ -24,6 +24,7 @@ from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker
 
 from impurity_common import cell, names, ur5_kinematics
+from impurity_common.conversions import image_to_numpy
 from impurity_common.enums import AttentionMode, PrimitiveKind
 
 TCP_FRAME = "gripper_tcp"  # the URDF's TCP link: centre between the fingertips' lower ends, z up the wrist
@@ -286,6 +287,8 @@ def camera_transform(position, orientation) -> tuple[str, str, np.ndarray]:
 # ------------------------------------------------------------------------------------ markers
 PRIMITIVE_NS = "primitive"
 ATTENTION_NS = "attention"
+HEIGHTMAP_NS = "heightmap"
+HEIGHTMAP_POINTS = 0  # its one marker id
 PUSH_COLOR = (0.10, 0.45, 0.95, 0.9)  # blue arrow
 GRASP_COLOR = (0.10, 0.80, 0.25, 0.9)  # green jaws
 MODE_COLORS = {AttentionMode.NONE: (0.6, 0.6, 0.6, 0.8),  # grey: nothing left to look for
@@ -439,3 +442,32 @@ def attention_markers(attention) -> list[Marker]:
     markers.append(_label(ATTENTION_NS, ATTENTION_LABEL, header, where,
                           f"attention: {mode.label} ({float(attention.score):.3f})", color))
     return markers
+
+
+def heightmap_marker(heightmap, stride: int = 4) -> Marker:
+    """The heightmap (impurity_interfaces/Heightmap) as a POINTS marker (namespace "heightmap", frame
+    base_link): every `stride`-th cell in rows and columns that the camera saw (colour not black), at
+    x = origin.x + (col + 0.5) * resolution, y likewise, z = origin.z + height, in the cell's colour,
+    each point `stride` cells wide.
+    3-D viewers have no Heightmap display; this shows the scene beside the markers. ValueError for a
+    stride below 1 or images that do not fit (conversions.ImageFormatError is a ValueError)."""
+    if int(stride) < 1:
+        raise ValueError(f"stride must be at least 1, got {stride}")
+    colour = image_to_numpy(heightmap.color)
+    height = image_to_numpy(heightmap.height)
+    if colour.ndim != 3 or colour.shape[:2] != height.shape:
+        raise ValueError(f"heightmap colour {colour.shape} and height {height.shape} do not match")
+    res, origin = float(heightmap.resolution), heightmap.origin
+    rows, cols = np.mgrid[0:height.shape[0]:stride, 0:height.shape[1]:stride]
+    seen = colour[rows, cols, :3].astype(int).sum(axis=-1) > 0
+    rows, cols = rows[seen], cols[seen]
+    xs = float(origin.x) + (cols + 0.5) * res
+    ys = float(origin.y) + (rows + 0.5) * res
+    zs = float(origin.z) + height[rows, cols].astype(float)
+    rgb = colour[rows, cols, :3].astype(float) / 255.0
+    marker = _marker(HEIGHTMAP_NS, HEIGHTMAP_POINTS, Marker.POINTS, heightmap.header)
+    marker.scale.x = marker.scale.y = res * stride  # m: each drawn point covers its stride of cells
+    marker.points = [Point(x=x, y=y, z=z)
+                     for x, y, z in zip(xs.tolist(), ys.tolist(), zs.tolist(), strict=True)]
+    marker.colors = [ColorRGBA(r=r, g=g, b=b, a=1.0) for r, g, b in rgb.tolist()]
+    return marker

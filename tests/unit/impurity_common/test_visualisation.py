@@ -11,7 +11,8 @@ from visualization_msgs.msg import Marker
 from impurity_common import cell, names
 from impurity_common import ur5_kinematics as kin
 from impurity_common import visualisation as vis
-from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_common.conversions import numpy_to_image
+from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
 
 UR_LINKS = ("base_link", "base_link_inertia", "base", "shoulder_link", "upper_arm_link", "forearm_link",
             "wrist_1_link", "wrist_2_link", "wrist_3_link", "flange", "tool0")
@@ -251,3 +252,43 @@ def test_attention_none_removes_the_crop_and_says_none():
 def test_an_unknown_attention_mode_is_refused():
     with pytest.raises(ValueError, match="unknown attention mode 9"):
         vis.attention_markers(attention(9))
+
+
+def small_heightmap(rows=6, cols=8) -> Heightmap:
+    colour = np.zeros((rows, cols, 3), np.uint8)
+    colour[2, 4] = (200, 30, 20)  # one red cell seen, 5 cm high; the rest unseen (black)
+    colour[4, 0] = (90, 90, 90)  # one table cell
+    height = np.zeros((rows, cols), np.float32)
+    height[2, 4] = 0.05
+    msg = Heightmap(resolution=0.002)
+    msg.origin = Point(x=0.3, y=-0.2, z=0.01)
+    msg.color = numpy_to_image(colour, "rgb8")
+    msg.height = numpy_to_image(height, "32FC1")
+    return msg
+
+
+def test_the_heightmap_is_drawn_as_the_seen_cells_in_their_colour_at_their_height():
+    marker = vis.heightmap_marker(small_heightmap(), stride=2)
+    assert (marker.ns, marker.type) == (vis.HEIGHTMAP_NS, Marker.POINTS)
+    assert marker.header.frame_id == names.BASE_FRAME
+    points = sorted((p.x, p.y, p.z) for p in marker.points)
+    np.testing.assert_allclose(points, [(0.3 + 0.5 * 0.002, -0.2 + 4.5 * 0.002, 0.01),
+                                        (0.3 + 4.5 * 0.002, -0.2 + 2.5 * 0.002, 0.06)], atol=1e-6)
+    red = [c for c, p in zip(marker.colors, marker.points, strict=True) if p.z > 0.05][0]
+    assert (red.r, red.g, red.b) == pytest.approx((200 / 255, 30 / 255, 20 / 255))
+    assert marker.scale.x == pytest.approx(0.004)  # two cells wide at stride 2
+
+
+def test_a_stride_skips_cells():
+    assert len(vis.heightmap_marker(small_heightmap(), stride=1).points) == 2
+    # at stride 4 the drawn rows and columns are 0 and 4: cell (4, 0) is drawn, (2, 4) is not
+    assert len(vis.heightmap_marker(small_heightmap(), stride=4).points) == 1
+
+
+def test_an_undrawable_heightmap_is_refused():
+    with pytest.raises(ValueError, match="stride must be at least 1"):
+        vis.heightmap_marker(small_heightmap(), stride=0)
+    mismatched = small_heightmap()
+    mismatched.height = numpy_to_image(np.zeros((3, 3), np.float32), "32FC1")
+    with pytest.raises(ValueError, match="do not match"):
+        vis.heightmap_marker(mismatched)
