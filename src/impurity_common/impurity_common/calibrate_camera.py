@@ -119,8 +119,8 @@ def say(text: str) -> None:
 def hint(error: CalibrationError) -> str:
     """What to change, beside the error's own text."""
     if isinstance(error, calibration.BoardNotFound):
-        return ("check the view: `ros2 run rqt_image_view rqt_image_view " + names.COLOR_TOPIC + "`; the "
-                "whole board should be in it, flat, without glare")
+        return ("look at the image (live: `ros2 run rqt_image_view rqt_image_view " + names.COLOR_TOPIC +
+                "`): the whole board should be in it, flat, sharp, without glare")
     if isinstance(error, calibration.TooFewCorners):
         return "more of the board in view, less glare, or a larger board (--squares, --square-length)"
     if isinstance(error, calibration.InvalidIntrinsics):
@@ -163,7 +163,7 @@ def finish(args, spec, intrinsics, base_from_board, result, rgb) -> int:
     except (CalibrationError, OSError) as error:
         say(f"FAILED: {error}")
         return FAILURE_EXIT_CODE
-    say(f"wrote {path.resolve()}; restart heightmap_node (and sim_cell) with --params-file {path} to use it")
+    say(f"wrote {path.resolve()}; the cell's nodes read it when they start: restart the cell to use it")
     return 0
 
 
