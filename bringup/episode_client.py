@@ -113,12 +113,14 @@ def main(argv=None) -> int:
     parser.add_argument("--objects", type=int, default=20)
     parser.add_argument("--max-actions", type=int, default=0, help="0: 15 per target")
     parser.add_argument("--scene-file", default="")
+    parser.add_argument("--palette", default="", help="simulated cell: a named palette or random-<seed> "
+                        "(see README, 'Appearance'); empty: the default blue/red palette")
     parser.add_argument("--timeout", type=float, default=900.0, help="s for the whole episode")
     parser.add_argument("--start-only", action="store_true",
                         help=f"use the {START_EPISODE_SERVICE} service and return at once")
     args = parser.parse_args(argv)
     fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
-                  max_actions=args.max_actions, scene_file=args.scene_file)
+                  max_actions=args.max_actions, scene_file=args.scene_file, palette=args.palette)
     rclpy.init()
     node = rclpy.create_node("episode_client")
     try:

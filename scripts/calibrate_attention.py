@@ -6,9 +6,15 @@
     python scripts/calibrate_attention.py evaluate --split acceptance # the acceptance table (new seeds)
     python scripts/calibrate_attention.py gallery                     # docs/images/attention_*.png
     python scripts/calibrate_attention.py lab-reference               # colour-adaptation reference
+    python scripts/calibrate_attention.py palette-sweep               # relative threshold, tuning palettes
+    python scripts/calibrate_attention.py palette-evaluate            # held-out palettes + exposure x0.5, x2
+    python scripts/calibrate_attention.py palette-gallery             # docs/images/palettes.png
 
-Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Rendered scenes are cached as .npz
-under runs/perception/ (rendering and settling is the slow part); `evaluate` collects what is missing.
+Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Palettes (issue 17) follow the split
+of impurity_learning/splits.py: the relative threshold is chosen on tuning palettes with tuning seeds
+only; held-out palettes are rendered with acceptance seeds and only measured. Rendered scenes are
+cached as .npz under runs/perception/ (rendering and settling is the slow part); `evaluate` collects
+what is missing.
 Everything is seeded: the same command gives the same figures.
 """
 
@@ -270,9 +276,173 @@ def gallery(params: AttentionParams) -> None:
     print(f"wrote {IMAGES / 'attention_saliency.png'} and {IMAGES / 'attention_dbscan.png'}")
 
 
+# Scenes per palette (scenario, targets, count): a fifth of PLAN's tuning counts, same seed layout.
+PALETTE_PLAN = [("random", 2, 6), ("challenging", 2, 4), ("random", 0, 3), ("challenging", 0, 2),
+                ("invisible", 0, 1), ("invisible", 2, 2), ("invisible", 1, 1)]
+PALETTE_RANDOM_COUNT = {"tuning": 8, "acceptance": 8}  # random palettes per split
+EXPOSURES = (0.5, 1.0, 2.0)
+TARGET_FOUND_AIM, FALSE_TARGET_AIM = 0.95, 0.05
+
+
+def palette_names(split: str) -> list:
+    from impurity_learning import splits
+
+    if split == "tuning":
+        return splits.tuning_palettes(PALETTE_RANDOM_COUNT["tuning"])
+    return splits.held_out_palettes(PALETTE_RANDOM_COUNT["acceptance"])
+
+
+def collect_palettes(split: str, scale: int = 1) -> list:
+    """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz); the same
+    scene seeds under every palette, tuning seeds for tuning palettes, acceptance seeds otherwise."""
+    path = CACHE / f"palettes_{split}{'' if scale == 1 else f'_x{scale}'}.npz"
+    wanted = []
+    for palette in palette_names(split):
+        for index, (scenario, targets, count) in enumerate(PALETTE_PLAN):
+            base = SEED_BASE[split] + 100 * index
+            wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
+    cached = {}
+    if path.exists():
+        cached = {(r.palette, r.scenario, r.seed, r.num_targets): r for r in evaluation.load_records(path)}
+    missing = [w for w in wanted if w not in cached]
+    if missing:
+        from tqdm import tqdm
+
+        from ur5_driver_sim.core.world import CellWorld
+
+        world = CellWorld(mode="floating")
+        for palette, scenario, seed, targets in tqdm(missing, desc=f"render {split} palettes", unit="scene"):
+            try:
+                record = evaluation.record_from_world(world, scenario, seed, targets, NUM_OBJECTS,
+                                                      palette=palette)
+            except RuntimeError as error:
+                print(f"  skipped {palette} {scenario} seed {seed}: {error}", file=sys.stderr)
+                continue
+            cached[(palette, scenario, seed, targets)] = record
+        world.close()
+        CACHE.mkdir(parents=True, exist_ok=True)
+        evaluation.save_records(path, list(cached.values()))
+    return [cached[w] for w in wanted if w in cached]
+
+
+def palette_rates(records, params: AttentionParams) -> dict:
+    """Per palette: visible scenes with the impurity found, scenes without impurity given TARGET."""
+    rates = {}
+    for record in records:
+        verdict = evaluation.judge(record, attend(record.color, record.height, params))
+        entry = rates.setdefault(record.palette, {"visible": [], "no_impurity": [], "invisible": []})
+        if verdict.category in entry:
+            entry[verdict.category].append(bool(verdict.success))
+    return rates
+
+
+def print_palette_rates(rates: dict) -> dict:
+    totals = {"visible": [], "no_impurity": [], "invisible": []}
+    for palette, entry in rates.items():
+        for key in totals:
+            totals[key] += entry[key]
+        print(f"  {palette:22s} impurity found {sum(entry['visible']):3d}/{len(entry['visible']):3d}  "
+              f"false TARGET {len(entry['no_impurity']) - sum(entry['no_impurity']):2d}/"
+              f"{len(entry['no_impurity']):2d}  hidden target in chosen cluster "
+              f"{sum(entry['invisible'])}/{len(entry['invisible'])}")
+    found = float(np.mean(totals["visible"])) if totals["visible"] else float("nan")
+    false = 1.0 - float(np.mean(totals["no_impurity"])) if totals["no_impurity"] else float("nan")
+    hidden = float(np.mean(totals["invisible"])) if totals["invisible"] else float("nan")
+    print(f"  ALL: impurity found {100 * found:.1f} % of {len(totals['visible'])} (aim >= 95 %), "
+          f"false TARGET {100 * false:.1f} % of {len(totals['no_impurity'])} (aim <= 5 %), hidden target in "
+          f"chosen cluster {100 * hidden:.1f} % of {len(totals['invisible'])}")
+    return {"found": found, "false_target": false, "hidden_in_cluster": hidden,
+            "visible_scenes": len(totals["visible"]), "clean_scenes": len(totals["no_impurity"])}
+
+
+def palette_sweep(params: AttentionParams) -> None:
+    """Tuning palettes (and the default at exposure x0.5 and x2) only: detection and false TARGET
+    for a range of min_relative_contrast; the chosen value meets both aims (found >= TARGET_FOUND_AIM,
+    false TARGET <= FALSE_TARGET_AIM) with the largest found - false (Youden's J), ties to the larger
+    threshold."""
+    records = collect_palettes("tuning")
+    default = [r for r in records if r.palette == "blocks"]
+    records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
+    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes + default at x0.5, x2)")
+    rows = []
+    for record in records:  # the threshold does not change regions: compute the best region once
+        objects = record.height > params.density.occupied_height
+        from impurity_attention.core.attention import scene_saliency
+
+        regions = salient_regions(scene_saliency(record.color, objects, params), objects, params)
+        best = regions[0] if regions else None
+        on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
+        rows.append((record.category(), best.score if best else 0.0, on_target))
+    visible = np.array([(score, on) for category, score, on in rows if category == "visible"])
+    clean = np.array([score for category, score, _ in rows if category == "no_impurity"])
+    chosen = None
+    for threshold in np.round(np.arange(2.0, 6.01, 0.1), 2):
+        found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold)))
+        false = float(np.mean(clean >= threshold))
+        print(f"  min_relative_contrast {threshold:4.1f}: impurity found {100 * found:5.1f} %  "
+              f"false TARGET {100 * false:5.1f} %")
+        meets = false <= FALSE_TARGET_AIM and found >= TARGET_FOUND_AIM
+        if meets and (chosen is None or found - false >= chosen[1] - chosen[2]):
+            chosen = (float(threshold), found, false)
+    if chosen is None:
+        print("no threshold meets both aims on the tuning scenes")
+        return
+    print(f"chosen min_relative_contrast = {chosen[0]:.1f}: found {100 * chosen[1]:.1f} %, false TARGET "
+          f"{100 * chosen[2]:.1f} % on {len(visible)} visible / {len(clean)} clean tuning scenes")
+
+
+def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
+    """Held-out palettes (acceptance seeds) and the default palette at exposure x0.5, x1, x2 (acceptance
+    seeds): only measured."""
+    results = {"params": dataclasses.asdict(params)}
+    print("== held-out palettes (acceptance seeds)")
+    results["held_out"] = print_palette_rates(palette_rates(collect_palettes("acceptance"), params))
+    print("== default palette (acceptance seeds), exposure x0.5 / x1 / x2")
+    default = [r for r in collect("acceptance") if r.category() in ("visible", "no_impurity")]
+    for exposure in EXPOSURES:
+        scenes = [r.exposed(exposure) for r in default]
+        results[f"default_x{exposure:g}"] = print_palette_rates(palette_rates(scenes, params))
+    if json_path:
+        json_path.parent.mkdir(parents=True, exist_ok=True)
+        json_path.write_text(json.dumps(results, indent=1))
+    return results
+
+
+def palette_gallery(params: AttentionParams) -> None:
+    """docs/images/palettes.png: for every named palette, the camera image and the attention overlay of
+    one random scene (seed 1001, two impurities): the same layout under every appearance."""
+    import cv2
+
+    from impurity_attention.core.attention import debug_image
+    from impurity_learning import splits
+    from ur5_driver_sim.core.appearance import PALETTES
+    from ur5_driver_sim.core.world import CellWorld
+
+    world = CellWorld(mode="floating")
+    tiles = []
+    for name in PALETTES:
+        record, frame = evaluation.record_from_world(world, "random", 1001, 2, NUM_OBJECTS, keep_frame=True,
+                                                     palette=name)
+        output = attend(record.color, record.height, params)
+        camera = cv2.resize(frame.color, (298, 224), interpolation=cv2.INTER_AREA)[:, 37:261]
+        overlay = debug_image(record.color, output)
+        pair = np.concatenate([camera, overlay], axis=1).copy()
+        label = f"{name} ({splits.palette_group(name)}): {output.mode.name} {output.score:.1f}"
+        cv2.putText(pair, label, (4, 218), cv2.FONT_HERSHEY_SIMPLEX, 0.42, (255, 255, 255), 1, cv2.LINE_AA)
+        tiles.append(pair)
+    world.close()
+    while len(tiles) % 3:
+        tiles.append(np.zeros_like(tiles[0]))
+    rows = [np.concatenate(tiles[i:i + 3], axis=1) for i in range(0, len(tiles), 3)]
+    IMAGES.mkdir(parents=True, exist_ok=True)
+    cv2.imwrite(str(IMAGES / "palettes.png"), cv2.cvtColor(np.concatenate(rows, axis=0), cv2.COLOR_RGB2BGR))
+    print(f"wrote {IMAGES / 'palettes.png'}")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference"))
+    parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference",
+                                           "palette-sweep", "palette-evaluate", "palette-gallery"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
@@ -291,6 +461,15 @@ def main() -> None:
 
     if args.action == "gallery":
         gallery(params)
+        return
+    if args.action == "palette-sweep":
+        palette_sweep(params)
+        return
+    if args.action == "palette-evaluate":
+        palette_evaluate(params, args.json)
+        return
+    if args.action == "palette-gallery":
+        palette_gallery(params)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

@@ -38,7 +38,8 @@ class SimCell:
 
     def reset(self, request: EpisodeRequest) -> picking.Targets:
         self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
-                               num_objects=request.num_objects, scene_file=request.scene_file or None)
+                               num_objects=request.num_objects, scene_file=request.scene_file or None,
+                               palette=request.palette)
         self.agent.reset(request.seed)
         self._sense()
         return self._targets()

@@ -92,7 +92,8 @@ class EpisodeNode(Node):
     def _request_from(fields) -> EpisodeRequest:
         return EpisodeRequest(scenario=fields.scenario, seed=int(fields.seed),
                               num_targets=int(fields.num_targets), num_objects=int(fields.num_objects),
-                              max_actions=int(fields.max_actions), scene_file=fields.scene_file)
+                              max_actions=int(fields.max_actions), scene_file=fields.scene_file,
+                              palette=fields.palette)
 
     def _refusal(self, request: EpisodeRequest) -> str | None:
         reason = validate_request(request)

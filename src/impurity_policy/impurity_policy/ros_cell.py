@@ -112,7 +112,8 @@ class RosCell:
             return Targets(request.num_targets)
         response = self._call(self._reset, ResetScene.Request(
             scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
-            num_objects=request.num_objects, scene_file=request.scene_file), names.RESET_SCENE_SERVICE)
+            num_objects=request.num_objects, scene_file=request.scene_file, palette=request.palette),
+            names.RESET_SCENE_SERVICE)
         if not response.success:
             raise EpisodeAborted(f"error: scene reset failed: {response.message}")
         self._after_ns = self.node.get_clock().now().nanoseconds

@@ -68,6 +68,8 @@ class SimCellParameters:
     initial_scenario: Scenario = param(Scenario.RANDOM, "Scene built at start")
     initial_seed: int = param(0, "Seed of the initial scene", low=0)
     initial_scene_file: str = param("", "JSON scene when initial_scenario is file")
+    initial_palette: str = param("", "Appearance of the initial scene: a named palette or random-<seed> "
+                                 "(\"\" = blocks, blue product and red impurities)")
     num_targets: int = param(-1, "Targets in the initial scene (-1: scenario default)",
                              low=-1, high=MAX_BLOCKS)
     num_objects: int = param(-1, "Basic blocks in the initial scene (-1: scenario default)",
@@ -117,7 +119,8 @@ class SimCellNode(Node):
         try:
             info = self._world.reset_scene(scenario, seed=params.initial_seed, num_targets=params.num_targets,
                                            num_objects=params.num_objects,
-                                           scene_file=params.initial_scene_file or None)
+                                           scene_file=params.initial_scene_file or None,
+                                           palette=params.initial_palette)
         except ValueError as refused:  # e.g. scenario file without a scene file, too many blocks
             self._world.close()
             raise ParameterError(self.get_name(), f"initial scene: {refused}") from None
@@ -267,7 +270,7 @@ class SimCellNode(Node):
         try:
             info = self._world.reset_scene(Scenario.parse(request.scenario), seed=int(request.seed),
                                            num_targets=request.num_targets, num_objects=request.num_objects,
-                                           scene_file=request.scene_file or None)
+                                           scene_file=request.scene_file or None, palette=request.palette)
             self._joint_snapshot = self._world.joint_positions()
         except (ValueError, RuntimeError) as error:
             response.success, response.message = False, str(error)
@@ -280,7 +283,7 @@ class SimCellNode(Node):
         response.targets_outside_workspace = info.targets_outside_workspace
         response.objects_outside_workspace = info.objects_outside_workspace
         outside = _outside_note(info.targets_outside_workspace, info.objects_outside_workspace)
-        response.message = (f"{info.scenario} seed {info.seed}: {info.num_targets} targets, "
+        response.message = (f"{info.scenario} seed {info.seed} ({info.palette}): {info.num_targets} targets, "
                             f"{info.num_objects} blocks{f' ({outside})' if outside else ''} in "
                             f"{info.generation_seconds:.2f} s")
         if outside:

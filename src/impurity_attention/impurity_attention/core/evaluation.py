@@ -42,6 +42,14 @@ class SceneRecord:
     labels: np.ndarray  # (rows, cols) int32 body id per cell, -1 unseen
     target_ids: tuple
     target_cells: tuple  # (row, col) of every target's centre (from ground-truth poses)
+    palette: str = ""  # the simulator's appearance ("" = default)
+
+    def exposed(self, exposure: float) -> SceneRecord:
+        """The same scene with its colour map scaled by `exposure` (clipped at 255, as a saturating
+        camera): exposure commutes with the heightmap projection, which only picks camera pixels."""
+        color = np.clip(self.color.astype(np.float32) * np.float32(exposure) + 0.5, 0, 255).astype(np.uint8)
+        return SceneRecord(self.scenario, self.seed, self.num_targets, self.num_objects, color, self.height,
+                           self.labels, self.target_ids, self.target_cells, f"{self.palette}@x{exposure:g}")
 
     @property
     def visible_target_cells(self) -> np.ndarray:
@@ -143,7 +151,7 @@ def record_from_world(world, scenario: str, seed: int, num_targets: int, num_obj
     target_cells = tuple(grid.base_to_pixel(*truth.poses[body][0][:2]) for body in truth.target_ids
                          if body in truth.poses)
     record = SceneRecord(scenario, int(seed), int(num_targets), int(num_objects), maps.color, maps.height,
-                         maps.labels, tuple(int(b) for b in truth.target_ids), target_cells)
+                         maps.labels, tuple(int(b) for b in truth.target_ids), target_cells, palette)
     return (record, frame) if keep_frame else record
 
 
@@ -155,7 +163,7 @@ def save_records(path, records) -> None:
         arrays[f"{i}_meta"] = np.array(json.dumps({
             "scenario": r.scenario, "seed": r.seed, "num_targets": r.num_targets,
             "num_objects": r.num_objects, "target_ids": list(r.target_ids),
-            "target_cells": [list(c) for c in r.target_cells]}))
+            "target_cells": [list(c) for c in r.target_cells], "palette": r.palette}))
     np.savez_compressed(path, count=np.array(len(records)), **arrays)
 
 
@@ -167,5 +175,5 @@ def load_records(path) -> list:
             records.append(SceneRecord(
                 meta["scenario"], meta["seed"], meta["num_targets"], meta["num_objects"], data[f"{i}_color"],
                 data[f"{i}_height"], data[f"{i}_labels"], tuple(meta["target_ids"]),
-                tuple(tuple(c) for c in meta["target_cells"])))
+                tuple(tuple(c) for c in meta["target_cells"]), meta.get("palette", "")))
     return records

@@ -76,6 +76,19 @@ def opponent_colour(rgb: np.ndarray) -> np.ndarray:
     return np.stack([(r + g + b) / 3.0, r - g, b - (r + g) / 2.0], axis=-1)
 
 
+CHROMA_MIN_INTENSITY = 0.05  # I below this divides by this: chromaticity of near-black cells is noise
+COLOUR_SPACES = ("opponent", "chromaticity")
+
+
+def opponent_chromaticity(rgb: np.ndarray) -> np.ndarray:
+    """(H, W, 3) uint8 RGB -> (H, W, 3) float32 planes I, RG / I, BY / I. The chromatic planes are
+    unchanged when a surface is lit more or less (shading and exposure scale R, G and B alike), so
+    their contrasts are differences of colour, not of light; I keeps the lightness contrast."""
+    planes = opponent_colour(rgb)
+    intensity = np.maximum(planes[..., :1], CHROMA_MIN_INTENSITY)
+    return np.concatenate([planes[..., :1], planes[..., 1:] / intensity], axis=-1)
+
+
 def _blur(image: np.ndarray, sigma: float) -> np.ndarray:
     return cv2.GaussianBlur(image, (0, 0), sigmaX=sigma, sigmaY=sigma, borderType=cv2.BORDER_REPLICATE)
 
@@ -117,10 +130,14 @@ def centre_pyramid(planes: np.ndarray, params: SaliencyParams) -> list:
     return pyramid
 
 
-def vocus2(rgb: np.ndarray, params: SaliencyParams = CELL_SALIENCY, keep_features: bool = False
-           ) -> SaliencyMaps:
-    """Saliency map of an RGB image (H, W, 3) uint8 -> SaliencyMaps (saliency at input size)."""
-    planes = opponent_colour(rgb)
+def vocus2(rgb: np.ndarray, params: SaliencyParams = CELL_SALIENCY, keep_features: bool = False,
+           colour_space: str = "opponent") -> SaliencyMaps:
+    """Saliency map of an RGB image (H, W, 3) uint8 -> SaliencyMaps (saliency at input size).
+    colour_space "opponent": VOCUS2's I, RG, BY; "chromaticity": I, RG / I, BY / I
+    (opponent_chromaticity; the chromatic maps are then in units of I, not of RGB)."""
+    if colour_space not in COLOUR_SPACES:
+        raise ValueError(f"colour_space {colour_space!r} not one of {COLOUR_SPACES}")
+    planes = opponent_colour(rgb) if colour_space == "opponent" else opponent_chromaticity(rgb)
     pyramid = centre_pyramid(planes, params)
     if not pyramid:
         raise ValueError(f"image {rgb.shape[:2]} too small for a saliency pyramid")

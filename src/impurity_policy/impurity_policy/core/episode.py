@@ -49,6 +49,7 @@ class EpisodeRequest:
     num_objects: int = 20
     max_actions: int = 0
     scene_file: str = ""
+    palette: str = ""  # simulated cell only: the scene's appearance ("" = default palette)
 
 
 def validate_request(request: EpisodeRequest) -> str | None:

@@ -1,0 +1,100 @@
+"""Attention decides relative to the scene (issue 17): an impurity of any appearance is found, the clean
+version of the same scene stays quiet, and the decision does not move with the image's brightness.
+
+Synthetic scenes (no simulator): product boxes of several shades of one palette, jittered per box,
+and one impurity box of the palette's impurity colour; the clean version recolours the impurity as a
+product box. Palettes follow the named jobs of the simulator (sRGB 0..255).
+"""
+
+import numpy as np
+import pytest
+
+from impurity_attention.core import attention as att
+from impurity_attention.core.heightmap import rgbd_to_heightmaps
+from impurity_attention.core.synthetic import Box, render_boxes
+
+# name: (product shades, impurity colour)
+PALETTES = {
+    "blue_red": ([(40, 120, 200)], (220, 60, 40)),
+    "coal_slate": ([(38, 36, 36), (30, 30, 32), (46, 43, 41)], (78, 82, 92)),
+    "cream_grey": ([(226, 212, 184), (214, 198, 168)], (128, 126, 122)),
+    "brown_dark": ([(120, 72, 44), (104, 62, 38), (134, 84, 52)], (62, 60, 58)),
+    "green_light": ([(96, 150, 64), (84, 140, 56)], (150, 140, 120)),
+}
+PRODUCT_JITTER = 5  # +- per channel, 0..255
+IMPURITY_LABEL = 99
+
+
+def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0) -> tuple:
+    """(colour heightmap, height map, impurity cells) of 24 product boxes and one impurity on a grid."""
+    shades, impurity = PALETTES[palette]
+    rng = np.random.default_rng(seed)
+    boxes = []
+    cells = [(row, col) for row in range(5) for col in range(5)]
+    impurity_cell = cells[int(rng.integers(6, 19))]  # an inner cell: product all around
+    for label, (row, col) in enumerate(cells, start=1):
+        x = 0.41 + 0.045 * col + rng.uniform(-0.005, 0.005)
+        y = -0.09 + 0.045 * row + rng.uniform(-0.005, 0.005)
+        if with_impurity and (row, col) == impurity_cell:
+            colour, label = impurity, IMPURITY_LABEL
+        else:
+            base = np.array(shades[int(rng.integers(len(shades)))])
+            jitter = rng.integers(-PRODUCT_JITTER, PRODUCT_JITTER + 1, 3)
+            colour = tuple(int(v) for v in np.clip(base + jitter, 0, 255))
+        boxes.append(Box(x, y, 0.032, 0.032, float(rng.uniform(0.025, 0.04)), colour, label))
+    frame = render_boxes(boxes)
+    maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose,
+                              labels=frame.labels)
+    color = np.clip(maps.color.astype(np.float32) * brightness + 0.5, 0, 255).astype(np.uint8)
+    return color, maps.height, maps.labels == IMPURITY_LABEL
+
+
+@pytest.mark.parametrize("palette", sorted(PALETTES))
+@pytest.mark.parametrize("seed", [0, 1])
+def test_an_impurity_of_any_palette_is_found(palette, seed):
+    color, height, impurity = scene(palette, seed)
+    output = att.attend(color, height)
+    assert output.mode == att.AttentionMode.TARGET, output.reason
+    assert np.count_nonzero(output.target_mask & impurity) > 0.5 * np.count_nonzero(output.target_mask)
+
+
+@pytest.mark.parametrize("palette", sorted(PALETTES))
+@pytest.mark.parametrize("seed", [0, 1])
+def test_the_clean_version_of_the_scene_has_no_target(palette, seed):
+    color, height, _ = scene(palette, seed, with_impurity=False)
+    output = att.attend(color, height)
+    assert output.mode != att.AttentionMode.TARGET, output.reason
+
+
+@pytest.mark.parametrize("palette", ["blue_red", "cream_grey", "coal_slate"])
+@pytest.mark.parametrize("brightness", [0.5, 2.0])
+def test_brightness_leaves_the_decision_unchanged(palette, brightness):
+    for with_impurity in (True, False):
+        reference = att.attend(*scene(palette, 3, with_impurity)[:2])
+        scaled = att.attend(*scene(palette, 3, with_impurity, brightness)[:2])
+        assert scaled.mode == reference.mode
+        if reference.mode == att.AttentionMode.TARGET:
+            assert scaled.center == pytest.approx(reference.center, abs=2)
+
+
+def test_the_absolute_rule_misses_a_dark_palette_that_the_relative_rule_finds():
+    """Why the decision is relative: the red-among-blue threshold in opponent-colour units never fires
+    on near-black coal with slightly lighter slate."""
+    color, height, _ = scene("coal_slate", 0)
+    absolute = att.attend(color, height, att.AttentionParams(contrast="absolute"))
+    assert absolute.mode != att.AttentionMode.TARGET
+    assert att.attend(color, height).mode == att.AttentionMode.TARGET
+
+
+def test_relative_saliency_is_dimensionless():
+    color, height, _ = scene("blue_red", 0)
+    objects = height > att.AttentionParams().density.occupied_height
+    one = att.scene_saliency(color, objects, att.AttentionParams())
+    darker = att.scene_saliency((color // 2).astype(np.uint8), objects, att.AttentionParams())
+    assert one.dtype == np.float32
+    assert float(one[objects].max()) == pytest.approx(float(darker[objects].max()), rel=0.15)
+
+
+def test_unknown_contrast_rule_is_refused():
+    with pytest.raises(ValueError, match="contrast"):
+        att.AttentionParams(contrast="vivid")

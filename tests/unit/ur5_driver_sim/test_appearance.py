@@ -1,0 +1,97 @@
+"""Palettes (issue 17): validation names the bad field, names resolve or are refused with the list, random
+palettes are seeded and keep their impurities distinguishable, and a scene keeps its layout under
+every palette while the default palette renders the scenes of earlier releases."""
+
+import numpy as np
+import pytest
+
+from ur5_driver_sim.core import appearance, config
+from ur5_driver_sim.core.world import CellWorld
+
+
+def palette(**changes):
+    fields = dict(name="test", product_shades=((0.2, 0.3, 0.4),), impurity_colors=((0.8, 0.2, 0.1),))
+    fields.update(changes)
+    return appearance.Palette(**fields)
+
+
+@pytest.mark.parametrize("field, value", [
+    ("product_shades", ()), ("product_shades", ((0.2, 0.3),)), ("impurity_colors", ((1.5, 0.0, 0.0),)),
+    ("impurity_colors", ((float("nan"), 0.0, 0.0),)), ("product_jitter", -0.1), ("ambient", 3.0),
+    ("diffuse", float("inf")), ("exposure", 0.0), ("light_direction", (0.0, 0.0, -1.0)),
+    ("light_direction", (0.0, 0.0))])
+def test_a_bad_palette_field_is_named(field, value):
+    with pytest.raises(ValueError, match=field):
+        palette(**{field: value})
+
+
+def test_named_palettes_resolve_and_the_empty_name_is_the_default():
+    assert appearance.palette_named("") is appearance.PALETTES["blocks"]
+    assert appearance.palette_named("coal_slate").name == "coal_slate"
+    assert len(appearance.PALETTES) >= 6
+
+
+def test_an_unknown_palette_is_refused_with_the_known_names():
+    with pytest.raises(ValueError) as refused:
+        appearance.palette_named("marble")
+    message = str(refused.value)
+    assert "marble" in message and "coal_slate" in message and "random-<seed>" in message
+
+
+def test_exposure_suffix_changes_only_the_exposure():
+    darker = appearance.palette_named("blocks@x0.5")
+    assert darker.exposure == 0.5 and darker.product_shades == appearance.PALETTES["blocks"].product_shades
+    image = np.full((2, 2, 3), 200, np.uint8)
+    assert darker.expose(image)[0, 0, 0] == 100
+    assert appearance.palette_named("blocks@x2").expose(image)[0, 0, 0] == 255  # saturates
+
+
+def test_random_palettes_are_seeded_and_keep_impurities_distinguishable():
+    assert appearance.palette_named("random-7") == appearance.random_palette(7)
+    assert appearance.random_palette(7) != appearance.random_palette(8)
+    for seed in range(30):
+        generated = appearance.random_palette(seed)
+        assert 1 <= len(generated.impurity_colors) <= 2 and 1 <= len(generated.product_shades) <= 3
+        assert generated.min_impurity_delta_e() >= appearance.RANDOM_IMPURITY_DELTA_E[0] - 0.5
+
+
+def test_default_palette_draws_the_legacy_product_colours():
+    """Product blocks take base + uniform(-jitter, jitter) per channel from the layout generator."""
+    colours = appearance.PALETTES["blocks"].colours(scene_seed=4)
+    drawn = colours.product(np.random.default_rng(11))
+    legacy_rng = np.random.default_rng(11)
+    jitter = config.PRODUCT_SHADE_JITTER
+    legacy = tuple(float(np.clip(c + legacy_rng.uniform(-jitter, jitter), 0.0, 1.0))
+                   for c in config.PRODUCT_COLOR)
+    assert drawn == legacy
+    assert colours.impurity() == config.TARGET_COLOR
+
+
+@pytest.fixture(scope="module")
+def world():
+    w = CellWorld(mode="floating")
+    yield w
+    w.close()
+
+
+def test_a_seed_gives_the_same_layout_under_every_palette(world):
+    layouts, colours = [], []
+    for name in ("", "mushrooms_stones", "random-3"):
+        info = world.reset_scene("random", seed=21, palette=name)
+        assert info.palette == (name or "blocks")
+        layouts.append(np.array([world.pb.getBasePositionAndOrientation(b)[0] for b in info.target_ids]))
+        colours.append(world.specs[info.target_ids[0]].color)
+    assert np.allclose(layouts[0], layouts[1]) and np.allclose(layouts[0], layouts[2])
+    assert len(set(colours)) == 3
+
+
+def test_exposure_darkens_the_rendered_image(world):
+    world.reset_scene("random", seed=2, palette="blocks")
+    bright = world.render().color.astype(float).mean()
+    world.reset_scene("random", seed=2, palette="blocks@x0.5")
+    assert world.render().color.astype(float).mean() == pytest.approx(bright / 2, rel=0.03)
+
+
+def test_reset_scene_refuses_an_unknown_palette_before_building(world):
+    with pytest.raises(ValueError, match="unknown palette"):
+        world.reset_scene("random", seed=1, palette="granite")
