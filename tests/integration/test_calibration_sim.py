@@ -187,8 +187,11 @@ def test_the_tool_calibrates_from_the_camera_topics(tmp_path, renders, ros_node,
 
 
 def test_the_tool_without_a_camera_gives_up_in_time_naming_the_topics(launch, ros_node):
-    tool = launch("impurity_common", "calibrate_camera", [*board_arguments(), "--timeout", "1", "--check"])
+    """Renamed topics (remapping, as a cell with another camera name would) that nothing publishes."""
+    color, info = "/no_camera/color/image_raw", "/no_camera/color/camera_info"
+    tool = launch("impurity_common", "calibrate_camera",
+                  [*board_arguments(), "--timeout", "1", "--check", "--ros-args",
+                   "-r", f"{names.COLOR_TOPIC}:={color}", "-r", f"{names.CAMERA_INFO_TOPIC}:={info}"])
     spin_until(ros_node, lambda: not tool.alive, 30.0, "calibrate_camera to give up")
     assert tool.process.returncode == calibrate_camera.FAILURE_EXIT_CODE
-    assert (f"nothing on {names.COLOR_TOPIC} and {names.CAMERA_INFO_TOPIC} within 1 s: is the camera driver "
-            "running") in tool.output()
+    assert f"nothing on {color} and {info} within 1 s: is the camera driver running" in tool.output()
