@@ -102,8 +102,13 @@ def from_bag(path: pathlib.Path, at: float | None) -> CellSnapshot:
         tree = RobotTree.from_urdf(robot_description())
         has_tf = names.TF_TOPIC in present
         last_joint_states, heightmaps = None, {}
+        unreadable: dict[str, int] = {}
         for message in reader.messages(present, stop_ns=stop):
-            msg = typestore.deserialize_cdr(message.data, message.msgtype)
+            try:
+                msg = typestore.deserialize_cdr(message.data, message.msgtype)
+            except Exception:  # noqa: BLE001 - rosbags' SerdeError and struct errors: skip, say so
+                unreadable[message.topic] = unreadable.get(message.topic, 0) + 1
+                continue
             if message.topic in (names.TF_TOPIC, names.TF_STATIC_TOPIC):
                 snapshot.add_tf(msg)
             elif message.topic == names.MARKERS_TOPIC:
@@ -119,6 +124,9 @@ def from_bag(path: pathlib.Path, at: float | None) -> CellSnapshot:
             snapshot.sources.append(f"{names.JOINT_STATES_TOPIC} through the robot model "
                                     f"(no {names.TF_TOPIC})")
         snapshot.heightmap = next((heightmaps[t] for t in HEIGHTMAP_TOPICS if t in heightmaps), None)
+        if unreadable:
+            snapshot.sources.append("messages rosbags could not deserialize (skipped): " + ", ".join(
+                f"{count} on {topic}" for topic, count in unreadable.items()))
         snapshot.sources.append(f"bag {path}: {', '.join(present) or 'none of the drawn topics'}")
     return snapshot
 
