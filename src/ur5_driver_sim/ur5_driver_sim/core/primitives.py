@@ -35,9 +35,13 @@ MAX_Z = motion.cell.MAX_TIP_HEIGHT  # m above the table (older name)
 @dataclass
 class PrimitiveOutcome:
     success: bool
-    target_grasped: bool = False
-    object_id: int = -1
+    target_grasped: bool = False  # simulator truth
+    object_id: int = -1  # simulator truth
     message: str = ""
+    # What a real arm would know too (ExecutePrimitive's result): filled by the world when it has them.
+    motion_completed: bool = True  # False: refused, cancelled or unreachable
+    gripper_opening: float = -1.0  # m between the fingers after the lift (grasp); -1 not measured
+    holding: bool = False  # something between the fingers after the lift
 
 
 def execute_step(carrier: Carrier, step: motion.Step) -> bool:
