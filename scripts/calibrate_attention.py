@@ -357,9 +357,9 @@ def print_palette_rates(rates: dict) -> dict:
 
 def palette_sweep(params: AttentionParams) -> None:
     """Tuning palettes (and the default at exposure x0.5 and x2) only: detection and false TARGET
-    for a range of min_relative_contrast; the chosen value meets both aims (found >= TARGET_FOUND_AIM,
-    false TARGET <= FALSE_TARGET_AIM) with the largest found - false (Youden's J), ties to the larger
-    threshold."""
+    for a range of min_relative_contrast; the chosen value is the middle of the thresholds that meet
+    both aims (found >= TARGET_FOUND_AIM, false TARGET <= FALSE_TARGET_AIM): the most margin to either
+    side."""
     records = collect_palettes("tuning")
     default = [r for r in records if r.palette == "blocks"]
     records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
@@ -375,18 +375,19 @@ def palette_sweep(params: AttentionParams) -> None:
         rows.append((record.category(), best.score if best else 0.0, on_target))
     visible = np.array([(score, on) for category, score, on in rows if category == "visible"])
     clean = np.array([score for category, score, _ in rows if category == "no_impurity"])
-    chosen = None
-    for threshold in np.round(np.arange(2.0, 6.01, 0.1), 2):
+    meeting = []
+    for threshold in np.round(np.arange(2.0, 12.01, 0.1), 2):
         found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold)))
         false = float(np.mean(clean >= threshold))
         print(f"  min_relative_contrast {threshold:4.1f}: impurity found {100 * found:5.1f} %  "
               f"false TARGET {100 * false:5.1f} %")
-        meets = false <= FALSE_TARGET_AIM and found >= TARGET_FOUND_AIM
-        if meets and (chosen is None or found - false >= chosen[1] - chosen[2]):
-            chosen = (float(threshold), found, false)
-    if chosen is None:
+        if false <= FALSE_TARGET_AIM and found >= TARGET_FOUND_AIM:
+            meeting.append((float(threshold), found, false))
+    if not meeting:
         print("no threshold meets both aims on the tuning scenes")
         return
+    chosen = meeting[len(meeting) // 2]
+    print(f"thresholds meeting both aims: {meeting[0][0]:.1f} ... {meeting[-1][0]:.1f}")
     print(f"chosen min_relative_contrast = {chosen[0]:.1f}: found {100 * chosen[1]:.1f} %, false TARGET "
           f"{100 * chosen[2]:.1f} % on {len(visible)} visible / {len(clean)} clean tuning scenes")
 

@@ -10,8 +10,14 @@ Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-che
 policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
 
+With palette groups (issue 17, generalisation.py), the same rows also run `--group-episodes` episodes per
+scenario on the tuning and held-out palettes, and the attention module alone is measured on rendered
+scenes of every group: docs/generalisation.md, docs/images/generalisation.png and
+docs/images/generalisation_scenes.png.
+
     python -m impurity_learning.eval_cli --episodes 20
     python -m impurity_learning.eval_cli --methods ours s_rgm --scenarios random --episodes 3
+    python -m impurity_learning.eval_cli --methods ours --palette-groups default held_out --group-episodes 8
 """
 
 from __future__ import annotations
@@ -31,6 +37,7 @@ from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.rules import PRESETS
 
+from . import generalisation
 from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
 from .evaluate import EVAL_SEED_BASE, run_episode
 from .train_cli import BASELINE_CHECKPOINT_DIR
@@ -214,13 +221,13 @@ _WORKER: dict = {}  # per process: the sim world and each method's agent, built 
 
 
 def run_task(task: tuple) -> dict:
-    """One evaluation episode (row, checkpoint, scenario, seed, torch threads, device) -> its record; runs in
-    the main process or in a pool worker. row: row_key(method, rules preset)."""
+    """One evaluation episode (row, checkpoint, scenario, seed, torch threads, device, palette group,
+    palette) -> its record; runs in the main process or in a pool worker. row: row_key(method, rules)."""
     import torch
 
     from ur5_driver_sim.core.world import CellWorld
 
-    row, checkpoint, scenario, seed, threads, device = task
+    row, checkpoint, scenario, seed, threads, device, group, palette = task
     method, _, rules = row.partition("@")
     if "world" not in _WORKER:
         torch.set_num_threads(threads)
@@ -229,8 +236,9 @@ def run_task(task: tuple) -> dict:
     if row not in agents:
         agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none",
                                  device)
-    metrics = run_episode(_WORKER["world"], agents[row], EpisodeRequest(scenario, seed=seed))
-    return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, **metrics}
+    metrics = run_episode(_WORKER["world"], agents[row], EpisodeRequest(scenario, seed=seed, palette=palette))
+    return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, "group": group,
+            "palette": palette, **metrics}
 
 
 def close_worker() -> None:
@@ -258,6 +266,16 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads per episode process")
     p.add_argument("--device", default="cpu", help="cpu, cuda, cuda:N, or auto (CUDA when present)")
     p.add_argument("--jobs", type=int, default=2, help="episodes run in this many processes at once")
+    p.add_argument("--palette-groups", nargs="+", default=list(generalisation.GROUPS),
+                   choices=generalisation.GROUPS,
+                   help="generalisation table groups (default: the main table's episodes; tuning, held_out: "
+                        "--group-episodes more per row and scenario, palettes cycling)")
+    p.add_argument("--group-episodes", type=int, default=4, help="per row, scenario and non-default group")
+    p.add_argument("--perception-scenes", type=int, default=10,
+                   help="rendered scenes with (and as many without) impurities per group and scenario")
+    p.add_argument("--generalisation", default="docs/generalisation.md")
+    p.add_argument("--generalisation-chart", default="docs/images/generalisation.png")
+    p.add_argument("--generalisation-scenes", default="docs/images/generalisation_scenes.png")
     p.add_argument("--no-progress", action="store_true")
     return p.parse_args(argv)
 
@@ -267,8 +285,8 @@ def main(argv=None) -> int:
     from tqdm import tqdm
 
     args = parse_args(argv)
-    if args.episodes < 1:
-        print("eval: --episodes must be >= 1", file=sys.stderr)
+    if args.episodes < 1 or args.group_episodes < 0 or args.perception_scenes < 1:
+        print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes >= 0", file=sys.stderr)
         return 2
     torch.set_num_threads(args.threads)
     checkpoint_dir = pathlib.Path(args.checkpoint_dir)
@@ -288,9 +306,14 @@ def main(argv=None) -> int:
                         "sha256": file_digest(checkpoint) if checkpoint else "", "scenarios": {},
                         "episodes": []}
     started = time.perf_counter()
-    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device)
+    groups = list(dict.fromkeys(args.palette_groups))
+    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, "default", "")
              for scenario in args.scenarios for row, checkpoint in runnable.items()
              for k in range(args.episodes)]
+    tasks += [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, group,
+               generalisation.palette_for(group, k))
+              for group in groups if group != "default" for scenario in args.scenarios
+              for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
     episodes = []
     with tqdm(total=len(tasks), desc="eval", unit="episode", disable=args.no_progress,
               dynamic_ncols=True) as bar:
@@ -308,19 +331,42 @@ def main(argv=None) -> int:
                     bar.update(1)
         else:
             for task in tasks:
-                bar.set_postfix_str(f"{task[2]} {label(task[0])} seed {task[3]}")
+                bar.set_postfix_str(f"{task[2]} {label(task[0])} seed {task[3]} {task[7]}")
                 episodes.append(run_task(task))
                 bar.update(1)
     close_worker()
-    episodes.sort(key=lambda e: (args.scenarios.index(e["scenario"]), e["seed"]))
+    episodes_seconds = time.perf_counter() - started
+    episodes.sort(key=lambda e: (generalisation.GROUPS.index(e["group"]), args.scenarios.index(e["scenario"]),
+                                 e["seed"]))
     for row in runnable:
+        results[row]["groups"] = {}
         for scenario in args.scenarios:
             mine = [e for e in episodes if e["row"] == row and e["scenario"] == scenario]
-            results[row]["scenarios"][scenario] = aggregate(mine)
+            results[row]["scenarios"][scenario] = aggregate([e for e in mine if e["group"] == "default"])
+            for group in groups:
+                results[row]["groups"].setdefault(group, {})[scenario] = aggregate(
+                    [e for e in mine if e["group"] == group])
             results[row]["episodes"] += mine
+    perception_started = time.perf_counter()
+    from ur5_driver_sim.core.world import CellWorld
+
+    world = CellWorld(mode="floating")
+    total = len(groups) * len(args.scenarios) * args.perception_scenes * 2
+    with tqdm(total=total, desc="perception", unit="scene", disable=args.no_progress,
+              dynamic_ncols=True) as bar:
+        seen = generalisation.perception(world, groups, args.scenarios, args.perception_scenes,
+                                         args.seed_base, progress=lambda: bar.update(1))
+    pictures = pathlib.Path(args.generalisation_scenes)
+    generalisation.scene_pictures(world, groups, args.seed_base, pictures)
+    world.close()
+    results["_generalisation"] = {
+        "groups": groups, "palettes": {g: generalisation.group_palettes(g) for g in groups},
+        "perception": seen, "scenes": args.perception_scenes,
+        "episodes": {"default": args.episodes, "other": args.group_episodes},
+        "seconds": {"perception": time.perf_counter() - perception_started, "episodes": episodes_seconds}}
     results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
                         "methods": args.methods, "rules": args.rules, "rows": rows,
-                        "seconds": time.perf_counter() - started,
+                        "seconds": episodes_seconds,
                         "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_learning.eval_cli " + " ".join(arguments)
@@ -330,11 +376,18 @@ def main(argv=None) -> int:
     raw.write_text(json.dumps(results, indent=1, default=float) + "\n")
     plot_results(results, rows, args.scenarios, chart)
     write_markdown(results, rows, args.scenarios, markdown, chart, command.strip())
+    gen_path, gen_chart = pathlib.Path(args.generalisation), pathlib.Path(args.generalisation_chart)
+    generalisation.plot(results, rows, args.scenarios, groups, label, gen_chart)
+    generalisation.write_markdown(results, rows, args.scenarios, groups, label, gen_path, gen_chart, pictures,
+                                  command.strip())
     table = results_table(results, rows, args.scenarios)
     if update_readme(pathlib.Path(args.readme), table, markdown):
         print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
     print(table)
-    print(f"eval: wrote {markdown}, {chart}, {raw} in {results['_meta']['seconds']:.0f} s", file=sys.stderr)
+    print(generalisation.table(results, rows, args.scenarios, groups, label))
+    gen = results["_generalisation"]["seconds"]
+    print(f"eval: wrote {markdown}, {chart}, {raw}, {gen_path}, {gen_chart}, {pictures}; episodes "
+          f"{gen['episodes']:.0f} s, perception {gen['perception']:.0f} s", file=sys.stderr)
     return 0
 
 

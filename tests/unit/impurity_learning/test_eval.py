@@ -9,6 +9,7 @@ import pytest
 import torch
 
 from impurity_common import cell
+from impurity_learning import splits
 from impurity_learning.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
 from impurity_learning.eval_cli import aggregate, main
 from impurity_learning.trainer import Trainer
@@ -139,6 +140,12 @@ def test_aggregate_averages_per_episode_like_the_paper():
     assert (summary["false_rejects"], summary["targets_picked"], summary["targets_total"]) == (1, 3, 4)
 
 
+def generalisation_paths(out) -> list:
+    return ["--generalisation", str(out / "generalisation.md"),
+            "--generalisation-chart", str(out / "images" / "generalisation.png"),
+            "--generalisation-scenes", str(out / "images" / "generalisation_scenes.png")]
+
+
 def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(tmp_path):
     checkpoints = tmp_path / "checkpoints"
     checkpoints.mkdir()
@@ -151,6 +158,7 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
                  "--checkpoint-dir", str(checkpoints), "--policy-checkpoint", str(checkpoints / "policy.pt"),
                  "--markdown", str(out / "results.md"),
                  "--chart", str(out / "images" / "results.png"), "--json", str(out / "results.json"),
+                 "--palette-groups", "default", "--perception-scenes", "1", *generalisation_paths(out),
                  "--threads", "1", "--jobs", "2", "--no-progress"])
     assert code == 0
     records = json.loads((out / "results.json").read_text())
@@ -173,12 +181,38 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
     assert updated.startswith("intro\n") and updated.endswith("rest\n")
 
 
+def test_eval_cli_adds_the_generalisation_table_for_palette_groups(tmp_path):
+    out = tmp_path / "docs"
+    assert main(["--methods", "s_rgm", "--scenarios", "random", "--episodes", "1", "--palette-groups",
+                 "default", "held_out", "--group-episodes", "1", "--perception-scenes", "1", "--markdown",
+                 str(out / "r.md"), "--chart", str(out / "r.png"), "--json", str(out / "r.json"), "--readme",
+                 str(out / "README.md"), *generalisation_paths(out), "--jobs", "1", "--no-progress"]) == 0
+    records = json.loads((out / "r.json").read_text())
+    # the held-out group ran its own episode, on a held-out palette, with the evaluation seed
+    default, held_out = records["s_rgm"]["episodes"]
+    assert (default["group"], default["palette"]) == ("default", "")
+    assert held_out["group"] == "held_out" and splits.palette_group(held_out["palette"]) == "held_out"
+    assert held_out["seed"] == default["seed"] == 900_000_000
+    assert records["s_rgm"]["groups"]["held_out"]["random"]["episodes"] == 1
+    assert records["s_rgm"]["scenarios"]["random"]["episodes"] == 1  # the main table: default group only
+    perception = records["_generalisation"]["perception"]
+    assert set(perception) == {"default", "held_out"}
+    assert perception["held_out"]["random"]["clean_scenes"] == 1
+    generalisation = (out / "generalisation.md").read_text()
+    assert "held-out palettes" in generalisation and "| S-RGM (heuristic) |" in generalisation
+    assert "mushrooms_stones" in generalisation  # the group's palettes are listed
+    assert (out / "images" / "generalisation.png").stat().st_size > 10_000
+    assert (out / "images" / "generalisation_scenes.png").stat().st_size > 10_000
+
+
 def test_eval_episodes_are_the_same_in_one_process_and_in_a_pool(tmp_path):
     def records(jobs: int) -> list:
         out = tmp_path / f"jobs{jobs}"
         assert main(["--methods", "s_rgm", "--scenarios", "random", "challenging", "--episodes", "2",
                      "--jobs", str(jobs), "--markdown", str(out / "r.md"), "--chart", str(out / "r.png"),
-                     "--json", str(out / "r.json"), "--readme", str(out / "README.md"), "--no-progress"]) == 0
+                     "--json", str(out / "r.json"), "--readme", str(out / "README.md"), "--no-progress",
+                     "--palette-groups", "default", "--perception-scenes", "1",
+                     *generalisation_paths(out)]) == 0
         return json.loads((out / "r.json").read_text())["s_rgm"]["episodes"]  # the heuristic's row
 
     single, pooled = records(1), records(2)
