@@ -279,7 +279,7 @@ def gallery(params: AttentionParams) -> None:
 # Scenes per palette (scenario, targets, count): a fifth of PLAN's tuning counts, same seed layout.
 PALETTE_PLAN = [("random", 2, 6), ("challenging", 2, 4), ("random", 0, 3), ("challenging", 0, 2),
                 ("invisible", 0, 1), ("invisible", 2, 2), ("invisible", 1, 1)]
-PALETTE_RANDOM_COUNT = {"tuning": 8, "acceptance": 8}  # random palettes per split
+PALETTE_RANDOM_COUNT = {"tuning": 24, "acceptance": 8}  # random palettes per split
 EXPOSURES = (0.5, 1.0, 2.0)
 TARGET_FOUND_AIM, FALSE_TARGET_AIM = 0.95, 0.05
 

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 from impurity_attention.core import attention as att
+from impurity_attention.core import saliency
 from impurity_attention.core.heightmap import rgbd_to_heightmaps
 from impurity_attention.core.synthetic import Box, render_boxes
 
@@ -81,7 +82,8 @@ def test_the_absolute_rule_misses_a_dark_palette_that_the_relative_rule_finds():
     """Why the decision is relative: the red-among-blue threshold in opponent-colour units never fires
     on near-black coal with slightly lighter slate."""
     color, height, _ = scene("coal_slate", 0)
-    absolute = att.attend(color, height, att.AttentionParams(contrast="absolute"))
+    absolute = att.attend(color, height, att.AttentionParams(contrast="absolute",
+                                                             saliency=saliency.ABSOLUTE_SALIENCY))
     assert absolute.mode != att.AttentionMode.TARGET
     assert att.attend(color, height).mode == att.AttentionMode.TARGET
 
