@@ -15,8 +15,8 @@ NAMES_FILE = ROOT / "src" / "impurity_common" / "impurity_common" / "names.py"
 FRAMES = {names.BASE_FRAME, names.CAMERA_OPTICAL_FRAME}
 GRAPH_NAMES = {value for key, value in vars(names).items()
                if key.isupper() and isinstance(value, str) and value not in FRAMES}
-# URDF link names that happen to equal a frame id: the robot model, not a TF frame of the cell.
-FRAME_EXCEPTIONS = {"src/ur5_driver_sim/ur5_driver_sim/core/ur5_model.py"}
+# Sources allowed to spell a frame id (e.g. a robot model whose link name equals one): none today.
+FRAME_EXCEPTIONS: set[str] = set()
 
 
 def string_literals(path: pathlib.Path) -> set:

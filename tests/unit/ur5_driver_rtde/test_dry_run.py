@@ -3,7 +3,7 @@ push, the ur-rtde and gripper commands it would send are, step by step, the moti
 simulated UR5 executed for the same primitive (a PyBullet CellWorld in arm mode); a connection lost
 mid-motion aborts with driver_lost after a stop command; a cancel stops, opens and leaves."""
 
-import json  # noqa: I001  (sorted for ur5_driver_rtde as first party: pyproject.toml's isort list)
+import json
 import math
 
 import pytest

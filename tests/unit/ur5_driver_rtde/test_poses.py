@@ -1,7 +1,7 @@
 """Specification of the TCP <-> ur-rtde pose conversion: it agrees with the UR5 kinematics (DH model,
 base_link vs the controller's base frame, tool0 vs the gripper TCP)."""
 
-import math  # noqa: I001  (sorted for ur5_driver_rtde as first party: pyproject.toml's isort list)
+import math
 
 import numpy as np
 import pytest

@@ -2,7 +2,7 @@
 `SET ... -> ack`, `GET VAR -> VAR value`): activation, widths and forces to counts, waiting for the
 fingers, object detection, and clear errors when the server misbehaves. No real gripper is involved."""
 
-import socket  # noqa: I001  (sorted for ur5_driver_rtde as first party: pyproject.toml's isort list)
+import socket
 import threading
 
 import pytest
