@@ -16,7 +16,8 @@ import pytest
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
-# (package, module) of every executable a real cell runs: perception, policy, episodes, bag tools.
+# (package, module) of every executable a real cell runs: perception, policy, episodes, bag tools, the
+# arm driver, the camera calibration tool and what RViz / Foxglove show.
 RUNTIME_EXECUTABLES = [
     ("impurity_attention", "impurity_attention.heightmap_node"),
     ("impurity_attention", "impurity_attention.attention_node"),
@@ -25,11 +26,16 @@ RUNTIME_EXECUTABLES = [
     ("impurity_common", "impurity_common.bag_recorder_node"),
     ("impurity_common", "impurity_common.bag_replay_node"),
     ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node"),
+    ("impurity_common", "impurity_common.calibrate_camera"),
+    ("impurity_common", "impurity_common.cell_state_publisher"),
+    ("impurity_common", "impurity_common.decision_markers"),
 ]
 # Executables that never run the network, so never load torch.
 NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_recorder_node",
                           "impurity_common.bag_replay_node", "impurity_attention.heightmap_node",
-                          "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node")
+                          "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node",
+                          "impurity_common.calibrate_camera", "impurity_common.cell_state_publisher",
+                          "impurity_common.decision_markers")
 # Never on a real cell: the simulator, its physics engine, training and evaluation.
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
