@@ -245,14 +245,16 @@ class SimCellNode(Node):
         except Exception as error:  # a physics failure must not kill the driver
             self.get_logger().error(f"{kind} failed: {error!r}")
             goal_handle.abort()
-            return ExecutePrimitive.Result(success=False, grasped_object_id=-1, message=f"error: {error}",
+            return ExecutePrimitive.Result(success=False, motion_completed=False, gripper_opening=-1.0,
+                                           grasped_object_id=-1, message=f"error: {error}",
                                            finished=self.get_clock().now().to_msg())
         finally:
             with self._busy_lock:
                 self._busy = False
         result = ExecutePrimitive.Result(
-            success=bool(outcome.success), target_grasped=bool(outcome.target_grasped),
-            grasped_object_id=int(outcome.object_id), message=outcome.message,
+            success=bool(outcome.success), motion_completed=bool(outcome.motion_completed),
+            gripper_opening=float(outcome.gripper_opening), holding=bool(outcome.holding),
+            target_grasped=bool(outcome.target_grasped), grasped_object_id=int(outcome.object_id), message=outcome.message,
             finished=self.get_clock().now().to_msg())
         if goal_handle.is_cancel_requested:
             goal_handle.canceled()

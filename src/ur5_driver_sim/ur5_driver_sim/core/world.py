@@ -270,9 +270,9 @@ class CellWorld:
               phase=lambda name, progress: None) -> PrimitiveOutcome:
         reason = validate_primitive(GRASP, x, y, z, yaw)
         if reason is not None:
-            return PrimitiveOutcome(False, message=reason)
+            return PrimitiveOutcome(False, message=reason, motion_completed=False)
         try:
-            lifted, _, message = execute_grasp(self.carrier, x, y, z, yaw, self._body_heights, phase)
+            lifted, opening, message = execute_grasp(self.carrier, x, y, z, yaw, self._body_heights, phase)
         except MotionCancelled:
             return self._abort("grasp cancelled")
         except IKError as error:
@@ -285,13 +285,14 @@ class CellWorld:
         self.carrier.go_home()
         self._settle(config.RETREAT_SETTLE_STEPS)
         phase("done", 1.0)
-        return PrimitiveOutcome(lifted != -1, target, lifted, message)
+        return PrimitiveOutcome(lifted != -1, target, lifted, message, gripper_opening=float(opening),
+                                holding=lifted != -1)
 
     def push(self, x: float, y: float, z: float, yaw: float,
              phase=lambda name, progress: None) -> PrimitiveOutcome:
         reason = validate_primitive(PUSH, x, y, z, yaw)
         if reason is not None:
-            return PrimitiveOutcome(False, message=reason)
+            return PrimitiveOutcome(False, message=reason, motion_completed=False)
         try:
             message = execute_push(self.carrier, x, y, z, yaw, phase)
         except MotionCancelled:
@@ -316,14 +317,14 @@ class CellWorld:
             self.carrier.go_home()
         finally:
             self.cancel_check = check
-        return PrimitiveOutcome(False, message=message)
+        return PrimitiveOutcome(False, message=message, motion_completed=False)
 
     def execute(self, kind: str, x: float, y: float, z: float, yaw: float, phase=lambda n, p: None):
         if kind == GRASP:
             return self.grasp(x, y, z, yaw, phase)
         if kind == PUSH:
             return self.push(x, y, z, yaw, phase)
-        return PrimitiveOutcome(False, message=f"unknown primitive {kind!r}")
+        return PrimitiveOutcome(False, message=f"unknown primitive {kind!r}", motion_completed=False)
 
     @staticmethod
     def displacement_class(distance: float) -> str:
