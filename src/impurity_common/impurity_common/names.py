@@ -40,6 +40,10 @@ MARKERS_TOPIC = "/cell/markers"  # visualization_msgs/MarkerArray: chosen push/g
 RESET_SCENE_SERVICE = "/cell/reset_scene"  # impurity_interfaces/srv/ResetScene
 GROUND_TRUTH_SERVICE = "/cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth
 
-# What a recording of an episode holds (bag_recorder's default): the camera in, every decision out.
+# What a recording of an episode holds (bag_recorder's default): the camera in, every decision out, and
+# what a 3-D view of the bag needs (TF, the robot model, the markers; /tf_static, /robot_description and
+# /cell/markers are transient local: the recorder asks for that when every publisher offers it, so the
+# latched messages published before it started are in the bag too).
 EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, ATTENTION_TOPIC,
-                  PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC)
+                  PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC, JOINT_STATES_TOPIC, TF_TOPIC, TF_STATIC_TOPIC,
+                  ROBOT_DESCRIPTION_TOPIC, MARKERS_TOPIC)
