@@ -53,6 +53,7 @@ from .density import Cluster, DensityParams, find_clusters, select_occluded_regi
 from .saliency import (
     CELL_SALIENCY,
     CHANNELS,
+    CHROMA_MIN_INTENSITY,
     SaliencyParams,
     normalised,
     opponent_chromaticity,
@@ -66,6 +67,7 @@ MIN_CHANNEL_LEVEL = 1e-4  # opponent-colour units: a channel flatter than this o
 CANDIDATE_FRACTION = 0.5  # relative_saliency: the peak's region, cells above this x the peak
 CANDIDATE_GROWTH = 4  # px (8 mm) around the peak's region also left out of the product level
 MIN_PRODUCT_SHARE = 0.25  # fewer object cells than this share left for the level: keep the first pass
+MASK_PRODUCT_MARGIN = 6  # px around the salient region left out of the product's colour (grow_target_mask)
 MEDIAN_SAMPLES = 2000  # object cells sampled for the objects' median colour
 
 
@@ -224,14 +226,27 @@ def chroma(color: np.ndarray) -> np.ndarray:
 
 def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
                      tolerance: float, reach: int) -> np.ndarray:
-    """The whole object(s) behind a salient region: object cells of the region's chroma, connected
+    """The whole object(s) behind a salient region: object cells of the region's colour, connected
     to the region and at most `reach` cells from its centroid (so a look-alike pile cannot drag the
-    crop away). The salient region alone is often just the most contrasted part of a target."""
+    crop away). The salient region alone is often just the most contrasted part of a target.
+    "Of the region's colour": within `tolerance` of the region's median chroma (RG / I, BY / I), and
+    nearer to the region's median colour than to the product's (the objects outside the region), in
+    (RG / I, BY / I, log I) - a nearest-centroid test that needs no palette-specific threshold, so a
+    lighter slate among coal of nearly the same chroma does not grow into the coal."""
     if tolerance <= 0:
         return region.mask
     values = chroma(color)
     reference = np.median(values[region.mask], axis=0)
     similar = objects & (np.linalg.norm(values - reference, axis=2) <= tolerance)
+    features = np.concatenate([values, np.log(np.maximum(opponent_colour(color)[..., :1],
+                                                         CHROMA_MIN_INTENSITY))], axis=2)
+    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * MASK_PRODUCT_MARGIN + 1,) * 2)
+    product = objects & ~(cv2.dilate(region.mask.astype(np.uint8), kernel) > 0)
+    if np.any(product):
+        target_colour = np.median(features[region.mask], axis=0)
+        product_colour = np.median(features[product], axis=0)
+        similar &= (np.linalg.norm(features - target_colour, axis=2)
+                    < np.linalg.norm(features - product_colour, axis=2))
     rows, cols = np.ogrid[:color.shape[0], :color.shape[1]]
     similar &= (np.abs(rows - region.centroid[0]) <= reach) & (np.abs(cols - region.centroid[1]) <= reach)
     # the region's own cells count only where they share its colour: a wide saliency blur lets the
