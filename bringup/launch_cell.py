@@ -1,5 +1,11 @@
 #!/usr/bin/env python3
-"""Pip-environment launcher: every node of the cell as its own process, with bringup/config/cell.yaml.
+"""Pip-environment launcher: every node of the cell as its own process, with the cell's parameter file
+and the camera calibration.
+
+`--cell sim` (default): the PyBullet cell, bringup/config/cell.yaml. `--cell real`: the UR5 driver on
+ur-rtde instead of the simulator, bringup/config/real_cell.yaml (start the camera driver apart: README,
+"Running on a real cell"). Every node reads `--config`, then `--calibration`, then its `--param`
+overrides. `--print` lists the command lines and starts nothing.
 
 Ctrl-C (SIGINT) or SIGTERM stops all of them; if any node dies, the others are stopped and the
 launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node.
@@ -8,6 +14,7 @@ launcher exits non-zero, naming the node and its exit code. Output lines are pre
 import argparse
 import os
 import pathlib
+import shlex
 import signal
 import subprocess
 import sys
@@ -17,7 +24,7 @@ import time
 BRINGUP = pathlib.Path(__file__).resolve().parent
 ROOT = BRINGUP.parent
 sys.path.insert(0, str(BRINGUP))
-from cell_nodes import CELL_NODES  # noqa: E402
+from cell_nodes import CALIBRATION, CELLS, parameter_files, ros_arguments  # noqa: E402
 
 INSTALL = ROOT / "ros2_ws" / "install"
 
@@ -29,19 +36,32 @@ def executable(package: str, name: str) -> pathlib.Path:
     return path
 
 
+def node_commands(nodes, files: list[pathlib.Path], overrides: dict | None = None
+                  ) -> list[tuple[str, list[str]]]:
+    """(executable name, command line) of every node: its installed executable with
+    cell_nodes.ros_arguments (the parameter files, then the overrides given for that executable)."""
+    return [(name, [str(executable(package, name)), *ros_arguments(files, (overrides or {}).get(name))])
+            for package, name in nodes]
+
+
+def parse_override(text: str) -> tuple[str, str, str]:
+    """'EXECUTABLE:NAME:=VALUE' -> (executable, name, value); ValueError says the expected form."""
+    target, sep, value = text.partition(":=")
+    executable_name, colon, name = target.partition(":")
+    if not (sep and colon and executable_name and name):
+        raise ValueError(f"--param {text!r}: expected EXECUTABLE:NAME:=VALUE, e.g. ur5_driver:dry_run:=false")
+    return executable_name, name, value
+
+
 class CellProcesses:
-    def __init__(self, config: pathlib.Path, nodes, log_dir: pathlib.Path | None, quiet: bool,
-                 overrides: dict | None = None):
+    def __init__(self, commands: list[tuple[str, list[str]]], log_dir: pathlib.Path | None, quiet: bool):
         self.processes: list[tuple[str, subprocess.Popen]] = []
         self.quiet = quiet
         self.log_dir = log_dir
         if log_dir is not None:
             log_dir.mkdir(parents=True, exist_ok=True)
         env = dict(os.environ, PYTHONUNBUFFERED="1")
-        for package, name in nodes:
-            command = [str(executable(package, name)), "--ros-args", "--params-file", str(config)]
-            for param, value in (overrides or {}).get(name, {}).items():
-                command += ["-p", f"{param}:={value}"]
+        for name, command in commands:
             proc = subprocess.Popen(command,
                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
                                     start_new_session=True)
@@ -86,26 +106,52 @@ class CellProcesses:
 
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--config", type=pathlib.Path, default=BRINGUP / "config" / "cell.yaml")
+    parser.add_argument("--cell", choices=tuple(CELLS), default="sim",
+                        help="sim: the PyBullet cell (default); real: the UR5 driver, camera started apart")
+    parser.add_argument("--config", type=pathlib.Path, default=None,
+                        help="parameter file (default: config/cell.yaml; --cell real: config/real_cell.yaml)")
+    parser.add_argument("--calibration", type=pathlib.Path, default=CALIBRATION,
+                        help="camera calibration file, read after --config (default: %(default)s)")
     parser.add_argument("--only", default="", help="comma-separated executables to start (default: all)")
+    parser.add_argument("--param", action="append", default=[], metavar="EXECUTABLE:NAME:=VALUE",
+                        help="a parameter override for one executable, after both files (repeatable), "
+                        "e.g. ur5_driver:robot_ip:=192.168.1.10")
     parser.add_argument("--log-dir", type=pathlib.Path, default=None, help="also write one log per node")
     parser.add_argument("--quiet", action="store_true", help="do not echo node output")
-    parser.add_argument("--record-dir", default=None, help="episode records directory (overrides cell.yaml)")
+    parser.add_argument("--record-dir", default=None, help="episode records directory (overrides the config)")
+    parser.add_argument("--print", action="store_true", dest="print_only",
+                        help="print each node's command line and start nothing")
     args = parser.parse_args(argv)
-    if not args.config.is_file():
-        parser.error(f"config {args.config} not found")
+    files = parameter_files(args.cell, args.config, args.calibration)
+    for path, what in zip(files, ("config", "calibration"), strict=True):
+        if not path.is_file():
+            parser.error(f"{what} {path} not found")
+    cell_nodes = CELLS[args.cell]
     wanted = {n for n in args.only.split(",") if n}
-    nodes = [(p, n) for p, n in CELL_NODES if not wanted or n in wanted]
-    unknown = wanted - {n for _, n in CELL_NODES}
+    unknown = wanted - {n for _, n in cell_nodes}
     if unknown:
-        parser.error(f"unknown node(s): {', '.join(sorted(unknown))}")
+        parser.error(f"unknown node(s) of the {args.cell} cell: {', '.join(sorted(unknown))}")
+    nodes = [(p, n) for p, n in cell_nodes if not wanted or n in wanted]
+    overrides: dict[str, dict] = {"episode_node": {"record_dir": args.record_dir}} if args.record_dir else {}
+    for text in args.param:
+        try:
+            target, name, value = parse_override(text)
+        except ValueError as error:
+            parser.error(str(error))
+        if target not in {n for _, n in cell_nodes}:
+            parser.error(f"--param {text!r}: {target} is not a node of the {args.cell} cell")
+        overrides.setdefault(target, {})[name] = value
+    commands = node_commands(nodes, files, overrides)
+    if args.print_only:
+        for _, command in commands:
+            print(shlex.join(command))
+        return 0
 
     stop_requested = threading.Event()
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop_requested.set())
-    overrides = {"episode_node": {"record_dir": args.record_dir}} if args.record_dir else {}
-    cell = CellProcesses(args.config, nodes, args.log_dir, args.quiet, overrides)
-    print(f"launch_cell: started {', '.join(n for _, n in nodes)} (ROS_DOMAIN_ID="
+    cell = CellProcesses(commands, args.log_dir, args.quiet)
+    print(f"launch_cell: started the {args.cell} cell: {', '.join(n for _, n in nodes)} (ROS_DOMAIN_ID="
           f"{os.environ.get('ROS_DOMAIN_ID', '0')}); Ctrl-C stops all", flush=True)
     exit_code = 0
     while not stop_requested.wait(0.2):

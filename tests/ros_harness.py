@@ -19,6 +19,8 @@ from impurity_common.clients import RaceFreeActionClient
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
 LOG_DIR = ROOT / "ros2_ws" / "log" / "test-processes"
+CELL_CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
+CALIBRATION = ROOT / "bringup" / "config" / "camera_calibration.yaml"  # the camera pose, read after cell.yaml
 
 
 def executable_path(package: str, executable: str) -> pathlib.Path:
@@ -31,9 +33,14 @@ def executable_path(package: str, executable: str) -> pathlib.Path:
 
 def ros_args(parameters: dict | None = None, params_file: str | os.PathLike | None = None,
              remappings: dict | None = None, node_name: str | None = None) -> list[str]:
+    """`--ros-args` for an executable: params_file, then the `-p` parameters, then remappings. The cell's
+    bringup/config/cell.yaml is followed by the camera calibration file, as the launchers pass them
+    (bringup/cell_nodes.py), so that the camera pose comes from where the cell reads it."""
     args = ["--ros-args"]
     if params_file is not None:
         args += ["--params-file", str(params_file)]
+        if pathlib.Path(params_file).resolve() == CELL_CONFIG:
+            args += ["--params-file", str(CALIBRATION)]
     for name, value in (parameters or {}).items():
         if isinstance(value, bool):
             value = "true" if value else "false"

@@ -1,20 +1,61 @@
-"""bringup/config/cell.yaml as rcl reads it: the shared /** section reaches every node that declares
-its parameters, and a `-p` override still beats the file (rcl lets a node's own section override
-`-p` when a /** section comes before it in the file, so the shared section stays last)."""
+"""The cells' parameter files as rcl reads them and as the launchers pass them.
+
+Every node reads its cell's file (bringup/config/cell.yaml, or real_cell.yaml for the real cell), then
+the camera calibration (bringup/config/camera_calibration.yaml: the camera pose in a `/**` section, the
+only place it lives), then `-p` overrides, which beat both files. rcl lets a node's own section beat
+`-p` overrides when a `/**` section comes before it in the same file, so neither cell file has one.
+"""
 
 import pathlib
+import subprocess
+import sys
 
 import pytest
 import rclpy
+import yaml
+
+from impurity_common.calibration import read_calibration_file
+from impurity_common.parameters import build, parameter_specs
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
+BRINGUP = ROOT / "bringup"
+SIM_CONFIG = BRINGUP / "config" / "cell.yaml"
+REAL_CONFIG = BRINGUP / "config" / "real_cell.yaml"
+CALIBRATION = BRINGUP / "config" / "camera_calibration.yaml"
+CONFIGS = {"sim": SIM_CONFIG, "real": REAL_CONFIG}
+sys.path.insert(0, str(BRINGUP))
+from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
+from launch_cell import main as launch_cell_main  # noqa: E402
+
+# executable -> the node name it runs under (its section in the cell's file)
+NODE_NAMES = {"sim_cell": "sim_cell", "ur5_driver": "ur5_driver", "heightmap_node": "heightmap",
+              "attention_node": "attention", "policy_node": "policy", "episode_node": "episode",
+              "cell_state_publisher": "cell_state_publisher", "decision_markers": "decision_markers"}
 
 
-def parameter_as_read(node_name: str, name: str, default, *overrides: str):
-    """The value node `node_name` gets for `name` with cell.yaml and the `-p` overrides given."""
+def parameter_classes() -> dict:
+    """Node name -> the dataclass of every parameter the node declares."""
+    from impurity_attention.attention_node import AttentionNodeParameters
+    from impurity_attention.heightmap_node import HeightmapParameters
+    from impurity_common.cell_state_publisher import CellStateParameters
+    from impurity_common.decision_markers import DecisionMarkersParameters
+    from impurity_policy.episode_node import EpisodeParameters
+    from impurity_policy.policy_node import PolicyParameters
+    from ur5_driver_rtde.ur5_driver_node import Ur5DriverParameters
+    from ur5_driver_sim.sim_cell import SimCellParameters
+
+    return {"sim_cell": SimCellParameters, "ur5_driver": Ur5DriverParameters,
+            "heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
+            "policy": PolicyParameters, "episode": EpisodeParameters,
+            "cell_state_publisher": CellStateParameters, "decision_markers": DecisionMarkersParameters}
+
+
+def parameter_as_read(node_name: str, name: str, default, *overrides: str, config=SIM_CONFIG,
+                      calibration=CALIBRATION):
+    """The value node `node_name` gets for `name` when started as the launchers start it: `config`, then
+    `calibration`, then the `-p` overrides ("name:=value")."""
     context = rclpy.Context()
-    args = ["test", "--ros-args", "--params-file", str(CONFIG)]
+    args = ["test", *ros_arguments([config, calibration])]
     for override in overrides:
         args += ["-p", override]
     rclpy.init(args=args, context=context)
@@ -28,11 +69,142 @@ def parameter_as_read(node_name: str, name: str, default, *overrides: str):
         rclpy.shutdown(context=context)
 
 
-@pytest.mark.parametrize("node_name", ["heightmap", "sim_cell"])
-def test_the_camera_pose_comes_from_the_shared_section(node_name):
-    assert list(parameter_as_read(node_name, "camera_position", [0.0, 0.0, 0.0])) == [0.5, 0.0, 0.75]
+def flatten(section: dict, prefix: str = "") -> dict:
+    flat = {}
+    for key, value in section.items():
+        if isinstance(value, dict):
+            flat.update(flatten(value, f"{prefix}{key}."))
+        else:
+            flat[prefix + key] = value
+    return flat
 
 
-def test_a_command_line_override_beats_the_file():
-    assert parameter_as_read("policy", "max_age", 1.0) == 5.0  # the file's value
+def sections(config: pathlib.Path) -> dict:
+    return yaml.safe_load(config.read_text())
+
+
+# ------------------------------------------------------------------------------------ the camera pose
+@pytest.mark.parametrize("cell,node_name", [("sim", "heightmap"), ("sim", "sim_cell"),
+                                            ("sim", "cell_state_publisher"), ("real", "heightmap"),
+                                            ("real", "cell_state_publisher")])
+def test_the_camera_pose_comes_from_the_calibration_file(cell, node_name):
+    position, orientation = read_calibration_file(CALIBRATION)
+    config = CONFIGS[cell]
+    assert list(parameter_as_read(node_name, "camera_position", [0.0, 0.0, 0.0], config=config)) == \
+        pytest.approx(position)
+    assert list(parameter_as_read(node_name, "camera_orientation", [0.0, 0.0, 0.0, 1.0], config=config)) == \
+        pytest.approx(orientation)
+
+
+def test_another_calibration_file_moves_the_camera(tmp_path):
+    other = tmp_path / "calibration.yaml"
+    other.write_text("/**:\n  ros__parameters:\n    camera_position: [0.41, 0.02, 0.69]\n")
+    assert list(parameter_as_read("heightmap", "camera_position", [0.0, 0.0, 0.0], calibration=other)) == \
+        [0.41, 0.02, 0.69]
+
+
+@pytest.mark.parametrize("config", [SIM_CONFIG, REAL_CONFIG], ids=["cell.yaml", "real_cell.yaml"])
+def test_a_cell_file_holds_no_camera_pose_and_no_section_for_every_node(config):
+    assert "/**" not in sections(config)
+    assert not any("camera_position" in flatten(section) for section in sections(config).values())
+
+
+def test_a_command_line_override_beats_both_files():
+    assert parameter_as_read("policy", "max_age", 1.0) == 5.0  # cell.yaml's value
     assert parameter_as_read("policy", "max_age", 1.0, "max_age:=1000000000.0") == 1e9
+    assert list(parameter_as_read("heightmap", "camera_position", [0.0, 0.0, 0.0],
+                                  "camera_position:=[0.3,0.1,0.8]")) == [0.3, 0.1, 0.8]
+
+
+# ------------------------------------------------------------------------------------ the files' sections
+@pytest.mark.parametrize("cell", list(CELLS))
+def test_a_cell_file_has_a_section_for_every_node_of_its_cell_and_no_other(cell):
+    assert set(sections(CONFIGS[cell])) == {NODE_NAMES[executable] for _, executable in CELLS[cell]}
+
+
+@pytest.mark.parametrize("cell,node_name", [(cell, NODE_NAMES[executable]) for cell in CELLS
+                                            for _, executable in CELLS[cell]])
+def test_a_cell_file_names_only_declared_parameters_with_allowed_values(cell, node_name):
+    cls = parameter_classes()[node_name]
+    config = flatten(sections(CONFIGS[cell])[node_name]["ros__parameters"])
+    specs = {spec.name: spec for spec in parameter_specs(cls)}
+    assert set(config) <= set(specs), f"{node_name} declares no {sorted(set(config) - set(specs))}"
+    build(node_name, cls, {**{name: spec.default for name, spec in specs.items()}, **config})
+
+
+def test_the_real_cell_needs_no_simulator_truth_and_first_runs_dry():
+    real = sections(REAL_CONFIG)
+    assert real["episode"]["ros__parameters"]["use_ground_truth"] is False
+    assert real["ur5_driver"]["ros__parameters"]["dry_run"] is True
+    assert real["ur5_driver"]["ros__parameters"]["speed_scale"] <= 0.25
+
+
+def test_perception_and_policy_are_configured_alike_on_both_cells():
+    sim, real = sections(SIM_CONFIG), sections(REAL_CONFIG)
+    for node_name in ("heightmap", "attention", "policy"):
+        assert real[node_name] == sim[node_name], node_name
+
+
+# ------------------------------------------------------------------------------------ the launchers
+def printed_commands(capsys, *argv) -> list[list[str]]:
+    assert launch_cell_main(["--print", *argv]) == 0
+    return [line.split() for line in capsys.readouterr().out.splitlines()]
+
+
+def test_the_launcher_starts_the_simulated_cell_by_default(capsys):
+    commands = printed_commands(capsys)
+    assert [pathlib.Path(c[0]).name for c in commands] == [executable for _, executable in CELLS["sim"]]
+    files = ["--params-file", str(SIM_CONFIG), "--params-file", str(CALIBRATION)]
+    assert all(command[1:] == ["--ros-args", *files] for command in commands)
+
+
+def test_the_real_cell_runs_the_ur5_driver_instead_of_the_simulator(capsys):
+    commands = printed_commands(capsys, "--cell", "real", "--param", "ur5_driver:robot_ip:=10.0.0.2",
+                                "--record-dir", "/tmp/records")
+    by_name = {pathlib.Path(c[0]).name: c for c in commands}
+    assert list(by_name) == ["ur5_driver", "heightmap_node", "attention_node", "policy_node", "episode_node",
+                             "cell_state_publisher", "decision_markers"]
+    assert pathlib.Path(by_name["ur5_driver"][0]).parent.name == "ur5_driver_rtde"
+    files = ["--params-file", str(REAL_CONFIG), "--params-file", str(CALIBRATION)]
+    assert by_name["ur5_driver"][1:] == ["--ros-args", *files, "-p", "robot_ip:=10.0.0.2"]
+    assert by_name["episode_node"][1:] == ["--ros-args", *files, "-p", "record_dir:=/tmp/records"]
+    assert by_name["heightmap_node"][1:] == ["--ros-args", *files]
+
+
+def test_the_launcher_takes_another_config_and_calibration(capsys, tmp_path):
+    config, calibration = tmp_path / "my_cell.yaml", tmp_path / "my_calibration.yaml"
+    config.write_text(REAL_CONFIG.read_text())
+    calibration.write_text(CALIBRATION.read_text())
+    commands = printed_commands(capsys, "--cell", "real", "--config", str(config), "--calibration",
+                                str(calibration), "--only", "heightmap_node")
+    assert [c[1:] for c in commands] == [["--ros-args", "--params-file", str(config), "--params-file",
+                                         str(calibration)]]
+
+
+@pytest.mark.parametrize("argv,says", [
+    (["--cell", "real", "--only", "sim_cell"], "unknown node(s) of the real cell: sim_cell"),
+    (["--param", "ur5_driver:dry_run:=false"], "ur5_driver is not a node of the sim cell"),
+    (["--param", "policy_node:rules=none"], "expected EXECUTABLE:NAME:=VALUE"),
+    (["--calibration", "/nonexistent/calibration.yaml"],
+     "calibration /nonexistent/calibration.yaml not found"),
+])
+def test_the_launcher_refuses_what_it_cannot_start_and_says_why(capsys, argv, says):
+    with pytest.raises(SystemExit) as stop:
+        launch_cell_main(["--print", *argv])
+    assert stop.value.code == 2 and says in capsys.readouterr().err
+
+
+def test_the_launch_file_reads_the_same_files_in_the_same_order():
+    assert parameter_files("sim") == [SIM_CONFIG, CALIBRATION]
+    assert parameter_files("real") == [REAL_CONFIG, CALIBRATION]
+    # the launch file's config:='' means the cell's own file
+    assert parameter_files("real", "", str(CALIBRATION)) == [REAL_CONFIG, CALIBRATION]
+    with pytest.raises(ValueError, match="unknown cell 'lab'"):
+        parameter_files("lab")
+
+
+def test_the_launcher_runs_from_the_command_line():
+    done = subprocess.run([sys.executable, str(BRINGUP / "launch_cell.py"), "--print", "--cell", "real"],
+                          capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0, done.stderr
+    assert pathlib.Path(done.stdout.split()[0]).name == "ur5_driver"
