@@ -1,15 +1,22 @@
-# Deployment image for a real (or simulated) cell: apt ROS 2 Jazzy, pip for the learning and
-# simulation stack, the colcon-built workspace, and an entrypoint that sources it so
-# `ros2 run impurity_attention attention_node` and `ros2 service call` work.
+# Deployment image for a real cell: the runtime only. apt ROS 2 Jazzy, pip for what the runtime packages
+# import (no PyBullet, no simulator, no training or evaluation code), the colcon-built runtime packages
+# (impurity_interfaces, impurity_common, impurity_attention, impurity_policy with its shipped checkpoint,
+# ur5_driver_rtde), bringup's launchers and parameter files, and an entrypoint that sources both, so
+#   docker run --rm -it --network host --privileged <image> \
+#       ros2 launch /ws/bringup/launch/cell.launch.py cell:=real
+# works beside the RealSense driver (README, "Running on a real cell"). The simulated cell (`make demo`)
+# runs from a clone with `make setup`, not from this image.
 #
-# torch: PyPI's Linux torch wheel carries CUDA; for the CPU-only wheel pass the PyTorch CPU wheel
-# index with --build-arg PIP_EXTRA_INDEX_URL=<index>. No Docker engine runs on our build machines:
-# this file is linted (hadolint) in `make test`, not built there.
+# Pins equal requirements.txt's where both name a package; each deviation says why
+# (tests/workspace/test_dockerfile.py checks both). No Docker engine runs on our build machines: this
+# file is linted (hadolint) and checked by that test in `make test`, never built there.
 FROM ros:jazzy-ros-base
 
 SHELL ["/bin/bash", "-o", "pipefail", "-c"]
 
-ARG PIP_EXTRA_INDEX_URL=""
+# torch's CPU-only wheels (a runtime cell infers on the CPU; PyPI's Linux torch carries CUDA, ~2.5 GB
+# more). Pass --build-arg TORCH_INDEX_URL=https://pypi.org/simple for that build.
+ARG TORCH_INDEX_URL=https://download.pytorch.org/whl/cpu
 ENV DEBIAN_FRONTEND=noninteractive \
     FASTDDS_BUILTIN_TRANSPORTS=UDPv4 \
     PIP_NO_CACHE_DIR=1 \
@@ -17,36 +24,50 @@ ENV DEBIAN_FRONTEND=noninteractive \
     VIRTUAL_ENV=/opt/venv \
     PATH=/opt/venv/bin:$PATH
 
-# ROS packages come from apt (versions follow the Jazzy sync, hence unpinned).
+# ROS packages come from apt (versions follow the Jazzy sync, hence unpinned). tf2_msgs and
+# visualization_msgs are the real ones here: ros2_ws/fallback/tf2_msgs (for PyPI wheels) is not needed.
+# The RealSense driver is the camera of the real cell (started apart: it needs the USB device).
 # hadolint ignore=DL3008
 RUN apt-get update \
     && apt-get install -y --no-install-recommends \
         python3-venv python3-pip python3-colcon-common-extensions \
         ros-jazzy-rosidl-default-generators ros-jazzy-sensor-msgs ros-jazzy-geometry-msgs \
-        ros-jazzy-rosbag2 ros-jazzy-rosbag2-storage-mcap ros-jazzy-ros2launch \
+        ros-jazzy-std-msgs ros-jazzy-visualization-msgs ros-jazzy-tf2-msgs \
+        ros-jazzy-ros2launch ros-jazzy-launch-ros ros-jazzy-realsense2-camera \
     && rm -rf /var/lib/apt/lists/*
 
-# A venv that still sees apt's rclpy; numpy stays 1.x, the ABI the apt ROS packages were built against.
+# A venv that still sees apt's rclpy and message packages.
+# numpy==1.26.4, not requirements.txt's 2.4.6: the apt ROS message packages' C extensions were built
+#   against Ubuntu 24.04's numpy 1.26 (an extension built for numpy 1.x does not load under numpy 2).
+# opencv-python-headless==4.11.0.86, not requirements.txt's 5.0.0.93: 5.x and 4.12+ require numpy >= 2;
+#   4.11 is the last for numpy 1.x and has cv2.aruco.CharucoDetector (>= 4.7) for calibrate_camera.
 RUN python3 -m venv --system-site-packages /opt/venv \
+    && pip install --index-url "${TORCH_INDEX_URL}" torch==2.13.0 \
     && pip install \
-        torch==2.13.0 \
-        pybullet==3.2.7 \
         numpy==1.26.4 \
-        opencv-python-headless==4.10.0.84 \
-        scikit-learn==1.5.2 \
-        scipy==1.13.1 \
-        matplotlib==3.9.2 \
-        tqdm==4.67.1 \
+        opencv-python-headless==4.11.0.86 \
+        scikit-learn==1.9.1 \
+        scipy==1.17.1 \
+        PyYAML==6.0.3 \
         rosbags==0.11.9 \
-        mcap==1.6.0
+        ur-rtde==1.6.5
 
 WORKDIR /ws
-COPY src/ /ws/src/
+COPY src/impurity_interfaces/ /ws/src/impurity_interfaces/
+COPY src/impurity_common/ /ws/src/impurity_common/
+COPY src/impurity_attention/ /ws/src/impurity_attention/
+COPY src/impurity_policy/ /ws/src/impurity_policy/
+COPY src/ur5_driver_rtde/ /ws/src/ur5_driver_rtde/
 RUN . /opt/ros/jazzy/setup.bash \
-    && colcon build --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
+    && colcon build --packages-select impurity_interfaces impurity_common impurity_attention impurity_policy \
+        ur5_driver_rtde --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
     && rm -rf build log
 
-COPY bringup/ /ws/bringup/
+# bringup's launch file with its node lists and parameter files, and the episode client (not demo.py or
+# eval_graph.py: simulator only; not launch_cell.py: the pip environment's launcher, `ros2 launch` here).
+COPY bringup/cell_nodes.py bringup/episode_client.py /ws/bringup/
+COPY bringup/config/ /ws/bringup/config/
+COPY bringup/launch/ /ws/bringup/launch/
 COPY bringup/docker_entrypoint.sh /docker_entrypoint.sh
 ENTRYPOINT ["/docker_entrypoint.sh"]
 CMD ["bash"]
