@@ -30,7 +30,9 @@ from impurity_interfaces.msg import EpisodeStep
 from impurity_interfaces.srv import StartEpisode
 from impurity_policy.core.episode import (
     DEFAULT_ACTIONS_PER_TARGET,
+    DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
+    DEFAULT_NONE_FRAMES_TO_FINISH,
     TERMINATION_CANCELED,
     EpisodeRecorder,
     EpisodeRequest,
@@ -39,7 +41,10 @@ from impurity_policy.core.episode import (
     validate_request,
 )
 from impurity_policy.core.picking import EpisodeLimits, run_episode
+from impurity_policy.core.verdict import VerdictParams
 from impurity_policy.ros_cell import RosCell, RosCellTimeouts
+
+VERDICT = VerdictParams()
 
 
 def default_record_dir() -> str:
@@ -65,7 +70,27 @@ class EpisodeParameters:
                                     low=0.1)
     motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
     service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
-    use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth")
+    use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth; false "
+                                   "(a real cell): no target count, the episode ends by perception and each "
+                                   "grasp is judged by perception")
+    none_frames_to_finish: int = param(DEFAULT_NONE_FRAMES_TO_FINISH, "Without ground truth: consecutive "
+                                       "fresh frames on which attention answers NONE that end the episode",
+                                       low=1, high=100)
+    max_actions_uncounted: int = param(DEFAULT_MAX_ACTIONS_UNCOUNTED, "Without ground truth: action limit "
+                                       "when a request gives max_actions 0", low=1, high=10000)
+    scene_service_timeout: float = param(3.0, "Without ground truth: s to wait for a simulated cell's "
+                                         "reset and ground-truth services (a real cell has none; 0: never "
+                                         "ask)", low=0.0)
+    verdict_min_height_drop: float = param(VERDICT.min_height_drop, "Grasp verdict: m a target cell's "
+                                           "height must fall to count as changed", low=0.001)
+    verdict_min_color_change: float = param(VERDICT.min_color_change, "Grasp verdict: RGB distance "
+                                            "(0-255) that counts a target cell as changed", low=1.0)
+    verdict_min_gone_fraction: float = param(VERDICT.min_gone_fraction, "Grasp verdict: share of the "
+                                             "attended target's cells that must have changed", low=0.01,
+                                             high=1.0)
+    verdict_closed_opening: float = param(VERDICT.closed_opening, "Grasp verdict: m between the fingers at "
+                                          "or below which the gripper holds nothing (when the driver does "
+                                          "not report holding)", low=0.0)
 
 
 class EpisodeNode(Node):
@@ -77,8 +102,14 @@ class EpisodeNode(Node):
         self._busy = threading.Lock()
         self._cell = RosCell(self, group, RosCellTimeouts(self.params.decision_timeout,
                                                           self.params.motion_timeout,
-                                                          self.params.service_timeout),
+                                                          self.params.service_timeout,
+                                                          self.params.scene_service_timeout),
                              self.params.use_ground_truth)
+        self._limits = EpisodeLimits(
+            self.params.actions_per_target, self.params.max_consecutive_failures,
+            self.params.none_frames_to_finish, self.params.max_actions_uncounted,
+            VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
+                          self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening))
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self._action_server = ActionServer(
@@ -132,7 +163,7 @@ class EpisodeNode(Node):
         request = self._request_from(goal_handle.request)
         summary = self._run_and_release(_new_episode_id(), request, goal_handle)
         for key, value in summary.items():
-            if hasattr(result, key) and key != "record_path":
+            if hasattr(result, key) and key != "record_path" and value is not None:
                 setattr(result, key, type(getattr(result, key))(value))
         result.record_path = summary.get("record_path", "")
         if summary["termination_reason"] == TERMINATION_CANCELED:
@@ -156,17 +187,21 @@ class EpisodeNode(Node):
         recorder = EpisodeRecorder(self.record_dir, episode_id)
         log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}")
         summary = run_episode(
-            self._cell, request, episode_id,
-            EpisodeLimits(self.params.actions_per_target, self.params.max_consecutive_failures),
-            recorder=recorder, on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
+            self._cell, request, episode_id, self._limits, recorder=recorder,
+            on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
             should_stop=lambda: goal_handle is not None and goal_handle.is_cancel_requested,
             clock_ns=lambda: self.get_clock().now().nanoseconds,
             on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"))
         outside = summary.get("targets_outside", 0)
         outside_note = f" ({outside} outside the workspace)" if outside else ""
+        total = summary["targets_total"] if summary["targets_total"] >= 0 else "?"
+        audit = ""
+        if summary.get("truth_targets_picked", -1) >= 0:
+            audit = (f"; truth: {summary['truth_targets_picked']} picked, verdicts agree on "
+                     f"{summary['verdicts_agreeing']}/{summary['verdicts_checked']} grasp(s)")
         log.info(f"episode {episode_id} ended ({summary['termination_reason']}): picked "
-                 f"{summary['targets_picked']}/{summary['targets_total']}{outside_note} in "
-                 f"{summary['actions']} actions; record {recorder.directory}")
+                 f"{summary['targets_picked']}/{total}{outside_note} in {summary['actions']} actions "
+                 f"(counted by {summary['counted_by']}){audit}; record {recorder.directory}")
         return summary
 
     # ---- outputs ------------------------------------------------------------------------------
@@ -175,14 +210,18 @@ class EpisodeNode(Node):
         msg = EpisodeStep(episode_id=episode_id, step=step.step, attention_mode=step.attention_mode,
                           primitive=self._cell.last_primitive, success=step.success,
                           target_grasped=step.target_grasped, targets_remaining=step.targets_remaining,
-                          motion_finished=ns_to_time(step.motion_finished_ns))
+                          motion_finished=ns_to_time(step.motion_finished_ns),
+                          motion_completed=step.motion_completed, gripper_opening=step.gripper_opening,
+                          holding=step.holding, target_gone_fraction=step.gone_fraction,
+                          verdict=step.verdict)
         self._steps_pub.publish(msg)
         if goal_handle is not None:
             goal_handle.publish_feedback(RunEpisode.Feedback(step=msg))
         self.get_logger().info(
             f"step {step.step}: {step.kind} at ({step.position[0]:.3f}, {step.position[1]:.3f}) yaw "
             f"{step.yaw:.2f} q {step.q_value:.3f} -> {'ok' if step.success else 'failed'}; "
-            f"{step.targets_remaining} target(s) left")
+            + (f"{step.targets_remaining} target(s) left" if step.targets_remaining >= 0 else
+               (step.verdict or "not judged")))
 
 
 def _new_episode_id() -> str:

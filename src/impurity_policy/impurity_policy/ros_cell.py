@@ -1,12 +1,18 @@
-"""The node graph as a cell of the picking loop (core/picking.py): ROS clients behind its five verbs.
+"""The node graph as a cell of the picking loop (core/picking.py): ROS clients behind its verbs.
 
-    reset            /cell/reset_scene (simulated cells; without it, the request's target count)
+    reset            use_ground_truth: /cell/reset_scene builds the scene and counts its targets.
+                     Without (a real cell): no count (None: the loop counts by perception); scenario and
+                     seed apply only if a simulated cell offers /cell/reset_scene within
+                     scene_service_wait s, and its counts are not handed to the loop
     observe          the first decision on /policy/primitive, with its /attention/result, from a camera
-                     frame stamped after the last motion finished (or a NONE attention result)
+                     frame stamped after the last motion finished and after the last view (or a NONE
+                     attention result); the view holds the heightmap and the attended target's mask
     decide           that decision as a picking.Action
-    execute          the /ur5/execute_primitive action, waited for with timeouts
-    targets_remaining  /cell/ground_truth (simulated cells: in and outside the workspace), else what the
-                     driver reported
+    execute          the /ur5/execute_primitive action, waited for with timeouts; a driver that lost
+                     the arm (result message "driver_lost: ...") ends the episode with that reason
+    targets_remaining  /cell/ground_truth (use_ground_truth only: in and outside the workspace)
+    truth            without use_ground_truth, /cell/ground_truth where a simulated cell offers it: only
+                     recorded beside the perception verdicts (None on a real cell)
 
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
 Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
@@ -33,7 +39,16 @@ from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import AttentionResult, Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from impurity_policy.core.episode import EpisodeRequest
-from impurity_policy.core.picking import Action, EpisodeAborted, EpisodeCanceled, Outcome, Targets, View
+from impurity_policy.core.picking import (
+    Action,
+    EpisodeAborted,
+    EpisodeCanceled,
+    Outcome,
+    Targets,
+    Truth,
+    View,
+)
+from impurity_policy.core.verdict import full_mask
 
 POLICY_GONE_GRACE = 5.0  # s without the policy node's publisher, once it had been seen, before giving up
 ATTENTION_KEPT = 20  # attention results kept to pair with decisions (by stamp)
@@ -53,11 +68,14 @@ class RosCellTimeouts:
     decision: float = 30.0  # s to wait for a fresh decision
     motion: float = 120.0  # s for the driver to finish a motion
     service: float = 30.0  # s for a service or an action server to answer
+    # s to wait for a simulated cell's /cell/reset_scene and /cell/ground_truth when use_ground_truth is
+    # false (a real cell has neither: the episode starts after this wait; 0 = never ask)
+    scene_service: float = 3.0
 
 
 class RosCell:
     """Cell adapter over ROS clients (see the module docstring). use_ground_truth: a simulated cell
-    resets scenes and counts targets with its services."""
+    resets scenes and counts targets with its services; False: the loop counts by perception."""
 
     def __init__(self, node, callback_group, timeouts: RosCellTimeouts, use_ground_truth: bool = True):
         self.node, self.timeouts, self.use_ground_truth = node, timeouts, use_ground_truth
@@ -80,6 +98,7 @@ class RosCell:
         self._reset = node.create_client(ResetScene, names.RESET_SCENE_SERVICE, callback_group=callback_group)
         self._ground_truth = node.create_client(GetGroundTruth, names.GROUND_TRUTH_SERVICE,
                                                 callback_group=callback_group)
+        self._truth_offered = False  # without use_ground_truth: a simulated cell's truth, for the records
         self.last_primitive: Primitive | None = None  # the message of the action under way
         self.last_finished = None  # builtin_interfaces/Time of the last motion's end
 
@@ -103,13 +122,14 @@ class RosCell:
         """The loop's cancel check (None: none), polled in every wait of the verbs below."""
         self._should_stop = should_stop
 
-    def reset(self, request: EpisodeRequest) -> Targets:
-        """Targets in the scene: from /cell/reset_scene on a simulated cell (in and outside the workspace),
-        else the request's."""
+    def reset(self, request: EpisodeRequest) -> Targets | None:
+        """Targets in the scene from /cell/reset_scene (in and outside the workspace) with
+        use_ground_truth; else None (see the module docstring)."""
         self._after_ns = self.node.get_clock().now().nanoseconds
         self._after_what = "the scene reset"
         if not self.use_ground_truth:
-            return Targets(request.num_targets)
+            self._reset_if_simulated(request)
+            return None
         response = self._call(self._reset, ResetScene.Request(
             scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
             num_objects=request.num_objects, scene_file=request.scene_file, palette=request.palette),
@@ -124,11 +144,51 @@ class RosCell:
                 "counted apart, they cannot be picked")
         return Targets(int(response.num_targets) - outside, outside)
 
+    def _reset_if_simulated(self, request: EpisodeRequest) -> None:
+        """Without use_ground_truth: build the request's scene if a simulated cell offers
+        /cell/reset_scene (its counts stay here), and note whether it offers /cell/ground_truth."""
+        wait = self.timeouts.scene_service
+        offered = wait > 0 and self._wait_until(
+            lambda: self._reset.service_is_ready() or self._ground_truth.service_is_ready(), wait,
+            f"service {names.RESET_SCENE_SERVICE} or {names.GROUND_TRUTH_SERVICE}")
+        self._truth_offered = offered and self._ground_truth.service_is_ready()
+        if not (offered and self._reset.service_is_ready()):
+            self.node.get_logger().info(f"no {names.RESET_SCENE_SERVICE}: the episode starts on the cell "
+                                        "as it is (scenario and seed apply to simulated cells only)")
+            return
+        response = self._call(self._reset, ResetScene.Request(
+            scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
+            num_objects=request.num_objects, scene_file=request.scene_file, palette=request.palette),
+            names.RESET_SCENE_SERVICE)
+        if not response.success:
+            raise EpisodeAborted(f"error: scene reset failed: {response.message}")
+        self._after_ns = self.node.get_clock().now().nanoseconds
+
+    def truth(self) -> Truth | None:
+        """The simulator's truth without use_ground_truth, for the records only; None on a real cell or
+        when it does not answer (logged)."""
+        if self.use_ground_truth or not self._truth_offered:
+            return None
+        try:
+            truth = self._call(self._ground_truth, GetGroundTruth.Request(), names.GROUND_TRUTH_SERVICE)
+        except EpisodeAborted as error:
+            self.node.get_logger().warning(f"ground truth for the records not available: {error}")
+            return None
+        if not truth.success:
+            self.node.get_logger().warning(f"ground truth for the records not available: {truth.message}")
+            return None
+        return Truth(int(truth.targets_remaining), int(truth.targets_outside_workspace),
+                     int(truth.targets_removed))
+
     def observe(self) -> View:
-        """The first decision (and its attention result) from a frame stamped after the last motion,
-        or a NONE attention result from such a frame."""
+        """The first decision (and its attention result) from a frame stamped after the last motion and
+        the last view, or a NONE attention result from such a frame."""
         attention, primitive = self._fresh_decision(self._after_ns)
-        return View(int(attention.mode), self._color(attention), (attention, primitive))
+        self._after_ns = max(self._after_ns, time_to_ns(attention.header.stamp))
+        self._after_what = "the last view"
+        color = self._color(attention)
+        height, mask = self._height_and_mask(attention, color)
+        return View(int(attention.mode), color, (attention, primitive), height, mask)
 
     def decide(self, view: View) -> Action | None:
         attention, primitive = view.source
@@ -142,12 +202,17 @@ class RosCell:
                       decision_stamp_ns=time_to_ns(primitive.header.stamp), source=primitive)
 
     def execute(self, action: Action) -> Outcome:
+        """Run the primitive on the driver; EpisodeAborted("driver_lost: ...") when the driver lost the arm.
+        Without use_ground_truth the simulator-only target_grasped is not passed on."""
         result = self._execute(action.source)
         self.last_primitive, self.last_finished = action.source, result.finished
+        if result.message.startswith("driver_lost"):
+            raise EpisodeAborted(result.message)
         self._after_ns = time_to_ns(result.finished)
         self._after_what = "the last motion's end as the driver stamped it: driver clock?"
-        return Outcome(bool(result.success), bool(result.target_grasped), result.message,
-                       time_to_ns(result.finished))
+        return Outcome(bool(result.success), bool(result.target_grasped) and self.use_ground_truth,
+                       result.message, time_to_ns(result.finished), bool(result.motion_completed),
+                       float(result.gripper_opening), bool(result.holding))
 
     def targets_remaining(self, outcome: Outcome, before: int) -> Targets:
         if self.use_ground_truth:
@@ -155,7 +220,7 @@ class RosCell:
             if not truth.success:
                 raise EpisodeAborted(f"error: ground truth not available: {truth.message}")
             return Targets(int(truth.targets_remaining), int(truth.targets_outside_workspace))
-        return Targets(before - (1 if outcome.target_grasped else 0))
+        return Targets(before - (1 if outcome.target_grasped else 0))  # not asked when counting by perception
 
     # ---- waits --------------------------------------------------------------------------------
     def _color(self, attention: AttentionResult):
@@ -164,6 +229,24 @@ class RosCell:
         except ValueError as error:
             self.node.get_logger().warning(f"colour heightmap not usable for the episode picture: {error}")
             return None
+
+    def _height_and_mask(self, attention: AttentionResult, color):
+        """The view's height map (H, W) m and, for TARGET, the attended target's mask placed in the full
+        map; (None, None) when the heightmap is not usable (logged)."""
+        try:
+            height = image_to_numpy(attention.heightmap.height, {"32FC1"})
+        except ValueError as error:
+            self.node.get_logger().warning(f"height map not usable to judge grasps: {error}")
+            return None, None
+        if attention.mode != AttentionResult.MODE_TARGET or color is None:
+            return height, None
+        try:
+            crop = image_to_numpy(attention.mask, {"mono8"})
+        except ValueError as error:
+            self.node.get_logger().warning(f"target mask not usable to judge grasps: {error}")
+            return height, None
+        mask = full_mask(crop > 0, (attention.crop_row0, attention.crop_col0), height.shape)
+        return height, (mask if mask.any() else None)
 
     def _check_cancel(self, what: str) -> None:
         """EpisodeCanceled when the loop's should_stop says so."""

@@ -254,7 +254,8 @@ class SimCellNode(Node):
         result = ExecutePrimitive.Result(
             success=bool(outcome.success), motion_completed=bool(outcome.motion_completed),
             gripper_opening=float(outcome.gripper_opening), holding=bool(outcome.holding),
-            target_grasped=bool(outcome.target_grasped), grasped_object_id=int(outcome.object_id), message=outcome.message,
+            target_grasped=bool(outcome.target_grasped), grasped_object_id=int(outcome.object_id),
+            message=outcome.message,
             finished=self.get_clock().now().to_msg())
         if goal_handle.is_cancel_requested:
             goal_handle.canceled()

@@ -19,6 +19,14 @@ SCENARIOS = tuple(scenario.value for scenario in EPISODE_SCENARIOS)  # what an e
 # Paper section 6.4 caps real-world runs at 15 steps per group; we scale it with the target count
 # so invisible scenes (more exploratory pushes) still have room: 15 actions per target.
 DEFAULT_ACTIONS_PER_TARGET = 15
+# A cell that cannot count targets (a real cell, use_ground_truth false) gets this action limit when a
+# request's max_actions is 0: the paper's real-world runs stop at 15 steps per group of objects (section
+# 6.4); two groups' worth.
+DEFAULT_MAX_ACTIONS_UNCOUNTED = 30
+# Without a target count the episode ends by perception: attention answers NONE (no visible impurity and
+# no heap that could hide one) on this many consecutive fresh frames. One frame can miss a target
+# (shading, a blurred edge): three in a row make the end robust at ~1 s of waiting.
+DEFAULT_NONE_FRAMES_TO_FINISH = 3
 # Consecutive grasps that lift nothing or pushes whose motion failed before giving up. A motion the
 # driver refuses (goal rejected) is not one of them: it ends the episode at once ("error: ...").
 DEFAULT_MAX_CONSECUTIVE_FAILURES = 5
@@ -31,9 +39,14 @@ TERMINATION_ACTION_LIMIT = "action_limit"
 TERMINATION_REPEATED_FAILURE = "repeated_failure"
 TERMINATION_CANCELED = "canceled"
 TERMINATION_NOTHING_LEFT = "no_target_or_cluster_left"
+# How an episode counts picked impurities: the simulator's truth (a simulated cell's services), or the
+# perception verdict on each grasp (core/verdict.py) on a cell without truth.
+COUNTED_BY_TRUTH = "truth"
+COUNTED_BY_PERCEPTION = "perception"
 # Reasons of episodes that ended because the cell failed, not because of the picking: "node_lost: ..."
-# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "error: ...".
-FAILURE_PREFIXES = ("node_lost", "stale_input", "error")
+# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "driver_lost: ..."
+# (the arm driver lost the robot mid-motion), "error: ...".
+FAILURE_PREFIXES = ("node_lost", "stale_input", "driver_lost", "error")
 
 
 def is_failure(termination_reason: str) -> bool:
@@ -95,6 +108,18 @@ class StepRecord:
     targets_remaining: int  # in the workspace
     message: str = ""
     targets_outside: int = 0  # in the scene but outside the workspace (not reachable)
+    # What the arm reported (ExecutePrimitive): the whole plan ran; m between the fingers after the lift
+    # (-1 not measured); something held.
+    motion_completed: bool = True
+    gripper_opening: float = -1.0
+    holding: bool = False
+    # Perception verdict on a grasp (counted_by "perception"): share of the attended target's cells that
+    # changed (-1: not judged) and the verdict's reason. target_grasped is then the verdict.
+    gone_fraction: float = -1.0
+    verdict: str = ""
+    # Simulator truth beside the verdict (only where the cell offers it; never used by the loop): the grasp
+    # removed a target (None: no truth, or not a grasp).
+    truth_target_grasped: bool | None = None
 
 
 class CountError(ValueError):
@@ -110,7 +135,9 @@ class EpisodeTracker:
     were."""
 
     def __init__(self, episode_id: str, request: EpisodeRequest, targets_total: int,
-                 max_actions: int, max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES):
+                 max_actions: int, max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES,
+                 counts_known: bool = True):
+        self.counts_known = counts_known  # False: a cell without target counts (counted by perception)
         self.episode_id = episode_id
         self.request = request
         self.targets_total = targets_total
@@ -139,13 +166,14 @@ class EpisodeTracker:
         self.targets_remaining, self.targets_outside = in_workspace, outside
 
     def record(self, step: StepRecord) -> None:
-        """Count one step; CountError (nothing counted) when its counts contradict the episode's."""
+        """Count one step; CountError (nothing counted) when its counts contradict the episode's. Without
+        target counts (counts_known False) the step's targets_remaining is -1 and is not checked."""
         picked = self.targets_picked + (1 if step.kind == "grasp" and step.target_grasped else 0)
-        if step.targets_remaining < 0 or step.targets_outside < 0:
+        if self.counts_known and (step.targets_remaining < 0 or step.targets_outside < 0):
             raise CountError(f"step {step.step}: negative target counts ({step.targets_remaining} left in "
                              f"the workspace, {step.targets_outside} outside it): the cell counts targets "
                              "wrongly")
-        if picked + step.targets_remaining + step.targets_outside > self.targets_total:
+        if self.counts_known and picked + step.targets_remaining + step.targets_outside > self.targets_total:
             raise CountError(
                 f"step {step.step}: {picked} picked + {step.targets_remaining} left in the workspace + "
                 f"{step.targets_outside} outside it is more than the {self.targets_total} target(s) the "
@@ -168,7 +196,7 @@ class EpisodeTracker:
 
     def termination(self) -> str | None:
         """Why the episode should stop now, or None to go on."""
-        if self.targets_remaining <= 0:
+        if self.counts_known and self.targets_remaining <= 0:
             return TERMINATION_ALL_PICKED if self.targets_outside == 0 else TERMINATION_REACHABLE_PICKED
         if self.actions >= self.max_actions:
             return TERMINATION_ACTION_LIMIT
@@ -190,6 +218,26 @@ class EpisodeTracker:
             "grasp_success": self.targets_picked / self.grasp_attempts if self.grasp_attempts else 0.0,
             "action_efficiency": self.targets_picked / self.actions if self.actions else 0.0,
         }
+
+
+def truth_audit(steps: list[StepRecord], truth_targets_total: int | None = None) -> dict:
+    """Perception verdicts beside the simulator's truth, for an episode counted by perception on a cell
+    that offers truth (scoring beside the loop: nothing here steers it).
+
+    Returns verdicts_checked (grasps with a truth), verdicts_agreeing (verdict == truth), verdict_agreement
+    (their ratio; None without any), truth_targets_picked (-1 without truth), truth_targets_total (-1
+    unknown) and picked_matches_truth (perception's picked count == the truth's; None without truth).
+    """
+    judged = [s for s in steps if s.kind == "grasp" and s.truth_target_grasped is not None]
+    agreeing = sum(bool(s.target_grasped) == bool(s.truth_target_grasped) for s in judged)
+    has_truth = truth_targets_total is not None
+    truth_picked = sum(bool(s.truth_target_grasped) for s in judged) if has_truth else -1
+    picked = sum(bool(s.target_grasped) for s in steps if s.kind == "grasp")
+    return {"verdicts_checked": len(judged), "verdicts_agreeing": agreeing,
+            "verdict_agreement": agreeing / len(judged) if judged else None,
+            "truth_targets_picked": truth_picked,
+            "truth_targets_total": truth_targets_total if has_truth else -1,
+            "picked_matches_truth": (picked == truth_picked) if has_truth else None}
 
 
 class EpisodeRecorder:

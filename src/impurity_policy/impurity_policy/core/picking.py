@@ -8,23 +8,36 @@ the paper's evaluation and by training-time checks). Both therefore count, stop 
     summary["termination_reason"], summary["targets_picked"], summary["grasp_success"]
 
 A cell (duck-typed, see `Cell`):
-    reset(request) -> Targets | int  start the episode's scene; its targets (an int: all in the workspace)
-    observe() -> View                a view taken after the last motion finished
+    reset(request) -> Targets | int | None  start the episode's scene; its targets (an int: all in the
+                                     workspace), or None: the cell cannot count targets (a real cell)
+    observe() -> View                a view taken after the last motion (and after the last view) finished
     decide(view) -> Action | None    the primitive to execute (None: nothing to act on)
     execute(action) -> Outcome       run it; EpisodeAborted when the cell cannot go on
     targets_remaining(outcome, before) -> Targets | int   targets after the outcome (before: those left
-                                     in the workspace before it)
+                                     in the workspace before it); asked only when reset counted targets
     set_should_stop(should_stop)     optional, for cells whose verbs wait (RosCell): every wait checks
                                      should_stop() and raises EpisodeCanceled when it says so
+    truth() -> Truth | None          optional: the simulator's truth, recorded beside the perception
+                                     verdicts when reset returned None; never read by the loop's decisions
 
-Targets outside the workspace (from the start or pushed out) are counted apart: they cannot be picked,
-and an episode that picked every other one ends "all_reachable_targets_picked", not completed.
+Two ways to count:
+- by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
+  counted apart: they cannot be picked, and an episode that picked every other one ends
+  "all_reachable_targets_picked", not completed. The loop stops when every target in the workspace is
+  picked, at the action limit, after repeated failures, or when attention (or the decision) finds
+  nothing to act on.
+- by perception (reset returned None; issue 18 item 1): no count is needed up front. After each grasp
+  the next fresh view judges it (core/verdict.py: the attended target gone from its cells and the gripper
+  holding); the picked count is the number of grasps judged "impurity picked". The loop stops when
+  attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible
+  impurity and no heap that could hide one) -> "no_target_or_cluster_left", at the action limit (the
+  request's, else `max_actions_uncounted`), or after repeated failures. With a cell that offers truth()
+  (a simulated cell as the hardware), every step records the truth beside its verdict and the summary
+  their agreement (episode.truth_audit).
 
-The loop stops when every target in the workspace is picked, at the action limit, after repeated
-failures, when attention (or the decision) finds nothing to act on, on a cancel (`should_stop`: asked
-before each look and before each motion, and in the cell's own waits), or when the cell raises
-EpisodeAborted (its message is the reason). The records (episode.EpisodeRecorder) are closed whatever
-happens.
+Either way it stops on a cancel (`should_stop`: asked before each look and before each motion, and in the
+cell's own waits), or when the cell raises EpisodeAborted (its message is the reason, e.g. "node_lost:
+..." or "driver_lost: ..."). The records (episode.EpisodeRecorder) are closed whatever happens.
 """
 
 from __future__ import annotations
@@ -38,8 +51,13 @@ import numpy as np
 from impurity_common.enums import AttentionMode
 
 from .episode import (
+    COUNTED_BY_PERCEPTION,
+    COUNTED_BY_TRUTH,
     DEFAULT_ACTIONS_PER_TARGET,
+    DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
+    DEFAULT_NONE_FRAMES_TO_FINISH,
+    TERMINATION_ACTION_LIMIT,
     TERMINATION_CANCELED,
     TERMINATION_NOTHING_LEFT,
     EpisodeRecorder,
@@ -47,7 +65,9 @@ from .episode import (
     EpisodeTracker,
     StepRecord,
     action_limit,
+    truth_audit,
 )
+from .verdict import GraspVerdict, GripperReport, VerdictParams, judge_grasp
 
 MODE_NAMES = {int(mode): mode.name for mode in AttentionMode}  # 1 -> "TARGET", as the records spell it
 
@@ -74,15 +94,29 @@ def as_targets(value: Targets | int) -> Targets:
     return value if isinstance(value, Targets) else Targets(int(value), 0)
 
 
+@dataclass(frozen=True)
+class Truth:
+    """The simulator's truth at one moment (GetGroundTruth): targets in and outside the workspace, and
+    targets removed to the bin so far."""
+
+    targets_remaining: int
+    targets_outside: int
+    targets_removed: int
+
+
 @dataclass
 class View:
     """One look at the cell. mode: the attention mode the decision will answer (AttentionResult.MODE_*);
-    color: the colour heightmap (H, W, 3) uint8 for the episode's picture, or None; source: the
-    adapter's own data (attention result, sensed state)."""
+    color: the colour heightmap (H, W, 3) uint8 for the episode's picture, or None; height: the height
+    map (H, W) float m above the table, or None; target_mask: (H, W) bool, the attended target's cells
+    (TARGET only, else None); color, height and target_mask let the next view judge a grasp
+    (core/verdict.py); source: the adapter's own data (attention result, sensed state)."""
 
     mode: int
     color: np.ndarray | None = None
     source: object = None
+    height: np.ndarray | None = None
+    target_mask: np.ndarray | None = None
 
 
 @dataclass
@@ -105,13 +139,18 @@ class Action:
 @dataclass
 class Outcome:
     """What the cell reports after a motion: success (a grasp: something lifted; a push: the motion
-    completed), whether a target was lifted, a message, and when the motion finished (ns, 0 in the
-    fast sim)."""
+    completed), whether a target was lifted (simulator truth; ignored when counting by perception), a
+    message, when the motion finished (ns, 0 in the fast sim), and what a real arm knows: the whole plan
+    ran, the opening between the fingers after the lift (m, -1 not measured), whether the gripper holds
+    something (None: not reported)."""
 
     success: bool
     target_grasped: bool
     message: str = ""
     finished_ns: int = 0
+    motion_completed: bool = True
+    gripper_opening: float = -1.0
+    holding: bool | None = None
 
 
 class Cell(Protocol):
@@ -130,18 +169,29 @@ class Cell(Protocol):
 class EpisodeLimits:
     actions_per_target: int = DEFAULT_ACTIONS_PER_TARGET  # when a request's max_actions is 0
     max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES
+    # Counting by perception (a cell without target counts):
+    none_frames_to_finish: int = DEFAULT_NONE_FRAMES_TO_FINISH  # consecutive NONE views that end it
+    max_actions_uncounted: int = DEFAULT_MAX_ACTIONS_UNCOUNTED  # when a request's max_actions is 0
+    verdict: VerdictParams = VerdictParams()
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
-                message: str | None = None) -> StepRecord:
+                message: str | None = None, verdict: GraspVerdict | None = None,
+                truth_target_grasped: bool | None = None) -> StepRecord:
+    """The record of one executed step; with a verdict (counting by perception), target_grasped is the
+    verdict's, not the outcome's."""
+    target_grasped = verdict.impurity_picked if verdict is not None else bool(outcome.target_grasped)
     return StepRecord(
         step=index, attention_mode=MODE_NAMES.get(action.mode, str(action.mode)), kind=action.kind,
         position=tuple(action.position), yaw=float(action.yaw), q_value=float(action.q_value),
         rotation_index=int(action.rotation_index), pixel=tuple(int(v) for v in action.pixel),
         decision_stamp_ns=int(action.decision_stamp_ns), motion_finished_ns=int(outcome.finished_ns),
-        success=bool(outcome.success), target_grasped=bool(outcome.target_grasped),
+        success=bool(outcome.success), target_grasped=bool(target_grasped),
         object_grasped=bool(outcome.success and action.kind == "grasp"), targets_remaining=int(remaining),
-        message=outcome.message if message is None else message, targets_outside=int(outside))
+        message=outcome.message if message is None else message, targets_outside=int(outside),
+        motion_completed=bool(outcome.motion_completed), gripper_opening=float(outcome.gripper_opening),
+        holding=bool(outcome.holding), gone_fraction=verdict.gone_fraction if verdict is not None else -1.0,
+        verdict=verdict.reason if verdict is not None else "", truth_target_grasped=truth_target_grasped)
 
 
 def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: EpisodeLimits = EpisodeLimits(),
@@ -149,58 +199,26 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
                 should_stop: Callable[[], bool] | None = None, clock_ns: Callable[[], int] | None = None,
                 on_error: Callable[[Exception], None] | None = None) -> dict:
     """One episode on `cell`. Returns the paper's metrics (episode.EpisodeTracker.metrics) with
-    termination_reason and completed (every target picked); with a recorder, also what it wrote
-    (record_path). `on_step` sees each step after it is recorded; `should_stop` (a cancel) is asked before
-    each look and before each motion, and handed to the cell (set_should_stop) for its waits: no motion
-    starts after it said so; `clock_ns` stamps the start record (the time after which views show the
-    scene); `on_error` sees an unexpected exception before the episode is closed as "error: ...".
+    termination_reason, counted_by ("truth" | "perception") and completed (counted by truth: every target
+    picked; by perception: it ended because attention saw nothing left); counted by perception on a cell
+    with truth(), also episode.truth_audit's figures; with a recorder, also what it wrote (record_path).
+    `on_step` sees each step after it is recorded; `should_stop` (a cancel) is asked before each look and
+    before each motion, and handed to the cell (set_should_stop) for its waits: no motion starts after it
+    said so; `clock_ns` stamps the start record (the time after which views show the scene); `on_error`
+    sees an unexpected exception before the episode is closed as "error: ...".
     """
     tracker = EpisodeTracker(episode_id, request, request.num_targets, 0, limits.max_consecutive_failures)
-    stop = should_stop or (lambda: False)
+    episode = _Episode(cell, request, limits, tracker, recorder, on_step, should_stop or (lambda: False))
     bind_stop = getattr(cell, "set_should_stop", None) if should_stop is not None else None
     reason = None
     try:
         if bind_stop is not None:
             bind_stop(should_stop)
-        scene = as_targets(cell.reset(request))
-        tracker.set_scene(scene.in_workspace, scene.outside)
-        tracker.max_actions = action_limit(request, scene.in_workspace, limits.actions_per_target)
-        if recorder is not None:
-            recorder.write_start(request, tracker.targets_total, tracker.max_actions,
-                                 clock_ns() if clock_ns else 0, targets_outside=scene.outside)
-        reason = tracker.termination()
-        first_view = True
-        while reason is None:
-            if stop():
-                reason = TERMINATION_CANCELED
-                break
-            view = cell.observe()
-            if first_view and recorder is not None and view.color is not None:
-                recorder.write_first_view(view.color)
-            first_view = False
-            action = None if view.mode == AttentionMode.NONE else cell.decide(view)
-            if action is None:
-                reason = TERMINATION_NOTHING_LEFT
-                break
-            if stop():  # a cancel that came while the decision was awaited: no new motion
-                reason = TERMINATION_CANCELED
-                break
-            outcome = cell.execute(action)
-            message = None
-            try:
-                after = as_targets(cell.targets_remaining(outcome, tracker.targets_remaining))
-            except EpisodeCanceled:  # the motion happened: record it with the counts from before it
-                after = Targets(tracker.targets_remaining, tracker.targets_outside)
-                message = f"{outcome.message} (targets not recounted: canceled)"
-                reason = TERMINATION_CANCELED
-            step = step_record(tracker.actions + 1, action, outcome, after.in_workspace, after.outside,
-                               message)
-            tracker.record(step)
-            if recorder is not None:
-                recorder.write_step(step)
-            if on_step is not None:
-                on_step(step)
-            reason = reason or tracker.termination()
+        scene = cell.reset(request)
+        if scene is None:
+            reason = episode.run_by_perception(clock_ns)
+        else:
+            reason = episode.run_by_truth(as_targets(scene), clock_ns)
     except EpisodeCanceled:
         reason = TERMINATION_CANCELED
     except EpisodeAborted as error:
@@ -213,9 +231,143 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
         if bind_stop is not None:
             bind_stop(None)
     metrics = tracker.metrics()
-    summary = {**metrics, "termination_reason": reason,
-               "completed": tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total}
+    if tracker.counts_known:
+        completed = tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total
+    else:
+        completed = reason == TERMINATION_NOTHING_LEFT
+    summary = {**metrics, "termination_reason": reason, "completed": completed,
+               "counted_by": COUNTED_BY_TRUTH if tracker.counts_known else COUNTED_BY_PERCEPTION}
+    if not tracker.counts_known:
+        summary.update(truth_audit(tracker.steps, episode.truth_targets_total))
     if recorder is not None:
         summary = recorder.write_summary(summary, reason)
         recorder.write_picture()
     return summary
+
+
+class _Episode:
+    """run_episode's two loops over one cell, tracker and recorder."""
+
+    def __init__(self, cell, request, limits, tracker, recorder, on_step, stop):
+        self.cell, self.request, self.limits, self.tracker = cell, request, limits, tracker
+        self.recorder, self.on_step, self.stop = recorder, on_step, stop
+        self.first_view = True
+        self.truth_targets_total: int | None = None  # simulator truth beside perception, if offered
+        self._truth_removed = 0
+
+    def _look(self) -> View:
+        view = self.cell.observe()
+        if self.first_view and self.recorder is not None and view.color is not None:
+            self.recorder.write_first_view(view.color)
+        self.first_view = False
+        return view
+
+    def _record(self, step: StepRecord) -> None:
+        self.tracker.record(step)
+        if self.recorder is not None:
+            self.recorder.write_step(step)
+        if self.on_step is not None:
+            self.on_step(step)
+
+    def run_by_truth(self, scene: Targets, clock_ns) -> str:
+        """The loop counting with the cell's target counts; returns the termination reason."""
+        tracker, cell = self.tracker, self.cell
+        tracker.set_scene(scene.in_workspace, scene.outside)
+        tracker.max_actions = action_limit(self.request, scene.in_workspace, self.limits.actions_per_target)
+        if self.recorder is not None:
+            self.recorder.write_start(self.request, tracker.targets_total, tracker.max_actions,
+                                      clock_ns() if clock_ns else 0, targets_outside=scene.outside)
+        reason = tracker.termination()
+        while reason is None:
+            if self.stop():
+                return TERMINATION_CANCELED
+            view = self._look()
+            action = None if view.mode == AttentionMode.NONE else cell.decide(view)
+            if action is None:
+                return TERMINATION_NOTHING_LEFT
+            if self.stop():  # a cancel that came while the decision was awaited: no new motion
+                return TERMINATION_CANCELED
+            outcome = cell.execute(action)
+            message = None
+            try:
+                after = as_targets(cell.targets_remaining(outcome, tracker.targets_remaining))
+            except EpisodeCanceled:  # the motion happened: record it with the counts from before it
+                after = Targets(tracker.targets_remaining, tracker.targets_outside)
+                message = f"{outcome.message} (targets not recounted: canceled)"
+                reason = TERMINATION_CANCELED
+            self._record(step_record(tracker.actions + 1, action, outcome, after.in_workspace, after.outside,
+                                     message))
+            reason = reason or tracker.termination()
+        return reason
+
+    def _truth(self) -> Truth | None:
+        truth = getattr(self.cell, "truth", None)
+        return truth() if truth is not None else None
+
+    def run_by_perception(self, clock_ns) -> str:
+        """The loop without target counts (module docstring); returns the termination reason."""
+        tracker, cell, limits = self.tracker, self.cell, self.limits
+        tracker.counts_known = False
+        tracker.targets_total, tracker.targets_remaining, tracker.targets_outside = -1, -1, 0
+        tracker.max_actions = self.request.max_actions or limits.max_actions_uncounted
+        truth = self._truth()
+        if truth is not None:
+            self.truth_targets_total = truth.targets_remaining + truth.targets_outside
+            self._truth_removed = truth.targets_removed
+        if self.recorder is not None:
+            self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
+        none_views = 0
+        view = None
+        while True:
+            if tracker.actions >= tracker.max_actions:
+                return TERMINATION_ACTION_LIMIT
+            if tracker.consecutive_failures >= tracker.max_consecutive_failures:
+                return tracker.termination()
+            if self.stop():
+                return TERMINATION_CANCELED
+            if view is None:
+                view = self._look()
+            if view.mode == AttentionMode.NONE:
+                none_views += 1
+                if none_views >= limits.none_frames_to_finish:
+                    return TERMINATION_NOTHING_LEFT
+                view = None  # look again: a fresh frame, taken after this one
+                continue
+            none_views = 0
+            action = cell.decide(view)
+            if action is None:
+                return TERMINATION_NOTHING_LEFT
+            if self.stop():
+                return TERMINATION_CANCELED
+            outcome = cell.execute(action)
+            verdict, after, pending = None, None, None
+            if action.kind == "grasp":
+                try:  # the next fresh view judges the grasp, and is the next decision's view
+                    after = self._look()
+                except (EpisodeCanceled, EpisodeAborted) as error:
+                    pending = error  # record the step (not judged), then end
+                verdict = self._judge(view, after, outcome)
+            truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
+            self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
+                                     truth_target_grasped=truth_grasped))
+            if pending is not None:
+                raise pending
+            view = after
+
+    def _judge(self, before: View, after: View | None, outcome: Outcome) -> GraspVerdict:
+        gripper = GripperReport(outcome.holding, float(outcome.gripper_opening))
+        if after is None:
+            return GraspVerdict(False, -1.0, False, "not judged: no view after the grasp")
+        mask = before.target_mask if before.mode == AttentionMode.TARGET else None
+        return judge_grasp(before.height, before.color, mask, after.height, after.color, gripper,
+                           self.limits.verdict)
+
+    def _truth_of_grasp(self) -> bool | None:
+        """Did the grasp just recorded remove a target? From the cell's truth (None: it offers none)."""
+        if self.truth_targets_total is None:
+            return None
+        truth = self._truth()
+        if truth is None:
+            return None
+        removed, self._truth_removed = truth.targets_removed - self._truth_removed, truth.targets_removed
+        return removed > 0

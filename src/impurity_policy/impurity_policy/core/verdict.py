@@ -1,0 +1,149 @@
+"""Was the lifted object an impurity? Judged by perception alone, as a real cell must (issue 18 item 1).
+
+A grasp aimed at an attended target (attention mode TARGET, paper Algorithm 1: the salient region m_t)
+picked an impurity when both hold:
+
+1. the target is gone from where it was: in the next fresh heightmap, at least `min_gone_fraction` of the
+   target mask's cells have lost height (by >= `min_height_drop` m) or changed colour (by >=
+   `min_color_change`, Euclidean distance in RGB 0-255);
+2. the gripper reports something between its fingers after the lift: the driver's `holding`, or, when the
+   driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
+   the gripper did not close fully).
+
+A grasp decided without a visible target (OCCLUDED_REGION: aimed at a heap that may hide one) is never
+counted as an impurity picked: nothing attended can be seen to have gone. Pure numpy; no ROS.
+
+    verdict = judge_grasp(before_height, before_color, target_mask, after_height, after_color,
+                          GripperReport(holding=True, opening=0.03))
+    verdict.impurity_picked, verdict.gone_fraction, verdict.reason
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
+DEFAULT_CLOSED_OPENING = 0.004
+
+
+@dataclass(frozen=True)
+class VerdictParams:
+    """Thresholds of judge_grasp (units in the names' docstrings)."""
+
+    min_height_drop: float = 0.01  # m: a cell whose height fell by at least this has lost what stood there
+    min_color_change: float = 60.0  # RGB distance (0-255 per channel) that marks a cell as changed
+    min_gone_fraction: float = 0.5  # share of the target mask's cells that must have changed
+    closed_opening: float = DEFAULT_CLOSED_OPENING  # m: an opening at or below this holds nothing
+
+    def __post_init__(self):
+        if not self.min_height_drop > 0:
+            raise ValueError(f"min_height_drop must be > 0 m (got {self.min_height_drop})")
+        if not self.min_color_change > 0:
+            raise ValueError(f"min_color_change must be > 0 (got {self.min_color_change})")
+        if not 0 < self.min_gone_fraction <= 1:
+            raise ValueError(f"min_gone_fraction must be in (0, 1] (got {self.min_gone_fraction})")
+        if not self.closed_opening >= 0:
+            raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
+
+
+@dataclass(frozen=True)
+class GripperReport:
+    """What the driver reported after the lift: holding (None: not reported), opening in m (< 0: not
+    measured)."""
+
+    holding: bool | None = None
+    opening: float = -1.0
+
+
+@dataclass(frozen=True)
+class GraspVerdict:
+    """impurity_picked: both tests passed; gone_fraction: share of the target mask's cells that changed
+    (-1 when there was no target mask); holding: the gripper test; reason: one line for the records."""
+
+    impurity_picked: bool
+    gone_fraction: float
+    holding: bool
+    reason: str
+
+
+def gripper_holds(report: GripperReport, params: VerdictParams = VerdictParams()) -> bool:
+    """The gripper test: the driver's holding flag when it gave one, else opening > closed_opening."""
+    if report.holding is not None:
+        return bool(report.holding)
+    return report.opening > params.closed_opening
+
+
+def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, target_mask: np.ndarray,
+                         after_height: np.ndarray, after_color: np.ndarray,
+                         params: VerdictParams = VerdictParams()) -> float:
+    """Share (0..1) of the target mask's cells that lost height or changed colour between two heightmaps.
+
+    before_height, after_height: (H, W) float, m above the table; before_color, after_color: (H, W, 3)
+    uint8 RGB; target_mask: (H, W) bool (or 0/255), the attended target's cells in the before map.
+    Raises ValueError on shape mismatch, an empty mask, or non-finite heights in the mask.
+    """
+    mask = np.asarray(target_mask).astype(bool)
+    shapes = {"before_height": np.shape(before_height), "after_height": np.shape(after_height),
+              "target_mask": mask.shape}
+    if len(set(shapes.values())) != 1 or mask.ndim != 2:
+        raise ValueError(f"heightmaps and mask must share one (H, W) shape, got {shapes}")
+    for name, color in (("before_color", before_color), ("after_color", after_color)):
+        if np.shape(color) != (*mask.shape, 3):
+            raise ValueError(f"{name} must be {(*mask.shape, 3)} RGB, got {np.shape(color)}")
+    if not mask.any():
+        raise ValueError("target_mask is empty: no attended target to judge")
+    h0 = np.asarray(before_height, dtype=np.float64)[mask]
+    h1 = np.asarray(after_height, dtype=np.float64)[mask]
+    if not (np.isfinite(h0).all() and np.isfinite(h1).all()):
+        raise ValueError("heights under the target mask must be finite")
+    c0 = np.asarray(before_color, dtype=np.float64)[mask]
+    c1 = np.asarray(after_color, dtype=np.float64)[mask]
+    dropped = (h0 - h1) >= params.min_height_drop
+    recolored = np.linalg.norm(c1 - c0, axis=1) >= params.min_color_change
+    return float(np.mean(dropped | recolored))
+
+
+def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
+                target_mask: np.ndarray | None, after_height: np.ndarray | None,
+                after_color: np.ndarray | None, gripper: GripperReport,
+                params: VerdictParams = VerdictParams()) -> GraspVerdict:
+    """The perception verdict on one grasp (module docstring): the attended target gone from its cells
+    (target_gone_fraction >= min_gone_fraction) and the gripper holding something.
+
+    target_mask None (the grasp answered no visible target) or a missing map -> not an impurity, with
+    the reason. Raises ValueError as target_gone_fraction does on inconsistent maps.
+    """
+    holding = gripper_holds(gripper, params)
+    if target_mask is None:
+        return GraspVerdict(False, -1.0, holding, "no attended target to judge (not a TARGET decision)")
+    if any(m is None for m in (before_height, before_color, after_height, after_color)):
+        return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
+    gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
+    is_gone = gone >= params.min_gone_fraction
+    if is_gone and holding:
+        reason = f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"
+    elif holding:
+        reason = f"not the impurity: only {gone:.0%} of the target's cells changed"
+    elif is_gone:
+        reason = f"nothing held ({gone:.0%} of the target's cells changed: moved, not lifted)"
+    else:
+        reason = f"nothing held and the target stays ({gone:.0%} of its cells changed)"
+    return GraspVerdict(is_gone and holding, gone, holding, reason)
+
+
+def full_mask(crop_mask: np.ndarray, crop_origin: tuple[int, int], shape: tuple[int, int]) -> np.ndarray:
+    """A crop's mask (S, S) placed in the full heightmap (rows, cols) at crop_origin (row0, col0; may be
+    negative: the crop is padded past the map's border). Returns (rows, cols) bool."""
+    crop = np.asarray(crop_mask).astype(bool)
+    if crop.ndim != 2:
+        raise ValueError(f"crop mask must be 2-D, got shape {crop.shape}")
+    rows, cols = shape
+    r0, c0 = int(crop_origin[0]), int(crop_origin[1])
+    out = np.zeros((rows, cols), dtype=bool)
+    top, left = max(r0, 0), max(c0, 0)
+    bottom, right = min(r0 + crop.shape[0], rows), min(c0 + crop.shape[1], cols)
+    if bottom > top and right > left:
+        out[top:bottom, left:right] = crop[top - r0:bottom - r0, left - c0:right - c0]
+    return out

@@ -1,0 +1,123 @@
+"""The perception verdict on a grasp (impurity_policy.core.verdict): was the lifted object the attended
+impurity? Judged from two heightmaps and what the gripper reports, as a real cell must (issue 18 item 1)."""
+
+import numpy as np
+import pytest
+
+from impurity_policy.core.verdict import (
+    GripperReport,
+    VerdictParams,
+    full_mask,
+    gripper_holds,
+    judge_grasp,
+    target_gone_fraction,
+)
+
+SHAPE = (40, 40)
+RED, GREY, TABLE = (200, 30, 30), (120, 120, 120), (60, 60, 60)
+
+
+def scene(blocks):
+    """Height (m) and colour maps with rectangular blocks: (row0, row1, col0, col1, height, colour)."""
+    height = np.zeros(SHAPE, np.float32)
+    color = np.zeros((*SHAPE, 3), np.uint8)
+    color[:] = TABLE
+    for r0, r1, c0, c1, h, rgb in blocks:
+        height[r0:r1, c0:c1] = h
+        color[r0:r1, c0:c1] = rgb
+    return height, color
+
+
+TARGET = (10, 20, 10, 20, 0.03, RED)
+NEIGHBOUR = (10, 20, 22, 32, 0.03, GREY)
+BEFORE = scene([TARGET, NEIGHBOUR])
+MASK = np.zeros(SHAPE, bool)
+MASK[10:20, 10:20] = True
+HOLDS = GripperReport(holding=True, opening=0.03)
+EMPTY = GripperReport(holding=False, opening=0.0)
+
+
+def judge(after, gripper=HOLDS, mask=MASK, params=VerdictParams()):
+    return judge_grasp(*BEFORE, mask, *after, gripper, params)
+
+
+def test_the_target_gone_and_something_held_is_an_impurity_picked():
+    verdict = judge(scene([NEIGHBOUR]))
+    assert verdict.impurity_picked and verdict.holding
+    assert verdict.gone_fraction == 1.0 and "impurity picked" in verdict.reason
+
+
+def test_a_neighbour_lifted_while_the_target_stays_is_not_an_impurity():
+    verdict = judge(scene([TARGET]))
+    assert not verdict.impurity_picked and verdict.holding and verdict.gone_fraction == 0.0
+    assert "not the impurity" in verdict.reason
+
+
+def test_the_target_moved_but_nothing_held_is_not_an_impurity():
+    verdict = judge(scene([(10, 20, 0, 8, 0.03, RED), NEIGHBOUR]), gripper=EMPTY)
+    assert not verdict.impurity_picked and not verdict.holding and verdict.gone_fraction == 1.0
+    assert "nothing held" in verdict.reason
+
+
+def test_a_product_revealed_under_the_target_counts_as_gone_by_its_colour():
+    # the impurity lay on a grey block: the height drops by 1 cm only, the colour changes
+    before = scene([(10, 20, 10, 20, 0.02, GREY), (10, 20, 10, 20, 0.03, RED)])
+    after = scene([(10, 20, 10, 20, 0.02, GREY)])
+    assert target_gone_fraction(*before, MASK, *after) == 1.0
+    same_colour = scene([(10, 20, 10, 20, 0.029, RED)])  # 1 mm lower, same colour: still there
+    assert target_gone_fraction(*before, MASK, *same_colour) == 0.0
+
+
+def test_the_gone_share_must_reach_min_gone_fraction():
+    partly = scene([(10, 15, 10, 20, 0.03, RED), NEIGHBOUR])  # half the target's cells remain
+    assert judge(partly).gone_fraction == pytest.approx(0.5)
+    assert judge(partly, params=VerdictParams(min_gone_fraction=0.5)).impurity_picked
+    assert not judge(partly, params=VerdictParams(min_gone_fraction=0.6)).impurity_picked
+
+
+def test_the_gripper_test_uses_holding_when_reported_else_the_opening():
+    params = VerdictParams(closed_opening=0.004)
+    assert gripper_holds(GripperReport(holding=True, opening=0.0), params)  # the driver's word wins
+    assert not gripper_holds(GripperReport(holding=False, opening=0.03), params)
+    assert gripper_holds(GripperReport(holding=None, opening=0.02), params)
+    assert not gripper_holds(GripperReport(holding=None, opening=0.004), params)
+    assert not gripper_holds(GripperReport(), params)  # nothing reported, nothing measured
+
+
+def test_a_grasp_without_an_attended_target_is_never_an_impurity():
+    verdict = judge(scene([NEIGHBOUR]), mask=None)
+    assert not verdict.impurity_picked and verdict.gone_fraction == -1.0
+    assert "no attended target" in verdict.reason
+    missing = judge_grasp(*BEFORE, MASK, None, None, HOLDS)
+    assert not missing.impurity_picked and "no heightmap" in missing.reason
+
+
+@pytest.mark.parametrize("mask, after, fragment", [
+    (np.zeros(SHAPE, bool), scene([]), "empty"),
+    (MASK[:30], scene([]), "shape"),
+    (MASK, (np.zeros(SHAPE, np.float32), np.zeros((*SHAPE, 4), np.uint8)), "after_color"),
+    (MASK, (np.full(SHAPE, np.nan, np.float32), scene([])[1]), "finite"),
+])
+def test_inconsistent_maps_are_refused_with_the_reason(mask, after, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        target_gone_fraction(*BEFORE, mask, *after)
+
+
+@pytest.mark.parametrize("fields, fragment", [
+    ({"min_height_drop": 0.0}, "min_height_drop"), ({"min_color_change": -1.0}, "min_color_change"),
+    ({"min_gone_fraction": 0.0}, "min_gone_fraction"), ({"min_gone_fraction": 1.5}, "min_gone_fraction"),
+    ({"closed_opening": -0.001}, "closed_opening"),
+])
+def test_bad_thresholds_are_refused(fields, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        VerdictParams(**fields)
+
+
+def test_a_crop_mask_lands_in_the_full_map_at_its_origin_and_is_clipped_at_the_border():
+    crop = np.zeros((6, 6), np.uint8)
+    crop[2:4, 2:4] = 255
+    placed = full_mask(crop, (10, 12), SHAPE)
+    assert placed.sum() == 4 and placed[12:14, 14:16].all()
+    clipped = full_mask(np.full((6, 6), 255, np.uint8), (-3, 37), SHAPE)  # padded past two borders
+    assert clipped.sum() == 3 * 3 and clipped[0:3, 37:40].all()
+    assert not full_mask(crop, (100, 100), SHAPE).any()  # wholly outside
