@@ -208,3 +208,70 @@ def test_the_launcher_runs_from_the_command_line():
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert pathlib.Path(done.stdout.split()[0]).name == "ur5_driver"
+
+
+# ------------------------------------------------------------------------------------ the ROS launch file
+class FakeLaunch:
+    """Stand-ins for the launch and launch_ros modules (not among the PyPI wheels): each action records
+    its arguments, LaunchConfiguration performs to the launch arguments given."""
+
+    def __init__(self, arguments: dict):
+        self.arguments = arguments
+
+    def modules(self) -> dict:
+        import types
+
+        def recorder(kind):
+            return lambda *args, **kwargs: (kind, args, kwargs)
+
+        class LaunchConfiguration:
+            def __init__(self, name):
+                self.name = name
+
+            def perform(self, context):
+                return context[self.name]
+
+        launch = types.ModuleType("launch")
+        launch.LaunchDescription = recorder("LaunchDescription")
+        actions = types.ModuleType("launch.actions")
+        actions.DeclareLaunchArgument = recorder("DeclareLaunchArgument")
+        actions.OpaqueFunction = recorder("OpaqueFunction")
+        substitutions = types.ModuleType("launch.substitutions")
+        substitutions.LaunchConfiguration = LaunchConfiguration
+        launch_ros = types.ModuleType("launch_ros")
+        ros_actions = types.ModuleType("launch_ros.actions")
+        ros_actions.Node = recorder("Node")
+        return {"launch": launch, "launch.actions": actions, "launch.substitutions": substitutions,
+                "launch_ros": launch_ros, "launch_ros.actions": ros_actions}
+
+    def nodes(self, monkeypatch) -> list[tuple[str, str, list[str]]]:
+        """(package, executable, parameter files) of every Node the launch file starts."""
+        import importlib.util
+
+        for name, module in self.modules().items():
+            monkeypatch.setitem(sys.modules, name, module)
+        spec = importlib.util.spec_from_file_location("cell_launch", BRINGUP / "launch" / "cell.launch.py")
+        module = importlib.util.module_from_spec(spec)
+        spec.loader.exec_module(module)
+        _, (actions,), _ = module.generate_launch_description()
+        declared = {args[0]: kwargs["default_value"] for kind, args, kwargs in actions
+                    if kind == "DeclareLaunchArgument"}
+        context = {**declared, **self.arguments}
+        (function,) = [kwargs["function"] for kind, _, kwargs in actions if kind == "OpaqueFunction"]
+        return [(kwargs["package"], kwargs["executable"], kwargs["parameters"])
+                for _, _, kwargs in function(context)]
+
+
+@pytest.mark.parametrize("arguments,cell,config", [({}, "sim", SIM_CONFIG),
+                                                   ({"cell": "real"}, "real", REAL_CONFIG)])
+def test_the_launch_file_starts_the_cells_nodes_with_its_file_then_the_calibration(monkeypatch, arguments,
+                                                                                   cell, config):
+    nodes = FakeLaunch(arguments).nodes(monkeypatch)
+    assert [(package, executable) for package, executable, _ in nodes] == list(CELLS[cell])
+    assert all(files == [str(config), str(CALIBRATION)] for _, _, files in nodes)
+
+
+def test_the_launch_file_takes_another_config_and_calibration(monkeypatch):
+    nodes = FakeLaunch({"cell": "real", "config": "/cells/a.yaml", "calibration": "/cells/a_cal.yaml"}
+                       ).nodes(monkeypatch)
+    assert {tuple(files) for _, _, files in nodes} == {("/cells/a.yaml", "/cells/a_cal.yaml")}
