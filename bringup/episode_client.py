@@ -51,9 +51,11 @@ def running_cell(out: pathlib.Path, config: pathlib.Path | None = None):
 def format_step(step) -> str:
     p = step.primitive
     outcome = "target picked" if step.target_grasped else ("ok" if step.success else "failed")
+    left = (f"targets left {step.targets_remaining}" if step.targets_remaining >= 0  # counted by truth
+            else step.verdict)  # counted by perception: the grasp's verdict ("" for a push)
     return (f"step {step.step:2d}  {step.attention_mode:<15s} {kind_label(p.kind):<5s} "
             f"x={p.position.x:.3f} y={p.position.y:+.3f} z={p.position.z:.3f} yaw={p.yaw:+.2f} "
-            f"q={p.q_value:.3f}  -> {outcome:<13s} targets left {step.targets_remaining}")
+            f"q={p.q_value:.3f}  -> {outcome:<13s} {left}".rstrip())
 
 
 def kind_label(kind: int) -> str:
@@ -64,9 +66,11 @@ def kind_label(kind: int) -> str:
 
 
 def format_result(result) -> str:
-    return "\n".join([
+    perception = result.counted_by == "perception"
+    lines = [
         f"episode {result.episode_id}: {result.termination_reason}",
-        f"  targets picked   {result.targets_picked}/{result.targets_total}"
+        (f"  targets picked   {result.targets_picked} (judged by perception)" if perception else
+         f"  targets picked   {result.targets_picked}/{result.targets_total}")
         + (f" ({result.targets_outside} outside the workspace: cannot be picked)" if result.targets_outside
            else ""),
         f"  actions          {result.actions} ({result.pushes} pushes, {result.grasp_attempts} grasps, "
@@ -74,7 +78,12 @@ def format_result(result) -> str:
         f"  grasp success    {100 * result.grasp_success:.1f} %",
         f"  action efficiency {100 * result.action_efficiency:.1f} %",
         f"  record           {result.record_path}",
-    ])
+    ]
+    if perception and result.truth_targets_picked >= 0:  # a simulated cell as the hardware
+        lines.insert(2, f"  simulator truth  {result.truth_targets_picked}/{result.truth_targets_total} "
+                        f"picked; verdicts agree on {result.verdicts_agreeing}/{result.verdicts_checked} "
+                        "grasps")
+    return "\n".join(lines)
 
 
 def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):

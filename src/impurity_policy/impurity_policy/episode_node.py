@@ -91,6 +91,9 @@ class EpisodeParameters:
     verdict_closed_opening: float = param(VERDICT.closed_opening, "Grasp verdict: m between the fingers at "
                                           "or below which the gripper holds nothing (when the driver does "
                                           "not report holding)", low=0.0)
+    verdict_min_target_score: float = param(VERDICT.min_target_score, "Grasp verdict: saliency contrast "
+                                            "(attention score) a lifted TARGET needs to count as an "
+                                            "impurity (products taken for targets score lower)", low=0.0)
 
 
 class EpisodeNode(Node):
@@ -109,7 +112,8 @@ class EpisodeNode(Node):
             self.params.actions_per_target, self.params.max_consecutive_failures,
             self.params.none_frames_to_finish, self.params.max_actions_uncounted,
             VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
-                          self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening))
+                          self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening,
+                          self.params.verdict_min_target_score))
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self._action_server = ActionServer(

@@ -109,7 +109,8 @@ class View:
     """One look at the cell. mode: the attention mode the decision will answer (AttentionResult.MODE_*);
     color: the colour heightmap (H, W, 3) uint8 for the episode's picture, or None; height: the height
     map (H, W) float m above the table, or None; target_mask: (H, W) bool, the attended target's cells
-    (TARGET only, else None); color, height and target_mask let the next view judge a grasp
+    (TARGET only, else None); target_score: its saliency contrast (inf when not given); color, height,
+    target_mask and target_score let the next view judge a grasp
     (core/verdict.py); source: the adapter's own data (attention result, sensed state)."""
 
     mode: int
@@ -117,6 +118,7 @@ class View:
     source: object = None
     height: np.ndarray | None = None
     target_mask: np.ndarray | None = None
+    target_score: float = float("inf")  # TARGET: attention's saliency contrast (AttentionResult.score)
 
 
 @dataclass
@@ -360,7 +362,7 @@ class _Episode:
             return GraspVerdict(False, -1.0, False, "not judged: no view after the grasp")
         mask = before.target_mask if before.mode == AttentionMode.TARGET else None
         return judge_grasp(before.height, before.color, mask, after.height, after.color, gripper,
-                           self.limits.verdict)
+                           self.limits.verdict, before.target_score)
 
     def _truth_of_grasp(self) -> bool | None:
         """Did the grasp just recorded remove a target? From the cell's truth (None: it offers none)."""

@@ -5,10 +5,16 @@ picked an impurity when both hold:
 
 1. the target is gone from where it was: in the next fresh heightmap, at least `min_gone_fraction` of the
    target mask's cells have lost height (by >= `min_height_drop` m) or changed colour (by >=
-   `min_color_change`, Euclidean distance in RGB 0-255);
+   `min_color_change`, Euclidean distance in RGB 0-255), and the attention was sure it was a target:
+   its saliency contrast (AttentionResult.score) was at least `min_target_score`;
 2. the gripper reports something between its fingers after the lift: the driver's `holding`, or, when the
    driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
    the gripper did not close fully).
+
+Why the contrast test: once the last impurity is gone, attention's relative decision can still answer
+TARGET on the most salient product block (a false TARGET, scored just above attention's own threshold);
+grasping it passes tests 1 and 2. Measured in the fast simulator (see min_target_score), true targets
+score well above such products; a faint true impurity below min_target_score is counted as not picked.
 
 A grasp decided without a visible target (OCCLUDED_REGION: aimed at a heap that may hide one) is never
 counted as an impurity picked: nothing attended can be seen to have gone. Pure numpy; no ROS.
@@ -26,6 +32,8 @@ import numpy as np
 
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
+# Saliency contrast a TARGET needs to count when lifted (module docstring); TBD from measurement.
+DEFAULT_MIN_TARGET_SCORE = 0.0
 
 
 @dataclass(frozen=True)
@@ -36,6 +44,9 @@ class VerdictParams:
     min_color_change: float = 60.0  # RGB distance (0-255 per channel) that marks a cell as changed
     min_gone_fraction: float = 0.5  # share of the target mask's cells that must have changed
     closed_opening: float = DEFAULT_CLOSED_OPENING  # m: an opening at or below this holds nothing
+    # Saliency contrast (AttentionResult.score of a TARGET) below which an attended region is not counted
+    # as an impurity when lifted; 0 = every TARGET counts.
+    min_target_score: float = DEFAULT_MIN_TARGET_SCORE
 
     def __post_init__(self):
         if not self.min_height_drop > 0:
@@ -46,6 +57,8 @@ class VerdictParams:
             raise ValueError(f"min_gone_fraction must be in (0, 1] (got {self.min_gone_fraction})")
         if not self.closed_opening >= 0:
             raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
+        if not self.min_target_score >= 0:
+            raise ValueError(f"min_target_score must be >= 0 (got {self.min_target_score})")
 
 
 @dataclass(frozen=True)
@@ -108,9 +121,10 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
                 target_mask: np.ndarray | None, after_height: np.ndarray | None,
                 after_color: np.ndarray | None, gripper: GripperReport,
-                params: VerdictParams = VerdictParams()) -> GraspVerdict:
+                params: VerdictParams = VerdictParams(), target_score: float = float("inf")) -> GraspVerdict:
     """The perception verdict on one grasp (module docstring): the attended target gone from its cells
-    (target_gone_fraction >= min_gone_fraction) and the gripper holding something.
+    (target_gone_fraction >= min_gone_fraction), attended with a contrast target_score >=
+    min_target_score, and the gripper holding something.
 
     target_mask None (the grasp answered no visible target) or a missing map -> not an impurity, with
     the reason. Raises ValueError as target_gone_fraction does on inconsistent maps.
@@ -122,6 +136,10 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
     gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
     is_gone = gone >= params.min_gone_fraction
+    if is_gone and holding and target_score < params.min_target_score:
+        return GraspVerdict(False, gone, holding, f"not counted: the attended region's contrast "
+                                                  f"{target_score:.1f} < {params.min_target_score:.1f} "
+                                                  f"(a product taken for a target?)")
     if is_gone and holding:
         reason = f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"
     elif holding:
