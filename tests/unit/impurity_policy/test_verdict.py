@@ -106,7 +106,7 @@ def test_inconsistent_maps_are_refused_with_the_reason(mask, after, fragment):
 @pytest.mark.parametrize("fields, fragment", [
     ({"min_height_drop": 0.0}, "min_height_drop"), ({"min_color_change": -1.0}, "min_color_change"),
     ({"min_gone_fraction": 0.0}, "min_gone_fraction"), ({"min_gone_fraction": 1.5}, "min_gone_fraction"),
-    ({"closed_opening": -0.001}, "closed_opening"),
+    ({"closed_opening": -0.001}, "closed_opening"), ({"min_target_score": -1.0}, "min_target_score"),
 ])
 def test_bad_thresholds_are_refused(fields, fragment):
     with pytest.raises(ValueError, match=fragment):
@@ -121,3 +121,14 @@ def test_a_crop_mask_lands_in_the_full_map_at_its_origin_and_is_clipped_at_the_b
     clipped = full_mask(np.full((6, 6), 255, np.uint8), (-3, 37), SHAPE)  # padded past two borders
     assert clipped.sum() == 3 * 3 and clipped[0:3, 37:40].all()
     assert not full_mask(crop, (100, 100), SHAPE).any()  # wholly outside
+
+
+def test_a_lifted_region_attended_with_a_faint_contrast_is_not_counted():
+    # once the impurity is gone, attention may take the most salient product for a target (low contrast)
+    params = VerdictParams(min_target_score=6.0)
+    faint = judge_grasp(*BEFORE, MASK, *scene([NEIGHBOUR]), HOLDS, params, target_score=4.8)
+    assert not faint.impurity_picked and faint.gone_fraction == 1.0 and "contrast 4.8 < 6.0" in faint.reason
+    clear = judge_grasp(*BEFORE, MASK, *scene([NEIGHBOUR]), HOLDS, params, target_score=12.0)
+    assert clear.impurity_picked
+    assert judge_grasp(*BEFORE, MASK, *scene([NEIGHBOUR]), HOLDS, VerdictParams(min_target_score=0.0),
+                       target_score=0.1).impurity_picked  # 0: every TARGET counts
