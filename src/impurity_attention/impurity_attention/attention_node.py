@@ -80,6 +80,9 @@ class AttentionNodeParameters:
     contrast: str = param(DEFAULTS.contrast, "relative: judge the best region against the scene's own "
                           "product contrast (any palette, any exposure); absolute: opponent-colour units "
                           "(calibrated for red among blue only)", choices=CONTRASTS)
+    lightness_weight: float = param(DEFAULTS.lightness_weight, "relative: weight of the lightness map "
+                                    "against the chromatic ones (shading makes product heaps salient in "
+                                    "lightness)", low=0.01, high=1.0)
     min_relative_contrast: float = param(DEFAULTS.min_relative_contrast, "relative: mean relative saliency "
                                          "of the best region below this: no visible target", low=0.0)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
@@ -99,6 +102,7 @@ class AttentionNodeParameters:
             background=self.background, region_fraction=self.region_fraction,
             min_region_area=self.min_region_area, contrast=self.contrast,
             min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
+            lightness_weight=self.lightness_weight,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
