@@ -4,6 +4,10 @@ SHELL := /bin/bash
 ENV := source scripts/env.sh &&
 
 EVAL_GRAPH_EPISODES ?= 2
+# make eval: episodes per method and scenario on the default palette, and per non-default palette group
+# (tuning, held-out; generalisation table). 13 rows (6 networks x 2 rules presets + the heuristic).
+EVAL_EPISODES ?= 8
+EVAL_GROUP_EPISODES ?= 4
 SOAK_EPISODES ?= 200
 
 .PHONY: setup test lint pytest demo train train-baselines eval bench soak test-bag clean help
@@ -14,7 +18,8 @@ help:
 	@echo "make train  - train the push-grasp policy in the fast sim (resumable)"
 	@echo "make train-baselines - VPG, No-TSD, No-OI, No-T at once (BASELINE_HOURS=1.3, resumable)"
 	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
-	@echo "              episodes through the node graph (EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
+	@echo "              episodes through the node graph, generalisation table per palette group"
+	@echo "              (EVAL_EPISODES=8, EVAL_GROUP_EPISODES=4, EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
 	@echo "make soak   - N picking episodes back to back through the node graph, memory per node (SOAK_EPISODES=200)"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
@@ -43,7 +48,8 @@ train-baselines: setup
 	@$(ENV) scripts/train_baselines.sh
 
 eval: setup
-	@$(ENV) python -m impurity_learning.eval_cli --rules cell none $(EVAL_ARGS)
+	@$(ENV) python -m impurity_learning.eval_cli --rules cell none --episodes $(EVAL_EPISODES) \
+		--group-episodes $(EVAL_GROUP_EPISODES) $(EVAL_ARGS)
 	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
 
 soak: setup
