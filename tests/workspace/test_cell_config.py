@@ -33,21 +33,24 @@ NODE_NAMES = {"sim_cell": "sim_cell", "ur5_driver": "ur5_driver", "heightmap_nod
               "cell_state_publisher": "cell_state_publisher", "decision_markers": "decision_markers"}
 
 
-def parameter_classes() -> dict:
-    """Node name -> the dataclass of every parameter the node declares."""
-    from impurity_attention.attention_node import AttentionNodeParameters
-    from impurity_attention.heightmap_node import HeightmapParameters
-    from impurity_common.cell_state_publisher import CellStateParameters
-    from impurity_common.decision_markers import DecisionMarkersParameters
-    from impurity_policy.episode_node import EpisodeParameters
-    from impurity_policy.policy_node import PolicyParameters
-    from ur5_driver_rtde.ur5_driver_node import Ur5DriverParameters
-    from ur5_driver_sim.sim_cell import SimCellParameters
+# node name -> (module, class) of the dataclass of every parameter the node declares
+PARAMETER_CLASSES = {
+    "sim_cell": ("ur5_driver_sim.sim_cell", "SimCellParameters"),
+    "ur5_driver": ("ur5_driver_rtde.ur5_driver_node", "Ur5DriverParameters"),
+    "heightmap": ("impurity_attention.heightmap_node", "HeightmapParameters"),
+    "attention": ("impurity_attention.attention_node", "AttentionNodeParameters"),
+    "policy": ("impurity_policy.policy_node", "PolicyParameters"),
+    "episode": ("impurity_policy.episode_node", "EpisodeParameters"),
+    "cell_state_publisher": ("impurity_common.cell_state_publisher", "CellStateParameters"),
+    "decision_markers": ("impurity_common.decision_markers", "DecisionMarkersParameters"),
+}
 
-    return {"sim_cell": SimCellParameters, "ur5_driver": Ur5DriverParameters,
-            "heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
-            "policy": PolicyParameters, "episode": EpisodeParameters,
-            "cell_state_publisher": CellStateParameters, "decision_markers": DecisionMarkersParameters}
+
+def parameter_class(node_name: str):
+    import importlib
+
+    module, name = PARAMETER_CLASSES[node_name]
+    return getattr(importlib.import_module(module), name)
 
 
 def parameter_as_read(node_name: str, name: str, default, *overrides: str, config=SIM_CONFIG,
@@ -125,7 +128,7 @@ def test_a_cell_file_has_a_section_for_every_node_of_its_cell_and_no_other(cell)
 @pytest.mark.parametrize("cell,node_name", [(cell, NODE_NAMES[executable]) for cell in CELLS
                                             for _, executable in CELLS[cell]])
 def test_a_cell_file_names_only_declared_parameters_with_allowed_values(cell, node_name):
-    cls = parameter_classes()[node_name]
+    cls = parameter_class(node_name)
     config = flatten(sections(CONFIGS[cell])[node_name]["ros__parameters"])
     specs = {spec.name: spec for spec in parameter_specs(cls)}
     assert set(config) <= set(specs), f"{node_name} declares no {sorted(set(config) - set(specs))}"
@@ -142,7 +145,8 @@ def test_the_real_cell_needs_no_simulator_truth_and_first_runs_dry():
 def test_perception_and_policy_are_configured_alike_on_both_cells():
     sim, real = sections(SIM_CONFIG), sections(REAL_CONFIG)
     for node_name in ("heightmap", "attention", "policy"):
-        assert real[node_name] == sim[node_name], node_name
+        assert real[node_name] == sim[node_name], \
+            f"real_cell.yaml's {node_name} section differs from cell.yaml's: copy the section across"
 
 
 # ------------------------------------------------------------------------------------ the launchers
