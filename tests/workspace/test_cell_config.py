@@ -138,6 +138,7 @@ def test_a_cell_file_names_only_declared_parameters_with_allowed_values(cell, no
 def test_the_real_cell_needs_no_simulator_truth_and_first_runs_dry():
     real = sections(REAL_CONFIG)
     assert real["episode"]["ros__parameters"]["use_ground_truth"] is False
+    assert real["episode"]["ros__parameters"]["scene_service_timeout"] == 0.0  # never asks for a sim's scene
     assert real["ur5_driver"]["ros__parameters"]["dry_run"] is True
     assert real["ur5_driver"]["ros__parameters"]["speed_scale"] <= 0.25
 
