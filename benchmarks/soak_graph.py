@@ -31,7 +31,8 @@ from impurity_interfaces.action import RunEpisode  # noqa: E402
 
 SCENARIOS = ("random", "challenging", "invisible")
 SEED_BASE = 700_000_000  # neither training (run seed x 1 000 003 + i) nor evaluation (900 000 000 + k)
-NODE_NAMES = ("sim_cell", "heightmap_node", "attention_node", "policy_node", "episode_node")
+NODE_NAMES = ("sim_cell", "heightmap_node", "attention_node", "policy_node", "episode_node",
+              "cell_state_publisher", "decision_markers")
 
 
 def children(pid: int) -> list[int]:

@@ -13,8 +13,8 @@ publishes joint states at 500 Hz; one /tf message costs ~0.6 ms of Python). TF t
 base_link_inertia -> shoulder_link .. wrist_3_link -> flange -> tool0 -> gripper_tcp. Joints absent
 from /joint_states (the fingers: the UR driver and sim_cell publish the six arm joints) are drawn at 0.
 The camera's optical frame is published as a static base_link -> camera_color_optical_frame from
-camera_position / camera_orientation, the same parameters (bringup/config/cell.yaml, `/**`)
-heightmap_node projects with. On a real cell, start the RealSense driver with publish_tf:=false so that
+camera_position / camera_orientation, the same parameters (bringup/config/camera_calibration.yaml,
+read after the cell's file) heightmap_node projects with. On a real cell, start the RealSense driver with publish_tf:=false so that
 frame has one parent.
 """
 
@@ -45,7 +45,7 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
 
 @dataclass(frozen=True)
 class CellStateParameters:
-    """Every parameter of the node (bringup/config/cell.yaml: the camera pose is in `/**`)."""
+    """Every parameter of the node (cell.yaml / real_cell.yaml; the camera pose from camera_calibration.yaml)."""
 
     camera_position: tuple[float, ...] = param(
         cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye "
