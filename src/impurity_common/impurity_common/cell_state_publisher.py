@@ -14,8 +14,8 @@ base_link_inertia -> shoulder_link .. wrist_3_link -> flange -> tool0 -> gripper
 from /joint_states (the fingers: the UR driver and sim_cell publish the six arm joints) are drawn at 0.
 The camera's optical frame is published as a static base_link -> camera_color_optical_frame from
 camera_position / camera_orientation, the same parameters (bringup/config/camera_calibration.yaml,
-read after the cell's file) heightmap_node projects with. On a real cell, start the RealSense driver with publish_tf:=false so that
-frame has one parent.
+read after the cell's file) heightmap_node projects with. On a real cell, start the RealSense driver
+with publish_tf:=false so that frame has one parent.
 """
 
 from dataclasses import dataclass
@@ -45,7 +45,7 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
 
 @dataclass(frozen=True)
 class CellStateParameters:
-    """Every parameter of the node (cell.yaml / real_cell.yaml; the camera pose from camera_calibration.yaml)."""
+    """Every parameter of the node (cell.yaml / real_cell.yaml; the camera pose: camera_calibration.yaml)."""
 
     camera_position: tuple[float, ...] = param(
         cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye "
