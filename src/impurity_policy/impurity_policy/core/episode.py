@@ -117,6 +117,7 @@ class StepRecord:
     # changed (-1: not judged) and the verdict's reason. target_grasped is then the verdict.
     gone_fraction: float = -1.0
     verdict: str = ""
+    target_score: float = -1.0  # the judged grasp's TARGET: attention's contrast (-1: not judged)
     # Simulator truth beside the verdict (only where the cell offers it; never used by the loop): the grasp
     # removed a target (None: no truth, or not a grasp).
     truth_target_grasped: bool | None = None

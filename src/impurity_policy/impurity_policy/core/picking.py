@@ -179,7 +179,7 @@ class EpisodeLimits:
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
                 message: str | None = None, verdict: GraspVerdict | None = None,
-                truth_target_grasped: bool | None = None) -> StepRecord:
+                truth_target_grasped: bool | None = None, target_score: float = -1.0) -> StepRecord:
     """The record of one executed step; with a verdict (counting by perception), target_grasped is the
     verdict's, not the outcome's."""
     target_grasped = verdict.impurity_picked if verdict is not None else bool(outcome.target_grasped)
@@ -193,7 +193,8 @@ def step_record(index: int, action: Action, outcome: Outcome, remaining: int, ou
         message=outcome.message if message is None else message, targets_outside=int(outside),
         motion_completed=bool(outcome.motion_completed), gripper_opening=float(outcome.gripper_opening),
         holding=bool(outcome.holding), gone_fraction=verdict.gone_fraction if verdict is not None else -1.0,
-        verdict=verdict.reason if verdict is not None else "", truth_target_grasped=truth_target_grasped)
+        verdict=verdict.reason if verdict is not None else "", truth_target_grasped=truth_target_grasped,
+        target_score=float(target_score) if np.isfinite(target_score) else -1.0)
 
 
 def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: EpisodeLimits = EpisodeLimits(),
@@ -350,8 +351,9 @@ class _Episode:
                     pending = error  # record the step (not judged), then end
                 verdict = self._judge(view, after, outcome)
             truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
+            score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
             self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
-                                     truth_target_grasped=truth_grasped))
+                                     truth_target_grasped=truth_grasped, target_score=score))
             if pending is not None:
                 raise pending
             view = after
