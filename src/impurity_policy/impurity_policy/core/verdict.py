@@ -11,6 +11,12 @@ picked an impurity when both hold:
    driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
    the gripper did not close fully).
 
+Optionally (min_color_distance > 0), the attended region must also stand apart in colour from the rest:
+the RGB distance between its mean colour and the median colour of every other object cell (higher than
+`min_object_height`) in the view before the grasp (product_color_distance). This assumes the job's
+impurities differ in colour from its product by at least that much: set it per job (bringup config), 0
+to leave it out.
+
 Why the contrast test: once the last impurity is gone, attention's relative decision can still answer
 TARGET on the most salient product block (a false TARGET, scored just above attention's own threshold);
 grasping it passes tests 1 and 2. Measured in the fast simulator (see min_target_score), true targets
@@ -50,6 +56,10 @@ class VerdictParams:
     # Saliency contrast (AttentionResult.score of a TARGET) below which an attended region is not counted
     # as an impurity when lifted; 0 = every TARGET counts.
     min_target_score: float = DEFAULT_MIN_TARGET_SCORE
+    # RGB distance (0-255 per channel) the attended region's mean colour must keep from the median colour
+    # of the other objects (product_color_distance); 0 = no colour test.
+    min_color_distance: float = 0.0
+    min_object_height: float = 0.01  # m: cells higher than this are objects, for the colour test
 
     def __post_init__(self):
         if not self.min_height_drop > 0:
@@ -62,6 +72,8 @@ class VerdictParams:
             raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
         if not self.min_target_score >= 0:
             raise ValueError(f"min_target_score must be >= 0 (got {self.min_target_score})")
+        if not self.min_color_distance >= 0:
+            raise ValueError(f"min_color_distance must be >= 0 (got {self.min_color_distance})")
 
 
 @dataclass(frozen=True)
@@ -121,6 +133,25 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
     return float(np.mean(dropped | recolored))
 
 
+def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: np.ndarray,
+                           min_object_height: float = 0.01) -> float | None:
+    """RGB distance (0-255 per channel, Euclidean) between the target mask's mean colour and the median
+    colour of the other object cells (height > min_object_height m) of the same view: how far the attended
+    region stands apart from the product. color (H, W, 3) uint8, height (H, W) m, target_mask (H, W) bool.
+    None when there is no other object cell. Raises ValueError on shape mismatch or an empty mask."""
+    mask = np.asarray(target_mask).astype(bool)
+    if np.shape(color) != (*mask.shape, 3) or np.shape(height) != mask.shape:
+        raise ValueError(f"color {np.shape(color)}, height {np.shape(height)} and mask {mask.shape} must "
+                         "share one (H, W)")
+    if not mask.any():
+        raise ValueError("target_mask is empty: no attended region")
+    others = (np.asarray(height) > min_object_height) & ~mask
+    if not others.any():
+        return None
+    rgb = np.asarray(color, dtype=np.float64)
+    return float(np.linalg.norm(rgb[mask].mean(axis=0) - np.median(rgb[others], axis=0)))
+
+
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
                 target_mask: np.ndarray | None, after_height: np.ndarray | None,
                 after_color: np.ndarray | None, gripper: GripperReport,
@@ -143,6 +174,13 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, gone, holding, f"not counted: the attended region's contrast "
                                                   f"{target_score:.1f} < {params.min_target_score:.1f} "
                                                   f"(a product taken for a target?)")
+    if is_gone and holding and params.min_color_distance > 0:
+        distance = product_color_distance(before_color, before_height, target_mask, params.min_object_height)
+        if distance is not None and distance < params.min_color_distance:
+            return GraspVerdict(False, gone, holding, f"not counted: the attended region's colour lies "
+                                                      f"{distance:.0f} from the product's (< "
+                                                      f"{params.min_color_distance:.0f}: a product taken "
+                                                      "for a target?)")
     if is_gone and holding:
         reason = f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"
     elif holding:
