@@ -207,8 +207,11 @@ class Ur5DriverNode(Node):
             goal_handle.succeed()
         else:
             goal_handle.abort()
-        log = self.get_logger().info if outcome.motion_completed else self.get_logger().error
-        log(f"{kind} at ({p.x:.3f}, {p.y:.3f}, {p.z:.3f}) yaw {primitive.yaw:.2f}: {outcome.message}")
+        text = f"{kind} at ({p.x:.3f}, {p.y:.3f}, {p.z:.3f}) yaw {primitive.yaw:.2f}: {outcome.message}"
+        if outcome.motion_completed:  # one call site per severity: rclpy refuses a severity change
+            self.get_logger().info(text)
+        else:
+            self.get_logger().error(text)
         return result
 
 
