@@ -51,6 +51,7 @@ def test_ctrl_c_finishes_the_iteration_saves_and_stops(tmp_path):
     config = TrainConfig(run_dir=str(tmp_path / "run"), iterations=50, threads=1, progress=False, seed=4)
     run = TrainingRun(config)
     step = run.step
+    before = signal.getsignal(signal.SIGINT)  # pytest's, or SIG_IGN when started in the background
 
     def step_then_ctrl_c(*args):
         result = step(*args)
@@ -65,7 +66,7 @@ def test_ctrl_c_finishes_the_iteration_saves_and_stops(tmp_path):
     resumed = TrainingRun(config)
     assert resumed.resumed and resumed.iteration == 1 and len(resumed.replay) == 1
     resumed.world.close()
-    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # pytest's handler is back
+    assert signal.getsignal(signal.SIGINT) is before  # the caller's handler is back
 
 
 def test_old_log_columns_are_migrated_before_appending(tmp_path):
