@@ -28,7 +28,8 @@ import math
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
-from impurity_common import cell, ur5_kinematics
+from impurity_common import cell, names, ur5_kinematics
+from impurity_common.enums import PrimitiveKind
 
 GRASP = "grasp"
 PUSH = "push"
@@ -139,6 +140,21 @@ def tool0_distance_from_shoulder(position) -> float:
     the TCP is at `position` with the gripper pointing down (tool0 is FLANGE_TO_TCP above the TCP)."""
     x, y, z = position
     return math.dist((x, y, z + cell.FLANGE_TO_TCP), (0.0, 0.0, SHOULDER_HEIGHT))
+
+
+def goal_refusal(kind: int, x: float, y: float, z: float, yaw: float, frame_id: str) -> str | None:
+    """Why a driver refuses an ExecutePrimitive goal (Primitive.kind as its integer, position in m,
+    yaw in rad, header.frame_id), or None: validate_primitive, and the position must be in
+    base_link ("" is taken as base_link). A wrong frame is the reason given even when the values fail
+    too. Both drivers (sim_cell, ur5_driver) ask this before anything moves."""
+    try:
+        label = PrimitiveKind(kind).label
+    except ValueError:
+        label = f"kind {kind}"  # validate_primitive refuses it by name
+    reason = validate_primitive(label, x, y, z, yaw)
+    if frame_id not in ("", names.BASE_FRAME):
+        reason = f"position must be in {names.BASE_FRAME}, got frame '{frame_id}'"
+    return reason
 
 
 def validate_primitive(kind: str, x: float, y: float, z: float, yaw: float, *,

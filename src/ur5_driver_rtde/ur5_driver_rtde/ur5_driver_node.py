@@ -161,9 +161,7 @@ class Ur5DriverNode(Node):
         """Accept one valid primitive at a time; reject anything else with its reason in the log."""
         primitive = goal.primitive
         p = primitive.position
-        reason = motion.validate_primitive(_kind_label(primitive.kind), p.x, p.y, p.z, primitive.yaw)
-        if primitive.header.frame_id not in ("", names.BASE_FRAME):
-            reason = f"position must be in {names.BASE_FRAME}, got frame '{primitive.header.frame_id}'"
+        reason = motion.goal_refusal(primitive.kind, p.x, p.y, p.z, primitive.yaw, primitive.header.frame_id)
         if reason is None and not self._arm.connected():
             reason = "driver_lost: the UR controller does not answer"
         if reason is None:
@@ -213,14 +211,6 @@ class Ur5DriverNode(Node):
         else:
             self.get_logger().error(text)
         return result
-
-
-def _kind_label(kind: int) -> str:
-    """"push" / "grasp", or "kind <n>" for a value no PrimitiveKind has (validation refuses it)."""
-    try:
-        return PrimitiveKind(kind).label
-    except ValueError:
-        return f"kind {kind}"
 
 
 def main(args=None):

@@ -28,7 +28,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
-from impurity_common import cell, names
+from impurity_common import cell, motion, names
 from impurity_common.conversions import numpy_to_image
 from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
@@ -206,11 +206,8 @@ class SimCellNode(Node):
     # ------------------------------------------------------------------------------------ driver
     def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:
         primitive = goal.primitive
-        kind = _kind_label(primitive.kind)
         p = primitive.position
-        reason = self._world.validate_primitive(kind, p.x, p.y, p.z, primitive.yaw)
-        if primitive.header.frame_id not in ("", names.BASE_FRAME):
-            reason = f"position must be in {names.BASE_FRAME}, got frame '{primitive.header.frame_id}'"
+        reason = motion.goal_refusal(primitive.kind, p.x, p.y, p.z, primitive.yaw, primitive.header.frame_id)
         if reason is None:
             with self._busy_lock:
                 if self._busy:
@@ -320,14 +317,6 @@ def _outside_note(targets: int, objects: int) -> str:
     """"1 target(s) and 2 block(s) outside the workspace", or "" when everything is inside."""
     parts = [f"{n} {what}(s)" for n, what in ((targets, "target"), (objects, "block")) if n]
     return f"{' and '.join(parts)} outside the workspace" if parts else ""
-
-
-def _kind_label(kind: int) -> str:
-    """"push" / "grasp", or "kind <n>" for a value no PrimitiveKind has (the world refuses it)."""
-    try:
-        return PrimitiveKind(kind).label
-    except ValueError:
-        return f"kind {kind}"
 
 
 def _pose(position, orientation) -> Pose:

@@ -115,3 +115,16 @@ def test_run_plan_runs_every_step_when_nothing_is_touched():
     plan = motion.plan_primitive("push", 0.5, 0.0, 0.02, 0.0)
     run = motion.run_plan(plan.steps, lambda step: True)
     assert run.executed == list(plan.steps) and run.reached
+
+
+def test_a_driver_refuses_a_goal_in_another_frame_or_of_an_unknown_kind():
+    from impurity_common.enums import PrimitiveKind
+
+    grasp = int(PrimitiveKind.GRASP)
+    assert motion.goal_refusal(grasp, 0.5, 0.0, 0.02, 0.0, "") is None
+    assert motion.goal_refusal(grasp, 0.5, 0.0, 0.02, 0.0, "base_link") is None
+    assert "camera_link" in motion.goal_refusal(grasp, 0.5, 0.0, 0.02, 0.0, "camera_link")
+    assert "camera_link" in motion.goal_refusal(grasp, 9.0, 0.0, 0.02, 0.0, "camera_link")  # frame first
+    assert "kind 7" in motion.goal_refusal(7, 0.5, 0.0, 0.02, 0.0, "")
+    assert motion.goal_refusal(grasp, 0.9, 0.0, 0.02, 0.0, "") == motion.validate_primitive(
+        "grasp", 0.9, 0.0, 0.02, 0.0)
