@@ -6,12 +6,12 @@ packages (tests/workspace/test_runtime_imports.py's list), the modules those pac
 pins of requirements.txt (a different pin needs a comment naming it).
 """
 
-import ast
 import pathlib
 import re
 import sys
 
 import pytest
+from source_scan import imported_top_levels
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DOCKERFILE = ROOT / "Dockerfile"
@@ -111,16 +111,7 @@ def colcon_packages() -> set[str]:
 
 def third_party_imports(package: str) -> set[str]:
     """Top-level modules the package's modules import that are neither stdlib nor a cell package."""
-    found = set()
-    for path in (SRC / package / package).rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Import):
-                names = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            else:
-                continue
-            found |= {name.split(".")[0] for name in names}
+    found = imported_top_levels(SRC / package / package)
     cell_packages = {p.name for p in SRC.iterdir() if (p / "package.xml").is_file()}
     return {m for m in found if m not in sys.stdlib_module_names and m not in cell_packages | {"__future__"}}
 

@@ -5,7 +5,6 @@ Runtime executables are imported in a fresh interpreter each (as `ros2 run` star
 modules they pulled in are checked; the package dependencies are read from the source with `ast`.
 """
 
-import ast
 import json
 import pathlib
 import subprocess
@@ -13,6 +12,7 @@ import sys
 import xml.etree.ElementTree as ElementTree
 
 import pytest
+from source_scan import imported_top_levels
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
@@ -63,17 +63,7 @@ def test_runtime_executable_imports_no_simulator_or_learning_code(package, modul
 
 def first_party_imports(package: str) -> set[str]:
     """Cell packages that the modules of `package` import (at any depth of the module)."""
-    found = set()
-    for path in (SRC / package / package).rglob("*.py"):
-        for node in ast.walk(ast.parse(path.read_text(), str(path))):
-            if isinstance(node, ast.Import):
-                names = [alias.name for alias in node.names]
-            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
-                names = [node.module]
-            else:
-                continue
-            found |= {name.split(".")[0] for name in names if name.split(".")[0] in CELL_PACKAGES}
-    return found - {package}
+    return (imported_top_levels(SRC / package / package) & set(CELL_PACKAGES)) - {package}
 
 
 def declared_dependencies(package: str) -> set[str]:
