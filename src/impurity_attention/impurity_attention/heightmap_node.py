@@ -42,7 +42,14 @@ from impurity_common.conversions import (
 )
 from impurity_common.grid import MAX_HEIGHT, HeightmapGrid
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import InvalidParameter, declare_parameters, increasing, nonzero_norm, param
+from impurity_common.parameters import (
+    InvalidParameter,
+    camera_orientation_param,
+    camera_position_param,
+    declare_parameters,
+    increasing,
+    param,
+)
 from impurity_interfaces.msg import Heightmap
 
 COLOR_ENCODINGS = tuple(RGB_ENCODINGS)  # rgb8, bgr8, rgba8, bgra8: read as RGB, alpha dropped
@@ -59,12 +66,8 @@ SIM_LAB_STD = (9.35, 5.76, 19.01)
 class HeightmapParameters:
     """Every parameter of the node (bringup/config/cell.yaml, section heightmap)."""
 
-    camera_position: tuple[float, ...] = param(
-        cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye "
-        "calibration)", length=3, low=-5.0, high=5.0)
-    camera_orientation: tuple[float, ...] = param(
-        cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link: quaternion [x, y, z, w]",
-        length=4, check=nonzero_norm)
+    camera_position: tuple[float, ...] = camera_position_param()
+    camera_orientation: tuple[float, ...] = camera_orientation_param()
     workspace_x: tuple[float, ...] = param(cell.WORKSPACE_X, "[x_min, x_max] in base_link (m)",
                                            length=2, low=-5.0, high=5.0, check=increasing)
     workspace_y: tuple[float, ...] = param(cell.WORKSPACE_Y, "[y_min, y_max] in base_link (m)",

@@ -26,10 +26,15 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import String
 from tf2_msgs.msg import TFMessage
 
-from impurity_common import cell, names
+from impurity_common import names
 from impurity_common.conversions import time_to_ns
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import declare_parameters, nonzero_norm, param
+from impurity_common.parameters import (
+    camera_orientation_param,
+    camera_position_param,
+    declare_parameters,
+    param,
+)
 from impurity_common.visualisation import (
     RobotTree,
     camera_transform,
@@ -47,12 +52,8 @@ LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
 class CellStateParameters:
     """Every parameter of the node (cell.yaml / real_cell.yaml; the camera pose: camera_calibration.yaml)."""
 
-    camera_position: tuple[float, ...] = param(
-        cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from hand-eye "
-        "calibration)", length=3, low=-5.0, high=5.0)
-    camera_orientation: tuple[float, ...] = param(
-        cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link: quaternion [x, y, z, w]",
-        length=4, check=nonzero_norm)
+    camera_position: tuple[float, ...] = camera_position_param()
+    camera_orientation: tuple[float, ...] = camera_orientation_param()
     publish_camera_transform: bool = param(
         True, "Publish base_link -> camera_color_optical_frame on /tf_static (false when another node, e.g. "
         "the RealSense driver with a calibrated parent, already does)")

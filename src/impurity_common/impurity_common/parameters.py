@@ -41,6 +41,8 @@ from dataclasses import dataclass
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
 
+from impurity_common import cell
+
 PARAMETER_ERROR_EXIT_CODE = 2  # what a node exits with when a parameter is bad (argparse's usage code)
 _METADATA_KEY = "impurity_parameter"
 _INT64 = (-(2 ** 63), 2 ** 63 - 1)
@@ -417,3 +419,16 @@ def absolute_names(values) -> str | None:
     """check= for lists of ROS topic names."""
     bad = [v for v in values if not v.startswith("/")]
     return f"has names that are not absolute: {', '.join(repr(v) for v in bad)}" if bad else None
+
+
+def camera_position_param():
+    """The camera pose's position, declared the same way by every node that reads the calibration file
+    (bringup/config/camera_calibration.yaml): heightmap_node, cell_state_publisher, sim_cell."""
+    return param(cell.CAMERA_POSITION, "Camera optical frame origin in base_link (m): [x, y, z] (from "
+                 "hand-eye calibration)", length=3, low=-5.0, high=5.0)
+
+
+def camera_orientation_param():
+    """The camera pose's orientation (see camera_position_param)."""
+    return param(cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link: quaternion "
+                 "[x, y, z, w]", length=4, check=nonzero_norm)

@@ -32,7 +32,13 @@ from impurity_common import cell, motion, names
 from impurity_common.conversions import numpy_to_image
 from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import ParameterError, declare_parameters, nonzero_norm, param
+from impurity_common.parameters import (
+    ParameterError,
+    camera_orientation_param,
+    camera_position_param,
+    declare_parameters,
+    param,
+)
 from impurity_common.ur5_kinematics import JOINT_NAMES
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
@@ -60,11 +66,8 @@ class SimCellParameters:
     depth_encoding: str = param("16UC1", "Aligned depth encoding: 16UC1 (mm, realsense default) or 32FC1 (m)",
                                 choices=DEPTH_ENCODINGS)
     depth_noise_std: float = param(0.0, "Gaussian depth noise (m); 0 = none", low=0.0, high=0.1)
-    camera_position: tuple[float, ...] = param(cell.CAMERA_POSITION,
-                                               "Camera optical frame origin in base_link (m)", length=3)
-    camera_orientation: tuple[float, ...] = param(
-        cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link, quaternion [x, y, z, w]",
-        length=4, check=nonzero_norm)
+    camera_position: tuple[float, ...] = camera_position_param()
+    camera_orientation: tuple[float, ...] = camera_orientation_param()
     initial_scenario: Scenario = param(Scenario.RANDOM, "Scene built at start")
     initial_seed: int = param(0, "Seed of the initial scene", low=0)
     initial_scene_file: str = param("", "JSON scene when initial_scenario is file")
