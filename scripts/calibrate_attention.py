@@ -30,7 +30,13 @@ import time
 import numpy as np
 
 from impurity_attention.core import evaluation
-from impurity_attention.core.attention import AttentionParams, attend, saliency_input, salient_regions
+from impurity_attention.core.attention import (
+    AttentionParams,
+    attend,
+    saliency_input,
+    salient_regions,
+    scene_saliency,
+)
 from impurity_attention.core.density import DensityParams, find_clusters, select_occluded_region
 from impurity_attention.core.saliency import VOCUS2_CLUTTER, VOCUS2_DEFAULTS, SaliencyParams, vocus2
 
@@ -368,8 +374,6 @@ def palette_sweep(params: AttentionParams) -> None:
     rows = []
     for record in records:  # the threshold does not change regions: compute the best region once
         objects = record.height > params.density.occupied_height
-        from impurity_attention.core.attention import scene_saliency
-
         regions = salient_regions(scene_saliency(record.color, objects, params), objects, params)
         best = regions[0] if regions else None
         on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
@@ -378,22 +382,19 @@ def palette_sweep(params: AttentionParams) -> None:
     # false TARGET: scenes with no visible impurity - without impurities, and invisible scenes (a heap
     # hides every target: TARGET there sends the gripper to a product block instead of the heap)
     clean = np.array([score for category, score, _ in rows if category in ("no_impurity", "invisible")])
-    meeting = []
+    sweep = []  # (threshold, found, false TARGET)
     for threshold in np.round(np.arange(2.0, 12.01, 0.1), 2):
         found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold)))
         false = float(np.mean(clean >= threshold))
         print(f"  min_relative_contrast {threshold:4.1f}: impurity found {100 * found:5.1f} %  "
               f"false TARGET {100 * false:5.1f} %")
-        if false <= FALSE_TARGET_AIM and found >= TARGET_FOUND_AIM:
-            meeting.append((float(threshold), found, false))
+        sweep.append((float(threshold), found, false))
+    meeting = [row for row in sweep if row[2] <= FALSE_TARGET_AIM and row[1] >= TARGET_FOUND_AIM]
     if meeting:
         chosen = meeting[len(meeting) // 2]
         print(f"thresholds meeting both aims: {meeting[0][0]:.1f} ... {meeting[-1][0]:.1f}")
     else:  # false TARGET matters more (a grasp on product): the most found within the false-TARGET aim
-        within = [(float(t), float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= t))),
-                   float(np.mean(clean >= t))) for t in np.round(np.arange(2.0, 12.01, 0.1), 2)
-                  if np.mean(clean >= t) <= FALSE_TARGET_AIM]
-        chosen = within[0]
+        chosen = next(row for row in sweep if row[2] <= FALSE_TARGET_AIM)
         print("no threshold meets both aims on the tuning scenes; the lowest within the false-TARGET aim:")
     print(f"chosen min_relative_contrast = {chosen[0]:.1f}: found {100 * chosen[1]:.1f} %, false TARGET "
           f"{100 * chosen[2]:.1f} % on {len(visible)} visible / {len(clean)} tuning scenes without a visible "

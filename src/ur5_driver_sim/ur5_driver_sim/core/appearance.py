@@ -125,7 +125,7 @@ class BlockColours:
         shades = self.palette.product_shades
         base = shades[self.rng.integers(len(shades))] if len(shades) > 1 else shades[0]
         scale = self.palette.product_jitter / LEGACY_JITTER
-        return tuple(float(np.clip(c + (n * scale if scale != 1.0 else n), 0.0, 1.0))
+        return tuple(float(np.clip(c + n * scale, 0.0, 1.0))
                      for c, n in zip(base, noise, strict=True))
 
     def impurity(self) -> tuple:
