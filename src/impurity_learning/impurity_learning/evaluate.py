@@ -4,6 +4,9 @@ numbers count exactly as the episode node's.
 
     world = CellWorld(mode="floating")
     metrics = run_episode(world, make_agent("ours", checkpoint), EpisodeRequest("challenging", seed=7))
+    # As a real cell counts (issue 18): no target count; attention's NONE ends it, grasps are judged by
+    # perception (impurity_policy.core.verdict), the truth is recorded beside the verdicts.
+    metrics = run_episode(world, agent, request, by_perception=True)
 
 Held-out seeds: training scenes use seed * 1_000_003 + scene index (train.SCENE_SEED_STRIDE) with
 small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
@@ -12,9 +15,11 @@ small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
 from __future__ import annotations
 
 from impurity_attention.core.attention import AttentionParams
+from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 from impurity_policy.core import picking
 from impurity_policy.core.episode import EpisodeRequest
+from impurity_policy.core.verdict import full_mask
 
 from .splits import EVAL_SEED_BASE  # noqa: F401 (re-exported: the split lives in splits.py)
 from .train import sense
@@ -70,14 +75,51 @@ class SimCell:
         return picking.Targets(truth.targets_remaining, truth.targets_out_of_workspace)
 
 
+class PerceptionSimCell(SimCell):
+    """SimCell counted as a real cell counts (picking.run_episode's perception loop, issue 18): reset
+    gives no target count, each view carries the height map and, for TARGET, the attended target's mask
+    (the crop mask placed in the full map, as ros_cell places AttentionResult.mask) and its saliency
+    contrast; a motion reports what a real arm knows (gripper opening, holding). The simulator's truth
+    reaches the loop only through truth(), which it records beside the verdicts and never steers by."""
+
+    def reset(self, request: EpisodeRequest) -> None:
+        super().reset(request)
+        return None
+
+    def observe(self) -> picking.View:
+        sensed = self._sensed
+        attention, height = sensed.attention, sensed.maps.height
+        mask, score = None, float("inf")
+        if int(attention.mode) == AttentionMode.TARGET:
+            placed = full_mask(attention.mask > 0, attention.crop_origin, height.shape)
+            mask, score = (placed if placed.any() else None), float(attention.score)
+        return picking.View(sensed.obs.mode, sensed.maps.color, sensed, height, mask, score)
+
+    def execute(self, action: picking.Action) -> picking.Outcome:
+        x, y, z = action.position
+        outcome = self.world.execute(action.kind, x, y, z, action.yaw)
+        self.agent.observe_outcome(action.source, outcome)
+        self._sense()
+        return picking.Outcome(bool(outcome.success), False, outcome.message,
+                               motion_completed=bool(outcome.motion_completed),
+                               gripper_opening=float(outcome.gripper_opening), holding=bool(outcome.holding))
+
+    def truth(self) -> picking.Truth:
+        truth = self._sensed.truth
+        return picking.Truth(truth.targets_remaining, truth.targets_out_of_workspace, truth.targets_removed)
+
+
 def _reraise(error: Exception) -> None:
     raise error  # an evaluation episode that fails stops the run instead of counting as an episode
 
 
 def run_episode(world, agent, request: EpisodeRequest,
-                limits: picking.EpisodeLimits = picking.EpisodeLimits(), recorder=None) -> dict:
+                limits: picking.EpisodeLimits = picking.EpisodeLimits(), recorder=None,
+                by_perception: bool = False) -> dict:
     """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
     loop's summary: the metrics (targets_outside among them) plus termination_reason and completed
-    (every target picked)."""
-    return picking.run_episode(SimCell(world, agent), request, f"{request.scenario}-{request.seed}", limits,
+    (every target picked). by_perception: counted as a real cell counts (PerceptionSimCell); the summary
+    then holds counted_by "perception" and the truth audit (picking.truth_audit)."""
+    cell = (PerceptionSimCell if by_perception else SimCell)(world, agent)
+    return picking.run_episode(cell, request, f"{request.scenario}-{request.seed}", limits,
                                recorder=recorder, on_error=_reraise)

@@ -94,10 +94,10 @@ class EpisodeParameters:
     verdict_min_target_score: float = param(VERDICT.min_target_score, "Grasp verdict: saliency contrast "
                                             "(attention score) a lifted TARGET needs to count as an "
                                             "impurity (products taken for targets score lower)", low=0.0)
-    verdict_min_color_distance: float = param(VERDICT.min_color_distance, "Grasp verdict: RGB distance "
-                                              "(0-255) a lifted TARGET's mean colour must keep from the "
-                                              "other objects' median colour to count as an impurity; 0: no "
-                                              "colour test (set it per job)", low=0.0)
+    verdict_min_color_contrast: float = param(VERDICT.min_color_contrast, "Grasp verdict: colour distance "
+                                              "a lifted TARGET must keep from the other objects' median "
+                                              "colour, in units of their colour spread, to count as an "
+                                              "impurity; 0: no colour test", low=0.0)
 
 
 class EpisodeNode(Node):
@@ -117,7 +117,7 @@ class EpisodeNode(Node):
             self.params.none_frames_to_finish, self.params.max_actions_uncounted,
             VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
                           self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening,
-                          self.params.verdict_min_target_score, self.params.verdict_min_color_distance))
+                          self.params.verdict_min_target_score, self.params.verdict_min_color_contrast))
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self._action_server = ActionServer(

@@ -10,6 +10,7 @@ from impurity_policy.core.verdict import (
     full_mask,
     gripper_holds,
     judge_grasp,
+    product_color_contrast,
     product_color_distance,
     target_gone_fraction,
 )
@@ -108,7 +109,7 @@ def test_inconsistent_maps_are_refused_with_the_reason(mask, after, fragment):
     ({"min_height_drop": 0.0}, "min_height_drop"), ({"min_color_change": -1.0}, "min_color_change"),
     ({"min_gone_fraction": 0.0}, "min_gone_fraction"), ({"min_gone_fraction": 1.5}, "min_gone_fraction"),
     ({"closed_opening": -0.001}, "closed_opening"), ({"min_target_score": -1.0}, "min_target_score"),
-    ({"min_color_distance": -1.0}, "min_color_distance"),
+    ({"min_color_contrast": -1.0}, "min_color_contrast"),
 ])
 def test_bad_thresholds_are_refused(fields, fragment):
     with pytest.raises(ValueError, match=fragment):
@@ -138,21 +139,39 @@ def test_a_lifted_region_attended_with_a_faint_contrast_is_not_counted():
 
 def test_with_a_colour_test_a_lifted_region_coloured_like_the_product_is_not_counted():
     # once the impurity is gone, attention may take a product block (grey like the others) for a target
-    products = [(0, 8, 0, 8, 0.03, GREY), (25, 35, 25, 35, 0.03, GREY)]
+    products = [(0, 8, 0, 8, 0.03, GREY), (25, 33, 25, 33, 0.03, (110, 110, 110))]  # two shades
     grey_target = scene([(10, 20, 10, 20, 0.03, (130, 125, 120))] + products)
     after = scene(products)
-    params = VerdictParams(min_color_distance=100.0)
+    params = VerdictParams(min_color_contrast=3.0)
+    contrast = product_color_contrast(grey_target[1], grey_target[0], MASK)
     taken = judge_grasp(*grey_target, MASK, *after, HOLDS, params)
-    assert not taken.impurity_picked and "colour lies 11 from the product's" in taken.reason
+    assert not taken.impurity_picked and f"colour lies {contrast:.1f} product spreads" in taken.reason
+    red_target = scene([TARGET] + products)
+    assert judge_grasp(*red_target, MASK, *after, HOLDS, params).impurity_picked
+    no_test = VerdictParams(min_target_score=0.0, min_color_contrast=0.0)
+    assert judge_grasp(*grey_target, MASK, *after, HOLDS, no_test).impurity_picked  # 0: no test
+
+
+def test_the_colour_distance_is_measured_from_the_median_of_the_other_objects():
+    products = [(0, 8, 0, 8, 0.03, GREY), (25, 35, 25, 35, 0.03, GREY)]
     red_target = scene([TARGET] + products)
     assert product_color_distance(red_target[1], red_target[0], MASK) == pytest.approx(
         np.linalg.norm(np.subtract(RED, GREY)))
-    assert judge_grasp(*red_target, MASK, *after, HOLDS, params).impurity_picked
-    assert judge_grasp(*grey_target, MASK, *after, HOLDS, VerdictParams()).impurity_picked  # 0: no test
+
+
+def test_the_colour_contrast_is_in_units_of_the_products_spread_and_ignores_brightness():
+    # two product shades 40 apart (spread 20 per channel); the target 60 from their median in one channel
+    products = [(0, 8, 0, 20, 0.03, (100, 100, 100)), (25, 33, 0, 20, 0.03, (140, 140, 140))]
+    height, color = scene([(10, 20, 10, 20, 0.03, (180, 120, 120))] + products)
+    spread = np.linalg.norm([20, 20, 20])
+    assert product_color_contrast(color, height, MASK) == pytest.approx(60 / spread)
+    darker = (color.astype(np.float64) * 0.5).round().astype(np.uint8)  # one stop darker: same decision
+    assert product_color_contrast(darker, height, MASK) == pytest.approx(60 / spread, rel=0.02)
 
 
 def test_the_colour_test_needs_other_objects_to_compare_with():
     alone = scene([TARGET])
     assert product_color_distance(alone[1], alone[0], MASK) is None
-    verdict = judge_grasp(*alone, MASK, *scene([]), HOLDS, VerdictParams(min_color_distance=100.0))
+    assert product_color_contrast(alone[1], alone[0], MASK) is None
+    verdict = judge_grasp(*alone, MASK, *scene([]), HOLDS, VerdictParams(min_color_contrast=3.0))
     assert verdict.impurity_picked  # nothing to compare with: the colour test does not refuse it

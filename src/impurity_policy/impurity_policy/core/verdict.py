@@ -11,11 +11,10 @@ picked an impurity when both hold:
    driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
    the gripper did not close fully).
 
-Optionally (min_color_distance > 0), the attended region must also stand apart in colour from the rest:
-the RGB distance between its mean colour and the median colour of every other object cell (higher than
-`min_object_height`) in the view before the grasp (product_color_distance). This assumes the job's
-impurities differ in colour from its product by at least that much: set it per job (bringup config), 0
-to leave it out.
+Optionally (min_color_contrast > 0), the attended region must also stand apart in colour from the rest
+of the view: the RGB distance between its mean colour and the median colour of every other object cell
+(higher than `min_object_height`) in the view before the grasp, in units of those cells' own colour spread
+(product_color_contrast). Being relative to the product's spread, it needs no per-job colour constant.
 
 Why the contrast test: once the last impurity is gone, attention's relative decision can still answer
 TARGET on the most salient product block (a false TARGET, scored just above attention's own threshold);
@@ -56,9 +55,9 @@ class VerdictParams:
     # Saliency contrast (AttentionResult.score of a TARGET) below which an attended region is not counted
     # as an impurity when lifted; 0 = every TARGET counts.
     min_target_score: float = DEFAULT_MIN_TARGET_SCORE
-    # RGB distance (0-255 per channel) the attended region's mean colour must keep from the median colour
-    # of the other objects (product_color_distance); 0 = no colour test.
-    min_color_distance: float = 0.0
+    # Colour distance of the attended region from the other objects, in units of their colour spread
+    # (product_color_contrast), below which it is not counted; 0 = no colour test.
+    min_color_contrast: float = 0.0
     min_object_height: float = 0.01  # m: cells higher than this are objects, for the colour test
 
     def __post_init__(self):
@@ -72,8 +71,8 @@ class VerdictParams:
             raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
         if not self.min_target_score >= 0:
             raise ValueError(f"min_target_score must be >= 0 (got {self.min_target_score})")
-        if not self.min_color_distance >= 0:
-            raise ValueError(f"min_color_distance must be >= 0 (got {self.min_color_distance})")
+        if not self.min_color_contrast >= 0:
+            raise ValueError(f"min_color_contrast must be >= 0 (got {self.min_color_contrast})")
 
 
 @dataclass(frozen=True)
@@ -133,12 +132,7 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
     return float(np.mean(dropped | recolored))
 
 
-def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: np.ndarray,
-                           min_object_height: float = 0.01) -> float | None:
-    """RGB distance (0-255 per channel, Euclidean) between the target mask's mean colour and the median
-    colour of the other object cells (height > min_object_height m) of the same view: how far the attended
-    region stands apart from the product. color (H, W, 3) uint8, height (H, W) m, target_mask (H, W) bool.
-    None when there is no other object cell. Raises ValueError on shape mismatch or an empty mask."""
+def _object_colors(color, height, target_mask, min_object_height):
     mask = np.asarray(target_mask).astype(bool)
     if np.shape(color) != (*mask.shape, 3) or np.shape(height) != mask.shape:
         raise ValueError(f"color {np.shape(color)}, height {np.shape(height)} and mask {mask.shape} must "
@@ -146,10 +140,39 @@ def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: n
     if not mask.any():
         raise ValueError("target_mask is empty: no attended region")
     others = (np.asarray(height) > min_object_height) & ~mask
-    if not others.any():
-        return None
     rgb = np.asarray(color, dtype=np.float64)
-    return float(np.linalg.norm(rgb[mask].mean(axis=0) - np.median(rgb[others], axis=0)))
+    return rgb[mask], (rgb[others] if others.any() else None)
+
+
+def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: np.ndarray,
+                           min_object_height: float = 0.01) -> float | None:
+    """RGB distance (0-255 per channel, Euclidean) between the target mask's mean colour and the median
+    colour of the other object cells (height > min_object_height m) of the same view: how far the attended
+    region stands apart from the product. color (H, W, 3) uint8, height (H, W) m, target_mask (H, W) bool.
+    None when there is no other object cell. Raises ValueError on shape mismatch or an empty mask."""
+    target, others = _object_colors(color, height, target_mask, min_object_height)
+    if others is None:
+        return None
+    return float(np.linalg.norm(target.mean(axis=0) - np.median(others, axis=0)))
+
+
+# RGB: the spread of the other objects' colours is at least this (a one-colour product under flat light
+# has a spread near 0: the contrast would grow without bound).
+MIN_COLOR_SPREAD = 4.0
+
+
+def product_color_contrast(color: np.ndarray, height: np.ndarray, target_mask: np.ndarray,
+                           min_object_height: float = 0.01) -> float | None:
+    """product_color_distance in units of the other object cells' colour spread: the median RGB distance
+    of those cells from their median colour (at least MIN_COLOR_SPREAD). Dimensionless, so one threshold
+    serves dark and light products, one shade or several (issue 17: decisions relative to the scene).
+    Same arguments, None and errors as product_color_distance."""
+    target, others = _object_colors(color, height, target_mask, min_object_height)
+    if others is None:
+        return None
+    centre = np.median(others, axis=0)
+    spread = max(float(np.median(np.linalg.norm(others - centre, axis=1))), MIN_COLOR_SPREAD)
+    return float(np.linalg.norm(target.mean(axis=0) - centre)) / spread
 
 
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
@@ -174,12 +197,12 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, gone, holding, f"not counted: the attended region's contrast "
                                                   f"{target_score:.1f} < {params.min_target_score:.1f} "
                                                   f"(a product taken for a target?)")
-    if is_gone and holding and params.min_color_distance > 0:
-        distance = product_color_distance(before_color, before_height, target_mask, params.min_object_height)
-        if distance is not None and distance < params.min_color_distance:
+    if is_gone and holding and params.min_color_contrast > 0:
+        contrast = product_color_contrast(before_color, before_height, target_mask, params.min_object_height)
+        if contrast is not None and contrast < params.min_color_contrast:
             return GraspVerdict(False, gone, holding, f"not counted: the attended region's colour lies "
-                                                      f"{distance:.0f} from the product's (< "
-                                                      f"{params.min_color_distance:.0f}: a product taken "
+                                                      f"{contrast:.1f} product spreads from the product's (< "
+                                                      f"{params.min_color_contrast:.1f}: a product taken "
                                                       "for a target?)")
     if is_gone and holding:
         reason = f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"

@@ -1,0 +1,260 @@
+#!/usr/bin/env python3
+"""Choose the grasp verdict's thresholds (impurity_policy/core/verdict.py) on tuning scenes, then measure
+them on evaluation seeds and held-out palettes (issue 18: a real cell judges each grasp by perception).
+
+Runs episodes in the fast simulator counted as a real cell counts (evaluate.run_episode(by_perception=True):
+no target count, attention's NONE ends them, the shipped network with the `cell` rules decides), collects
+every grasp of an attended TARGET with what perception knew when judging it, beside the simulator's truth
+(did the grasp remove an impurity?):
+
+  target_score    attention's saliency contrast of the attended region (AttentionResult.score)
+  gone_fraction   share of the target's cells changed in the next view (verdict.target_gone_fraction)
+  holding         the gripper's report after the lift
+  color_contrast  the attended region's colour distance from the product, in units of the product's own
+                  colour spread (verdict.product_color_contrast: palette-relative, no RGB constant)
+
+The gone and holding tests are kept as they are (geometry: they do not depend on the palette); `sweep`
+chooses min_target_score and min_color_contrast by the agreement of the verdict with the truth on the
+TUNING grasps only (palettes and seeds of impurity_learning.splits), and `measure` reports the chosen
+thresholds on fresh evaluation seeds, default and held-out palettes, without changing anything.
+
+    python scripts/calibrate_verdict.py collect --split tuning --out runs/verdict/tuning.jsonl
+    python scripts/calibrate_verdict.py sweep runs/verdict/tuning.jsonl
+    python scripts/calibrate_verdict.py collect --split evaluation --out runs/verdict/evaluation.jsonl
+    python scripts/calibrate_verdict.py measure runs/verdict/evaluation.jsonl --min-target-score S \\
+        --min-color-contrast C
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import json
+import pathlib
+import sys
+
+import numpy as np
+from tqdm import tqdm
+
+from impurity_learning import splits
+from impurity_learning.agents import make_agent
+from impurity_learning.evaluate import PerceptionSimCell, _reraise
+from impurity_policy.core import picking
+from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+from impurity_policy.core.episode import EpisodeRequest
+from impurity_policy.core.verdict import VerdictParams, product_color_contrast, product_color_distance
+
+SCENARIOS = ("random", "challenging", "invisible")
+# (num_targets, num_objects, max_actions) per scenario: the real-cell-mode graph test's small scenes and
+# the paper-sized ones (more products left when the last impurity is gone: more chances of a false TARGET).
+SCENE_SIZES = {"random": [(1, 5, 15), (2, 10, 25)], "challenging": [(1, 5, 15), (2, 10, 25)],
+               "invisible": [(1, 10, 45)]}
+# Without the two thresholds: every grasp that passes the gone and holding tests is counted.
+UNTHRESHOLDED = VerdictParams(min_target_score=0.0, min_color_contrast=0.0)
+
+
+class RecordingCell(PerceptionSimCell):
+    """PerceptionSimCell that keeps the view each grasp was decided on, for the features."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.last_view = None
+        self.decided_on = None
+
+    def observe(self):
+        self.last_view = super().observe()
+        return self.last_view
+
+    def execute(self, action):
+        self.decided_on = self.last_view
+        return super().execute(action)
+
+
+def palettes_of(split: str, random_count: int) -> list:
+    if split == "tuning":
+        return splits.tuning_palettes(random_count)
+    return [splits.DEFAULT_PALETTE, *splits.held_out_palettes(random_count)]
+
+
+def seeds_of(split: str, count: int) -> list:
+    """Tuning seeds 50 000+ (apart from the attention calibration's and the graph tests' small seeds);
+    evaluation seeds EVAL_SEED_BASE + 500 000+ (apart from make eval's first ones)."""
+    base = 50_000 if split == "tuning" else splits.EVAL_SEED_BASE + 500_000
+    return [base + k for k in range(count)]
+
+
+def collect(args) -> int:
+    import torch
+
+    from ur5_driver_sim.core.world import CellWorld
+
+    torch.set_num_threads(args.threads)
+    palettes = palettes_of(args.split, args.random_palettes)
+    seeds = seeds_of(args.split, args.seeds)
+    jobs = [(scenario, size, palette, seed) for scenario in SCENARIOS for size in SCENE_SIZES[scenario]
+            for palette, seed in zip(itertools.cycle(palettes), seeds)]
+    out = pathlib.Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = set()
+    if out.exists():  # resume: episodes already written are skipped
+        for line in out.read_text().splitlines():
+            row = json.loads(line)
+            done.add((row["scenario"], row["num_objects"], row["palette"], row["seed"]))
+    world = CellWorld(mode="floating")
+    agent = make_agent("ours", pathlib.Path(args.checkpoint), "cell")
+    limits = picking.EpisodeLimits(verdict=UNTHRESHOLDED)
+    with out.open("a") as sink:
+        for scenario, (targets, objects, max_actions), palette, seed in tqdm(jobs, desc="episodes"):
+            if (scenario, objects, palette, seed) in done:
+                continue
+            cell = RecordingCell(world, agent)
+            grasps = []
+
+            def on_step(step, cell=cell, grasps=grasps):
+                view = cell.decided_on
+                if step.kind != "grasp" or view is None or view.target_mask is None:
+                    return
+                grasps.append({
+                    "step": step.step, "target_score": step.target_score, "gone_fraction": step.gone_fraction,
+                    "holding": bool(step.holding), "truth": bool(step.truth_target_grasped),
+                    "color_distance": product_color_distance(view.color, view.height, view.target_mask),
+                    "color_contrast": product_color_contrast(view.color, view.height, view.target_mask)})
+
+            request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
+                                     max_actions=max_actions, palette=palette)
+            summary = picking.run_episode(cell, request, f"{scenario}-{seed}", limits, on_step=on_step,
+                                          on_error=_reraise)
+            row = {"scenario": scenario, "num_objects": objects, "palette": palette, "seed": seed,
+                   "group": splits.palette_group(palette), "termination": summary["termination_reason"],
+                   "truth_total": summary["truth_targets_total"], "grasps": grasps}
+            sink.write(json.dumps(row) + "\n")
+            sink.flush()
+    return 0
+
+
+def load(paths) -> list:
+    rows = []
+    for path in paths:
+        rows += [json.loads(line) for line in pathlib.Path(path).read_text().splitlines() if line.strip()]
+    return rows
+
+
+def verdict(grasp: dict, min_score: float, min_contrast: float,
+            params: VerdictParams = VerdictParams()) -> bool:
+    """judge_grasp's decision from the recorded features (same tests, same order)."""
+    if grasp["gone_fraction"] < params.min_gone_fraction or not grasp["holding"]:
+        return False
+    if grasp["target_score"] < min_score:
+        return False
+    contrast = grasp["color_contrast"]
+    return not (min_contrast > 0 and contrast is not None and contrast < min_contrast)
+
+
+def agreement(rows: list, min_score: float, min_contrast: float) -> dict:
+    """Grasp verdicts agreeing with the truth, and episodes whose picked count equals the truth's."""
+    checked = agreeing = episodes = matching = missed = false = 0
+    for row in rows:
+        picked = truth_picked = 0
+        for grasp in row["grasps"]:
+            decided = verdict(grasp, min_score, min_contrast)
+            checked += 1
+            agreeing += decided == grasp["truth"]
+            missed += grasp["truth"] and not decided
+            false += decided and not grasp["truth"]
+            picked += decided
+            truth_picked += grasp["truth"]
+        episodes += 1
+        matching += picked == truth_picked
+    return {"grasps": checked, "agreement": agreeing / max(checked, 1), "missed": missed, "false": false,
+            "episodes": episodes, "count_match": matching / max(episodes, 1)}
+
+
+def grasps_without_target(rows: list) -> int:
+    """Grasps that removed an impurity while attention was not on a target (not in the rows: not judged
+    as picked by any threshold) - printed so that a reader sees what the thresholds cannot reach."""
+    return sum(1 for row in rows for g in row["grasps"] if g["truth"] and not g["holding"])
+
+
+def sweep(args) -> int:
+    rows = [r for r in load(args.files) if r["group"] in ("default", "tuning")]
+    if len(rows) < len(load(args.files)):
+        print("sweep: rows of held-out palettes ignored (they are only measured)", file=sys.stderr)
+    grasps = [g for r in rows for g in r["grasps"]]
+    if not grasps:
+        print("sweep: no judged grasps in the files", file=sys.stderr)
+        return 2
+    truths = [g for g in grasps if g["truth"]]
+    others = [g for g in grasps if not g["truth"] and g["gone_fraction"] >= 0.5 and g["holding"]]
+    print(f"{len(rows)} tuning episodes, {len(grasps)} judged grasps: {len(truths)} removed an impurity, "
+          f"{len(others)} lifted something else that the gone and holding tests pass")
+    for name in ("target_score", "color_contrast"):
+        for label, subset in (("impurity", truths), ("other", others)):
+            values = np.array([g[name] for g in subset if g[name] is not None], dtype=float)
+            if values.size:
+                print(f"  {name:14s} {label:8s} min {values.min():6.2f}  p5 {np.percentile(values, 5):6.2f}  "
+                      f"median {np.median(values):6.2f}  p95 {np.percentile(values, 95):6.2f}  "
+                      f"max {values.max():6.2f}")
+    scores = np.round(np.arange(0.0, 12.01, 0.25), 2)
+    contrasts = np.round(np.arange(0.0, 6.01, 0.25), 2)
+    table = [(s, c, agreement(rows, s, c)) for s in scores for c in contrasts]
+    # Best agreement; ties broken by the episode count match, then by the lowest thresholds (fewest
+    # true impurities refused on scenes unlike the tuning ones).
+    best = max(table, key=lambda t: (round(t[2]["agreement"], 4), round(t[2]["count_match"], 4),
+                                     -t[0], -t[1]))
+    print("min_target_score min_color_contrast  agreement  missed  false  count_match")
+    for s, c, a in table:
+        if (s, c) == best[:2] or (c == 0 and s in (0.0, 4.4, 6.25)) or (s == 0 and c in (1.0, 2.0, 3.0)):
+            mark = "  <- chosen" if (s, c) == best[:2] else ""
+            print(f"{s:16.2f} {c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
+                  f"{a['count_match']:10.1%}{mark}")
+    if args.json:
+        pathlib.Path(args.json).write_text(json.dumps(
+            {"chosen": {"min_target_score": best[0], "min_color_contrast": best[1], **best[2]},
+             "episodes": len(rows), "files": [str(f) for f in args.files]}, indent=1) + "\n")
+    return 0
+
+
+def measure(args) -> int:
+    rows = load(args.files)
+    print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}")
+    print("group     scenario      episodes grasps agreement missed false count_match")
+    for group in ("default", "tuning", "held_out"):
+        for scenario in (*SCENARIOS, "all"):
+            subset = [r for r in rows if r["group"] == group and scenario in ("all", r["scenario"])]
+            if not subset:
+                continue
+            a = agreement(subset, args.min_target_score, args.min_color_contrast)
+            print(f"{group:9s} {scenario:12s} {a['episodes']:9d} {a['grasps']:6d} {a['agreement']:9.1%} "
+                  f"{a['missed']:6d} {a['false']:5d} {a['count_match']:11.1%}")
+    return 0
+
+
+def parse_args(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    c = sub.add_parser("collect", help="run episodes counted by perception, write their grasps (resumable)")
+    c.add_argument("--split", choices=("tuning", "evaluation"), required=True,
+                   help="tuning: tuning palettes and seeds; evaluation: default and held-out palettes, "
+                        "evaluation seeds")
+    c.add_argument("--seeds", type=int, default=12, help="episodes per scene size and scenario")
+    c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
+    c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
+    c.add_argument("--threads", type=int, default=1, help="torch threads")
+    c.add_argument("--out", required=True, help="JSON lines, one episode each (appended: resumable)")
+    s = sub.add_parser("sweep", help="choose the thresholds on the tuning episodes of the files")
+    s.add_argument("files", nargs="+")
+    s.add_argument("--json", help="write the chosen thresholds and figures here")
+    m = sub.add_parser("measure", help="agreement of given thresholds per palette group and scenario")
+    m.add_argument("files", nargs="+")
+    m.add_argument("--min-target-score", type=float, required=True)
+    m.add_argument("--min-color-contrast", type=float, required=True)
+    return p.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    return {"collect": collect, "sweep": sweep, "measure": measure}[args.command](args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,52 @@
+"""Fast-sim episodes counted as a real cell counts (evaluate.run_episode(by_perception=True), issue 18):
+no target count reaches the loop, attention's NONE ends the episode, every grasp is judged by perception,
+and the simulator's truth is only recorded beside the verdicts. scripts/calibrate_verdict.py chooses the
+verdict's thresholds from such episodes."""
+
+import json
+
+import pytest
+
+from impurity_learning.agents import make_agent
+from impurity_learning.evaluate import PerceptionSimCell, run_episode
+from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+from impurity_policy.core.episode import EpisodeRecorder, EpisodeRequest
+from ur5_driver_sim.core.world import CellWorld
+
+REQUEST = EpisodeRequest("challenging", seed=50_001, num_targets=1, num_objects=5, max_actions=15)
+
+
+@pytest.fixture(scope="module")
+def world():
+    world = CellWorld(mode="floating")
+    yield world
+    world.close()
+
+
+def test_a_perception_counted_cell_gives_no_target_count_and_no_truth_with_its_outcomes(world):
+    cell = PerceptionSimCell(world, make_agent("ours", SHIPPED_CHECKPOINT, "cell"))
+    assert cell.reset(REQUEST) is None  # the loop must count by perception
+    view = cell.observe()
+    assert view.height is not None and view.height.shape == view.color.shape[:2]
+    if view.target_mask is not None:  # a TARGET view carries the attended cells and their contrast
+        assert view.target_mask.shape == view.height.shape and view.target_mask.any()
+        assert view.target_score > 0
+    action = cell.decide(view)
+    outcome = cell.execute(action)
+    assert outcome.target_grasped is False  # the simulator's truth stays out of the outcome
+    truth = cell.truth()
+    assert truth.targets_remaining + truth.targets_outside + truth.targets_removed == 1
+
+
+def test_an_episode_counted_by_perception_records_the_truth_beside_each_verdict(world, tmp_path):
+    agent = make_agent("ours", SHIPPED_CHECKPOINT, "cell")
+    summary = run_episode(world, agent, REQUEST, recorder=EpisodeRecorder(tmp_path, "e"), by_perception=True)
+    assert summary["counted_by"] == "perception" and summary["targets_total"] == -1
+    assert summary["truth_targets_total"] == 1
+    steps = [json.loads(line) for line in (tmp_path / "e" / "steps.jsonl").read_text().splitlines()]
+    grasps = [s for s in steps if s.get("kind") == "grasp"]
+    assert summary["verdicts_checked"] == len(grasps) >= 1
+    assert all(s["verdict"] and s["truth_target_grasped"] is not None for s in grasps)
+    agreeing = sum(s["target_grasped"] == s["truth_target_grasped"] for s in grasps)
+    assert summary["verdicts_agreeing"] == agreeing
+    assert summary["targets_picked"] == sum(s["target_grasped"] for s in grasps)
