@@ -14,10 +14,19 @@ A scene is replaced when every target
 is picked, when attention finds nothing to act on, when the same primitive failed 3 times in a row
 (paper 6.3), or after `max_scene_actions` (a guard against endless shuffling).
 
+Two sides (issue 20): a Rollout (the simulated cell and a policy acting in it: scenes, sensing, the
+epsilon-greedy decision, the action, the reward) and the learner (TrainingRun: the DQN updates, the
+prioritised replay, the log, checkpoints). TrainingRun drives one Rollout in its own process with the
+learner's network, exactly as one loop; ray_train.ActorLearnerRun drives N of them as Ray actors. Random
+draws: palettes and exploration from the run seed's generator (actor 0's; actor a's from (seed, a)),
+replay sampling from a generator of its own, so that one actor in lockstep with the learner makes the
+same decisions as this process. (Before that split one generator served both: a run resumed from an
+older checkpoint keeps its decisions' generator and starts a fresh one for the replay.)
+
 Files in run_dir: checkpoint.pt (trainer + loop state, every `checkpoint_every` iterations and at the
-end), replay.pkl (the replay buffer; never committed), log.csv (one row per action), success.png (grasp
-and push success over the last 300 attempts, paper Fig. 9). Restarting with the same run_dir resumes
-from the checkpoint; the interrupted scene is replaced by the next seeded one.
+end), replay.pkl (the replay buffer; never committed), log.csv (one row per action, with the actor that
+acted), success.png (grasp and push success over the last 300 attempts, paper Fig. 9). Restarting with
+the same run_dir resumes from the checkpoint; the interrupted scene is replaced by the next seeded one.
 
 Methods (ablations and baselines; only "ours" is trained by default):
   ours    attention crops; pushes only at the cluster crop when no target is visible; TCDD push reward
@@ -57,7 +66,7 @@ from impurity_policy.core.rules import PRESETS, RulePipeline
 
 from . import splits, tcdd
 from .replay import RankedReplay, Transition
-from .trainer import Trainer, TrainerConfig
+from .trainer import Trainer, TrainerConfig, q_maps
 
 TRAIN_FORMAT_VERSION = 1
 PALETTE_SETS = ("training", "default")
@@ -70,7 +79,7 @@ CSV_FIELDS = ("iteration", "scene", "scene_step", "mode", "primitive", "rotation
               "x", "y", "z", "yaw", "q_value", "explored", "epsilon", "reward", "label", "loss", "td_error",
               "replay_loss", "alpha_before", "alpha_after", "grasp_lifted", "target_grasped",
               "targets_remaining", "scene_reset", "seconds", "t_decide", "t_act", "t_sense", "t_learn",
-              "message", "palette")
+              "message", "palette", "actor")
 
 
 @dataclass
@@ -180,63 +189,65 @@ def sense(world, projectors: dict, method: str, attention_params, grid) -> Sense
     return Sensed(obs, world.ground_truth(frame), maps, attention)
 
 
-# ---- the loop ----------------------------------------------------------------------------------------
-class TrainingRun:
-    """The training loop state; `run()` trains up to config.iterations, resuming when possible."""
+# ---- the environment side: a rollout -----------------------------------------------------------------
+LEARNER_STREAM = 2 ** 32  # the learner's replay draws: generator (seed, LEARNER_STREAM), apart from actors'
 
-    def __init__(self, config: TrainConfig):
+
+def rollout_rng(seed: int, actor: int) -> np.random.Generator:
+    """Actor 0's palettes and epsilon-greedy draws come from the run seed's generator, actor a > 0's
+    from (seed, a); the learner's replay draws from (seed, LEARNER_STREAM)."""
+    return np.random.default_rng(seed if actor == 0 else (seed, actor))
+
+
+@dataclass
+class Experience:
+    """One iteration's environment side, as a rollout hands it to the learner: the transition and the
+    log row's fields the environment knows (the learner adds iteration, loss, label, td_error,
+    replay_loss and t_learn; `seconds` is the rollout's share until then)."""
+
+    transition: Transition
+    row: dict
+
+
+class Rollout:
+    """One simulated cell and the policy acting in it: the environment side of training iterations
+    (scenes, sensing, the epsilon-greedy decision, the sim action and its reward). TrainingRun drives
+    one in its own process with the learner's network; ray_train's actors each drive one with a copy
+    of it, refreshed when the learner broadcasts weights.
+
+    Actor `actor` of `actors` plays the scene indices actor, actor + actors, actor + 2 actors, ... of the
+    run seed (sim seed = seed * SCENE_SEED_STRIDE + index), so one actor plays the in-process loop's
+    scenes. `start` (from a checkpoint, state()): the last scene index played and the generator state;
+    the interrupted scene is replaced by the next one."""
+
+    def __init__(self, config: TrainConfig, network, actor: int = 0, actors: int = 1,
+                 start: dict | None = None):
         from impurity_attention.core.attention import AttentionParams
         from ur5_driver_sim.core.world import CellWorld
 
-        torch.set_num_threads(config.threads)
-        self.config = config
-        self.dir = pathlib.Path(config.run_dir)
-        self.dir.mkdir(parents=True, exist_ok=True)
-        self.checkpoint_path = self.dir / "checkpoint.pt"
-        self.replay_path = self.dir / "replay.pkl"
-        self.log_path = self.dir / "log.csv"
-        self.plot_path = self.dir / "success.png"
-        self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed,
-                               device=config.device)
-        self.policy = Policy(self.trainer.online, PoseRules(), config.trainer.grasp_needs_object,
+        self.config, self.network, self.actor, self.actors = config, network, actor, actors
+        self.device = next(network.parameters()).device
+        self.policy = Policy(network, PoseRules(), config.trainer.grasp_needs_object,
                              RulePipeline.preset(config.rules))
-        self.replay = RankedReplay(config.replay_capacity)
-        self.rng = np.random.default_rng(config.seed)
-        self.iteration = 0
-        self.scene_index = -1
+        self.rng = rollout_rng(config.seed, actor)
+        self.scene_index = -1  # the last scene index played
+        if start:
+            self.scene_index = int(start["scene_index"])
+            if start.get("rng_state") is not None:
+                self.rng.bit_generator.state = start["rng_state"]
         self.grid = HeightmapGrid()
         self.attention_params = AttentionParams()
         self.world = CellWorld(mode="floating")
         self._projectors = {}
-        self.resumed = self._resume()
-        if not self.resumed and config.init_from:
-            self.trainer.load(config.init_from, weights_only_network=True)
         self.palette = ""
+        self.current = None  # (obs, truth, maps) of the scene in play; None before the first
+        self.scene_step, self.failures = 0, {PUSH: 0, GRASP: 0}
 
-    # -- persistence
-    def _resume(self) -> bool:
-        if not self.checkpoint_path.is_file():
-            return False
-        extra = self.trainer.load(self.checkpoint_path)
-        setup = (extra.get("method"), extra.get("train_format_version"))
-        if setup != (self.config.method, TRAIN_FORMAT_VERSION):
-            raise RuntimeError(f"{self.checkpoint_path} is from another training setup (method, format) = "
-                               f"{setup}; use a new --run-dir")
-        self.iteration = int(extra["iteration"])
-        self.scene_index = int(extra["scene_index"])
-        self.rng.bit_generator.state = extra["rng_state"]
-        torch.set_rng_state(extra["torch_rng_state"])
-        if self.replay_path.is_file():
-            self.replay = RankedReplay.load(self.replay_path)
-        return True
+    def state(self) -> dict:
+        return {"scene_index": self.scene_index, "rng_state": self.rng.bit_generator.state}
 
-    def save(self) -> None:
-        self.replay.save(self.replay_path)  # first: a checkpoint never points at a missing replay
-        self.trainer.save(self.checkpoint_path, extra={
-            "train_format_version": TRAIN_FORMAT_VERSION, "method": self.config.method,
-            "iteration": self.iteration, "scene_index": self.scene_index,
-            "rng_state": self.rng.bit_generator.state, "torch_rng_state": torch.get_rng_state(),
-            "config": {k: v for k, v in asdict(self.config).items() if k != "trainer"}})
+    def close(self) -> None:
+        self.world.close()
 
     # -- sensing
     def sense(self):
@@ -244,7 +255,7 @@ class TrainingRun:
         return sensed.obs, sensed.truth, sensed.maps
 
     def new_scene(self):
-        self.scene_index += 1
+        self.scene_index += 1 + (self.actor - self.scene_index - 1) % self.actors  # the next of this actor's
         seed = self.config.seed * SCENE_SEED_STRIDE + self.scene_index
         self.palette = self.draw_palette()
         self.world.reset_scene(self.config.scenario, seed=seed, num_targets=self.config.num_targets,
@@ -270,6 +281,12 @@ class TrainingRun:
         return f"{name}@x{exposure:.3f}"
 
     # -- one action
+    def playable(self) -> bool:
+        """The scene in play has something to act on: attention found a target or a cluster, and a
+        target is left."""
+        return self.current is not None and self.current[0].mode != MODE_NONE and \
+            self.current[1].targets_remaining > 0
+
     def push_reward(self, obs, truth_before, truth_after, maps_before, maps_after) -> tuple:
         method = self.config.method
         if method in ("no_t", "vpg"):
@@ -279,6 +296,137 @@ class TrainingRun:
         outcome = tcdd.tcdd_push_outcome(attended_target(obs, truth_before), positions(truth_before),
                                          positions(truth_after), cell.in_workspace)
         return outcome.reward, outcome.alpha_before, outcome.alpha_after
+
+    def act(self, iteration: int) -> Experience:
+        """One action at training iteration `iteration` (its epsilon): a new scene first when the one in
+        play has nothing to act on (a scene where attention finds nothing is skipped), then decide, act,
+        sense, reward; the scene is replaced after its last action (all targets picked, nothing left to
+        attend to, `max_same_failures` failures of one primitive in a row, or `max_scene_actions`)."""
+        config = self.config
+        while not self.playable():
+            self.current = self.new_scene()
+        obs, truth, maps = self.current
+        t0 = time.perf_counter()
+        epsilon = config.trainer.epsilon(iteration)
+        q = q_maps(self.network, obs.state, self.device)
+        choice = self.policy.decide(obs, q=q, epsilon=epsilon, rng=self.rng)
+        decision, pose = choice.decision, choice.pose
+        kind = "grasp" if decision.primitive == GRASP else "push"
+        t1 = time.perf_counter()
+        outcome = self.world.execute(kind, pose.x, pose.y, pose.z, pose.yaw)
+        self.policy.remember(pose, obs.height, bool(outcome.success))  # for stateful rules (--rules cell)
+        t2 = time.perf_counter()
+        next_obs, next_truth, next_maps = self.sense()
+        t3 = time.perf_counter()
+        alpha_before = alpha_after = float("nan")
+        if decision.primitive == GRASP:
+            lifted = bool(outcome.success)
+            reward = tcdd.grasp_reward(lifted if config.method == "vpg" else bool(outcome.target_grasped))
+        else:
+            lifted = False
+            reward, alpha_before, alpha_after = self.push_reward(obs, truth, next_truth, maps, next_maps)
+        self.scene_step += 1
+        failed = reward <= 0.0
+        self.failures[decision.primitive] = self.failures[decision.primitive] + 1 if failed else 0
+        terminal = next_truth.targets_remaining == 0 or next_obs.mode == MODE_NONE
+        transition = Transition(obs.state, decision.primitive, decision.rotation, decision.pixel, reward,
+                                None if terminal else next_obs.state,
+                                () if terminal else allowed_primitives(next_obs.mode))
+        scene_reset = (terminal or max(self.failures.values()) >= config.max_same_failures
+                       or self.scene_step >= config.max_scene_actions)
+        row = {"actor": self.actor, "scene": self.scene_index, "scene_step": self.scene_step,
+               "mode": {MODE_TARGET: "TARGET", MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}.get(obs.mode, "NONE"),
+               "primitive": kind, "rotation": decision.rotation, "crop_row": decision.pixel[0],
+               "crop_col": decision.pixel[1], "x": round(pose.x, 4), "y": round(pose.y, 4),
+               "z": round(pose.z, 4), "yaw": round(pose.yaw, 4), "q_value": round(decision.q_value, 5),
+               "explored": int(decision.explored), "epsilon": round(epsilon, 4), "reward": reward,
+               "alpha_before": _round(alpha_before), "alpha_after": _round(alpha_after),
+               "grasp_lifted": int(lifted), "target_grasped": int(bool(outcome.target_grasped)),
+               "targets_remaining": next_truth.targets_remaining, "scene_reset": int(scene_reset),
+               "seconds": t3 - t0, "t_decide": round(t1 - t0, 3), "t_act": round(t2 - t1, 3),
+               "t_sense": round(t3 - t2, 3), "message": outcome.message, "palette": self.palette}
+        self.current = self.new_scene() if scene_reset else (next_obs, next_truth, next_maps)
+        return Experience(transition, row)
+
+
+# ---- the learner and the loop --------------------------------------------------------------------------
+class TrainingRun:
+    """The training loop: the learner (online and target networks, optimiser, prioritised replay, the
+    log, checkpoints, the Fig. 9 plot) and, in this process, one Rollout acting with the learner's own
+    network; `run()` trains up to config.iterations, resuming when possible. ray_train.ActorLearnerRun
+    replaces the rollout with Ray actors and keeps everything else."""
+
+    def __init__(self, config: TrainConfig):
+        torch.set_num_threads(config.threads)
+        self.config = config
+        self.dir = pathlib.Path(config.run_dir)
+        self.dir.mkdir(parents=True, exist_ok=True)
+        self.checkpoint_path = self.dir / "checkpoint.pt"
+        self.replay_path = self.dir / "replay.pkl"
+        self.log_path = self.dir / "log.csv"
+        self.plot_path = self.dir / "success.png"
+        self.trainer = Trainer(network_config_for(config.method), config.trainer, seed=config.seed,
+                               device=config.device)
+        self.replay = RankedReplay(config.replay_capacity)
+        self.rng = np.random.default_rng((config.seed, LEARNER_STREAM))  # replay draws
+        self.iteration = 0
+        self.rollout_states: list = []  # from the checkpoint: each actor's Rollout.state()
+        self.resumed = self._resume()
+        if not self.resumed and config.init_from:
+            self.trainer.load(config.init_from, weights_only_network=True)
+        self.start_rollouts()
+
+    def start_rollouts(self) -> None:
+        """The environment side: one Rollout here, acting with self.trainer.online."""
+        self.rollout = Rollout(self.config, self.trainer.online, 0, 1,
+                               rollout_start(self.rollout_states, 0, 1))
+
+    @property
+    def world(self):
+        return self.rollout.world
+
+    @property
+    def policy(self):
+        return self.rollout.policy
+
+    def close(self) -> None:
+        self.rollout.close()
+
+    # -- persistence
+    def _resume(self) -> bool:
+        if not self.checkpoint_path.is_file():
+            return False
+        extra = self.trainer.load(self.checkpoint_path)
+        setup = (extra.get("method"), extra.get("train_format_version"))
+        if setup != (self.config.method, TRAIN_FORMAT_VERSION):
+            raise RuntimeError(f"{self.checkpoint_path} is from another training setup (method, format) = "
+                               f"{setup}; use a new --run-dir")
+        self.iteration = int(extra["iteration"])
+        # checkpoints from before the actor-learner split: one generator (now actor 0's), one scene count
+        self.rollout_states = extra.get("rollouts") or [{"scene_index": int(extra["scene_index"]),
+                                                         "rng_state": extra["rng_state"]}]
+        if extra.get("replay_rng_state") is not None:
+            self.rng.bit_generator.state = extra["replay_rng_state"]
+        torch.set_rng_state(extra["torch_rng_state"])
+        if self.replay_path.is_file():
+            self.replay = RankedReplay.load(self.replay_path)
+        return True
+
+    def current_rollout_states(self) -> list:
+        return [self.rollout.state()]
+
+    def save(self) -> None:
+        self.replay.save(self.replay_path)  # first: a checkpoint never points at a missing replay
+        rollouts = self.current_rollout_states()
+        self.trainer.save(self.checkpoint_path, extra={
+            "train_format_version": TRAIN_FORMAT_VERSION, "method": self.config.method,
+            "iteration": self.iteration, "scene_index": max(r["scene_index"] for r in rollouts),
+            "rng_state": rollouts[0]["rng_state"], "rollouts": rollouts,
+            "replay_rng_state": self.rng.bit_generator.state, "torch_rng_state": torch.get_rng_state(),
+            "config": {k: v for k, v in asdict(self.config).items() if k != "trainer"}})
+
+    def describe(self) -> str:
+        return f"train {self.config.method}"
 
     def run(self) -> dict:
         config = self.config
@@ -292,10 +440,9 @@ class TrainingRun:
         if config.progress:
             from tqdm import tqdm
 
-            bar = tqdm(total=config.iterations, initial=self.iteration, desc=f"train {config.method}",
-                       unit="it", dynamic_ncols=True)
+            bar = tqdm(total=config.iterations, initial=self.iteration, desc=self.describe(), unit="it",
+                       dynamic_ncols=True)
         started, first_iteration = time.perf_counter(), self.iteration
-        obs, truth, maps = self.new_scene()
         interrupted = []
 
         def finish_iteration_then_stop(_signum, _frame):  # Ctrl-C: finish the step, save, stop
@@ -310,11 +457,7 @@ class TrainingRun:
             while self.iteration < config.iterations and not interrupted:
                 if config.max_hours > 0 and time.perf_counter() - started > 3600.0 * config.max_hours:
                     break
-                if obs.mode == MODE_NONE or truth.targets_remaining == 0:
-                    obs, truth, maps = self.new_scene()
-                    if obs.mode == MODE_NONE:
-                        continue
-                row, obs, truth, maps = self.step(obs, truth, maps)
+                row = self.step()
                 writer.writerow(row)
                 self.iteration += 1
                 if bar is not None:
@@ -342,58 +485,25 @@ class TrainingRun:
 
     _recent: list = []
 
-    def step(self, obs, truth, maps) -> tuple:
-        config, trainer = self.config, self.trainer
+    def step(self) -> dict:
+        """One iteration: the rollout acts with the current network, the learner learns; the log row."""
+        return self.learn(self.rollout.act(self.iteration))
+
+    def learn(self, experience: Experience) -> dict:
+        """One DQN update on the new transition, then `replay_per_step` replays; the complete log row."""
         t0 = time.perf_counter()
-        epsilon = config.trainer.epsilon(self.iteration)
-        q = trainer.q_maps(obs.state)
-        choice = self.policy.decide(obs, q=q, epsilon=epsilon, rng=self.rng)
-        decision, pose = choice.decision, choice.pose
-        kind = "grasp" if decision.primitive == GRASP else "push"
-        t1 = time.perf_counter()
-        outcome = self.world.execute(kind, pose.x, pose.y, pose.z, pose.yaw)
-        self.policy.remember(pose, obs.height, bool(outcome.success))  # for stateful rules (--rules cell)
-        t2 = time.perf_counter()
-        next_obs, next_truth, next_maps = self.sense()
-        t3 = time.perf_counter()
-        alpha_before = alpha_after = float("nan")
-        if decision.primitive == GRASP:
-            lifted = bool(outcome.success)
-            reward = tcdd.grasp_reward(lifted if config.method == "vpg" else bool(outcome.target_grasped))
-        else:
-            lifted = False
-            reward, alpha_before, alpha_after = self.push_reward(obs, truth, next_truth, maps, next_maps)
-        self.scene_step += 1
-        failed = reward <= 0.0
-        self.failures[decision.primitive] = self.failures[decision.primitive] + 1 if failed else 0
-        terminal = next_truth.targets_remaining == 0 or next_obs.mode == MODE_NONE
-        transition = Transition(obs.state, decision.primitive, decision.rotation, decision.pixel, reward,
-                                None if terminal else next_obs.state,
-                                () if terminal else allowed_primitives(next_obs.mode))
-        loss, td_error, label = trainer.update(transition)
+        transition = experience.transition
+        loss, td_error, label = self.trainer.update(transition)
         index = self.replay.add(transition)
         self.replay.update_priority(index, td_error)
-        replay_loss = self.replay_updates(index, decision.primitive, reward > 0)
-        scene_reset = (terminal or max(self.failures.values()) >= config.max_same_failures
-                       or self.scene_step >= config.max_scene_actions)
-        row = {"iteration": self.iteration + 1, "scene": self.scene_index, "scene_step": self.scene_step,
-               "mode": {MODE_TARGET: "TARGET", MODE_OCCLUDED_REGION: "OCCLUDED_REGION"}.get(obs.mode, "NONE"),
-               "primitive": kind, "rotation": decision.rotation, "crop_row": decision.pixel[0],
-               "crop_col": decision.pixel[1], "x": round(pose.x, 4), "y": round(pose.y, 4),
-               "z": round(pose.z, 4), "yaw": round(pose.yaw, 4), "q_value": round(decision.q_value, 5),
-               "explored": int(decision.explored), "epsilon": round(epsilon, 4), "reward": reward,
-               "label": round(label, 5), "loss": round(loss, 6), "td_error": round(td_error, 5),
-               "replay_loss": "" if replay_loss is None else round(replay_loss, 6),
-               "alpha_before": _round(alpha_before), "alpha_after": _round(alpha_after),
-               "grasp_lifted": int(lifted), "target_grasped": int(bool(outcome.target_grasped)),
-               "targets_remaining": next_truth.targets_remaining, "scene_reset": int(scene_reset),
-               "seconds": round(time.perf_counter() - t0, 3), "t_decide": round(t1 - t0, 3),
-               "t_act": round(t2 - t1, 3), "t_sense": round(t3 - t2, 3),
-               "t_learn": round(time.perf_counter() - t3, 3), "message": outcome.message,
-               "palette": self.palette}
-        if scene_reset:
-            next_obs, next_truth, next_maps = self.new_scene()
-        return row, next_obs, next_truth, next_maps
+        replay_loss = self.replay_updates(index, transition.primitive, transition.reward > 0)
+        t_learn = time.perf_counter() - t0
+        row = dict(experience.row)
+        row.update({"iteration": self.iteration + 1, "label": round(label, 5), "loss": round(loss, 6),
+                    "td_error": round(td_error, 5),
+                    "replay_loss": "" if replay_loss is None else round(replay_loss, 6),
+                    "seconds": round(row["seconds"] + t_learn, 3), "t_learn": round(t_learn, 3)})
+        return row
 
     def replay_updates(self, newest: int, primitive: int, positive: bool):
         """VPG-style: replay the same primitive with the opposite outcome when there is one (else any
@@ -409,6 +519,18 @@ class TrainingRun:
             self.replay.update_priority(index, td_error)
             losses.append(loss)
         return float(np.mean(losses)) if losses else None
+
+
+def rollout_start(saved: list, actor: int, actors: int) -> dict | None:
+    """Where actor `actor` of `actors` resumes from the checkpoint's rollout states: its own when the
+    number of actors is unchanged; otherwise past every scene any actor played (its generator state
+    when it had one)."""
+    if not saved:
+        return None
+    if len(saved) == actors:
+        return saved[actor]
+    return {"scene_index": max(int(s["scene_index"]) for s in saved),
+            "rng_state": saved[actor]["rng_state"] if actor < len(saved) else None}
 
 
 def _round(value: float):

@@ -46,6 +46,17 @@ class TrainerConfig:
         return max(self.epsilon_start * self.epsilon_decay ** iteration, self.epsilon_min)
 
 
+@torch.no_grad()
+def q_maps(net: QNetwork, state: State, device) -> np.ndarray:
+    """All 32 Q maps (R, 2, S, S) of `net` for one state, in eval mode (the mode is restored): what the
+    trainer's TD targets and the training loop's decisions (train.Rollout, also in a Ray actor) use."""
+    was_training = net.training
+    net.eval()
+    q = net.q_maps(network_inputs(state.color, state.height, state.mask).to(device)).cpu().numpy()
+    net.train(was_training)
+    return q
+
+
 class Trainer:
     """Online and target networks, the optimizer and the update rule."""
 
@@ -65,15 +76,9 @@ class Trainer:
         self.updates = 0
 
     # ---- inference ----------------------------------------------------------------------------
-    @torch.no_grad()
     def q_maps(self, state: State, use_target: bool = False) -> np.ndarray:
         """All 32 Q maps (R, 2, S, S) for one state."""
-        net = self.target if use_target else self.online
-        was_training = net.training
-        net.eval()
-        q = net.q_maps(network_inputs(state.color, state.height, state.mask).to(self.device)).cpu().numpy()
-        net.train(was_training)
-        return q
+        return q_maps(self.target if use_target else self.online, state, self.device)
 
     def target_value(self, reward: float, next_state: State | None, next_allowed=(PUSH, GRASP)) -> float:
         if next_state is None:
