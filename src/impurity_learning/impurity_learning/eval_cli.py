@@ -18,6 +18,17 @@ docs/images/generalisation_scenes.png.
     python -m impurity_learning.eval_cli --episodes 20
     python -m impurity_learning.eval_cli --methods ours s_rgm --scenarios random --episodes 3
     python -m impurity_learning.eval_cli --methods ours --palette-groups default held_out --group-episodes 8
+
+Episodes run in this process (--jobs 1), in a local process pool (--jobs N, default 2) or on Ray
+(issue 20: --ray starts a local runtime, --ray-address ADDR joins a cluster; --jobs actors, 0 = one per
+CPU of the cluster; ray_eval.py). All three call run_task, so the records are the same. Each record is
+appended to a journal (--journal, default the --json path with .partial.jsonl) as its episode ends; a
+run interrupted part-way and started again with the same arguments runs only the episodes missing
+from it (the same row, checkpoint bytes, scenario, seed, group, palette and device); the journal is
+removed once the results are written. --no-resume starts afresh.
+
+    python -m impurity_learning.eval_cli --ray --jobs 2 --episodes 20
+    python -m impurity_learning.eval_cli --ray-address 10.0.0.5:6379 --jobs 0 --episodes 20
 """
 
 from __future__ import annotations
@@ -37,7 +48,7 @@ from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.rules import PRESETS
 
-from . import generalisation
+from . import generalisation, ray_runtime
 from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
 from .evaluate import EVAL_SEED_BASE, run_episode
 from .train_cli import BASELINE_CHECKPOINT_DIR
@@ -247,6 +258,78 @@ def close_worker() -> None:
     _WORKER.pop("agents", None)
 
 
+def task_key(task: tuple, digests: dict) -> str:
+    """What makes an episode's record: row, the checkpoint's bytes (digests: path -> sha256), scenario,
+    seed, device, group and palette (not the torch threads, not where the checkpoint lies)."""
+    row, checkpoint, scenario, seed, _threads, device, group, palette = task
+    return json.dumps([row, digests.get(checkpoint, ""), scenario, seed, device, group, palette])
+
+
+def read_journal(path: pathlib.Path) -> dict:
+    """The records a journal holds, by task key; a line cut short by an interrupted write is skipped."""
+    done = {}
+    if path.is_file():
+        for line in path.read_text().splitlines():
+            try:
+                entry = json.loads(line)
+                done[entry["key"]] = entry["record"]
+            except (ValueError, KeyError, TypeError):
+                continue
+    return done
+
+
+def episode_records(tasks: list, args):
+    """(task, record) of every task in completion order: here (--jobs 1), in a process pool (--jobs N) or
+    on Ray (--ray, --ray-address); each record is run_task(task)."""
+    if args.ray or args.ray_address:
+        from . import ray_eval
+
+        yield from ray_eval.episodes(tasks, args.jobs, args.ray_address, args.threads)
+    elif args.jobs > 1:
+        import multiprocessing
+        from concurrent.futures import ProcessPoolExecutor, as_completed
+
+        # spawn: a fresh interpreter per worker (no forked torch thread pools or pybullet clients);
+        # a worker that dies raises BrokenProcessPool here instead of hanging the run
+        with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
+            futures = {pool.submit(run_task, task): task for task in tasks}
+            try:
+                for future in as_completed(futures):
+                    yield futures[future], future.result()
+            finally:
+                for future in futures:
+                    future.cancel()
+    else:
+        try:
+            for task in tasks:
+                yield task, run_task(task)
+        finally:
+            close_worker()
+
+
+def run_episodes(tasks: list, digests: dict, journal: pathlib.Path, args) -> list:
+    """Every task's record: those already in the journal, then the others, each appended to the journal
+    as its episode ends (an interrupted run keeps what it finished)."""
+    from tqdm import tqdm
+
+    done = read_journal(journal)
+    keys = [task_key(task, digests) for task in tasks]
+    episodes = [done[key] for key in keys if key in done]
+    todo = [task for task, key in zip(tasks, keys, strict=True) if key not in done]
+    if episodes:
+        print(f"eval: resuming: {len(episodes)} of {len(tasks)} episodes are in {journal}", file=sys.stderr)
+    journal.parent.mkdir(parents=True, exist_ok=True)
+    with open(journal, "a") as out, tqdm(total=len(tasks), initial=len(episodes), desc="eval", unit="episode",
+                                         disable=args.no_progress, dynamic_ncols=True) as bar:
+        for task, record in episode_records(todo, args):
+            out.write(json.dumps({"key": task_key(task, digests), "record": record}, default=float) + "\n")
+            out.flush()
+            episodes.append(record)
+            bar.set_postfix_str(f"{record['scenario']} {label(record['row'])}")
+            bar.update(1)
+    return episodes
+
+
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
@@ -265,7 +348,15 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--readme", default="README.md", help="its results block is replaced with the table")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads per episode process")
     p.add_argument("--device", default="cpu", help="cpu, cuda, cuda:N, or auto (CUDA when present)")
-    p.add_argument("--jobs", type=int, default=2, help="episodes run in this many processes at once")
+    p.add_argument("--jobs", type=int, default=2,
+                   help="episodes run in this many processes at once (with Ray: actors; 0 = one per CPU)")
+    p.add_argument("--ray", action="store_true", help="run the episodes on a local Ray runtime (ray_eval.py)")
+    p.add_argument("--ray-address", default=None, metavar="ADDR",
+                   help="run the episodes on the Ray cluster whose head is at ADDR (host:port, or auto)")
+    p.add_argument("--journal", default=None,
+                   help="every finished episode's record, read back on a resumed run (default: --json's "
+                        "path with .partial.jsonl; removed when the run completes)")
+    p.add_argument("--no-resume", action="store_true", help="ignore (and replace) an existing journal")
     p.add_argument("--palette-groups", nargs="+", default=list(generalisation.GROUPS),
                    choices=generalisation.GROUPS,
                    help="generalisation table groups (default: the main table's episodes; tuning, held_out: "
@@ -314,27 +405,15 @@ def main(argv=None) -> int:
                generalisation.palette_for(group, k))
               for group in groups if group != "default" for scenario in args.scenarios
               for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
-    episodes = []
-    with tqdm(total=len(tasks), desc="eval", unit="episode", disable=args.no_progress,
-              dynamic_ncols=True) as bar:
-        if args.jobs > 1:
-            import multiprocessing
-            from concurrent.futures import ProcessPoolExecutor, as_completed
-
-            # spawn: a fresh interpreter per worker (no forked torch thread pools or pybullet clients);
-            # a worker that dies raises BrokenProcessPool here instead of hanging the run
-            with ProcessPoolExecutor(args.jobs, mp_context=multiprocessing.get_context("spawn")) as pool:
-                for future in as_completed([pool.submit(run_task, task) for task in tasks]):
-                    episode = future.result()
-                    episodes.append(episode)
-                    bar.set_postfix_str(f"{episode['scenario']} {label(episode['row'])}")
-                    bar.update(1)
-        else:
-            for task in tasks:
-                bar.set_postfix_str(f"{task[2]} {label(task[0])} seed {task[3]} {task[7]}")
-                episodes.append(run_task(task))
-                bar.update(1)
-    close_worker()
+    journal = pathlib.Path(args.journal or pathlib.Path(args.json).with_suffix(".partial.jsonl"))
+    if args.no_resume:
+        journal.unlink(missing_ok=True)
+    digests = {checkpoint: results[row]["sha256"] for row, checkpoint in runnable.items()}
+    try:
+        episodes = run_episodes(tasks, digests, journal, args)
+    except ray_runtime.RayUnavailable as error:
+        print(f"eval: {error}", file=sys.stderr)
+        return 2
     episodes_seconds = time.perf_counter() - started
     episodes.sort(key=lambda e: (generalisation.GROUPS.index(e["group"]), args.scenarios.index(e["scenario"]),
                                  e["seed"]))
@@ -380,6 +459,7 @@ def main(argv=None) -> int:
     generalisation.plot(results, rows, args.scenarios, groups, label, gen_chart)
     generalisation.write_markdown(results, rows, args.scenarios, groups, label, gen_path, gen_chart, pictures,
                                   command.strip())
+    journal.unlink(missing_ok=True)  # every record is in the results now
     table = results_table(results, rows, args.scenarios)
     if update_readme(pathlib.Path(args.readme), table, markdown):
         print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
