@@ -1,6 +1,11 @@
 """`make train` (python -m impurity_learning.train_cli [options]): train the push-grasp policy in the
 fast sim, resumable (same --run-dir), with a progress bar, CSV log and success plot. Then
-`--export PATH` copies the trained network to the shipped checkpoint location."""
+`--export PATH` copies the trained network to the shipped checkpoint location.
+
+On Ray (issue 20, ray_train.py): `--actors N` rollout actors, each with its own simulated cell and a
+copy of the network, feed this process's learner (replay, updates, log, checkpoints, plot, resume as
+above); `--ray-address ADDR` runs the actors on a cluster. `--actors 1 --lockstep --broadcast-every 1`
+is the one-process loop, row for row."""
 
 from __future__ import annotations
 
@@ -12,6 +17,7 @@ import sys
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT, read_checkpoint
 from impurity_policy.core.rules import PRESETS
 
+from .ray_train import DEFAULT_BROADCAST_EVERY
 from .train import METHODS, PALETTE_SETS, TrainConfig, TrainingRun
 from .trainer import Trainer, TrainerConfig
 
@@ -43,6 +49,16 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--epsilon-start", type=float, default=TrainerConfig.epsilon_start,
                    help="exploration at iteration 0 (decays 0.9998^t to 0.1); lower when fine-tuning")
     p.add_argument("--no-progress", action="store_true")
+    ray = p.add_argument_group("Ray actor-learner (issue 20; any of these runs the actors on Ray)")
+    ray.add_argument("--actors", type=int, default=None,
+                     help="rollout actors, each with a simulated cell (default with --ray/--ray-address: 2)")
+    ray.add_argument("--ray", action="store_true", help="a local Ray runtime (--actors CPUs)")
+    ray.add_argument("--ray-address", default=None, metavar="ADDR",
+                     help="the actors run on the Ray cluster whose head is at ADDR (host:port, or auto)")
+    ray.add_argument("--broadcast-every", type=int, default=DEFAULT_BROADCAST_EVERY, metavar="K",
+                     help="learner updates between weight broadcasts to the actors")
+    ray.add_argument("--lockstep", action="store_true",
+                     help="an actor acts again only after the learner learnt from its last action")
     p.add_argument("--export", metavar="PATH", nargs="?", const=str(SHIPPED_CHECKPOINT),
                    help=f"after training, write the network-only checkpoint (default {SHIPPED_CHECKPOINT})")
     return p.parse_args(argv)
@@ -76,10 +92,24 @@ def main(argv=None) -> int:
                          progress=not args.no_progress,
                          rules=args.rules, palettes=args.palettes, init_from=args.init_from,
                          trainer=TrainerConfig(learning_rate=args.lr, epsilon_start=args.epsilon_start))
-    run = TrainingRun(config)
+    if args.actors is not None or args.ray or args.ray_address:
+        from .ray_runtime import RayUnavailable
+        from .ray_train import ActorLearnerRun
+
+        try:
+            run = ActorLearnerRun(config, actors=args.actors or 2, broadcast_every=args.broadcast_every,
+                                  lockstep=args.lockstep, address=args.ray_address)
+        except RayUnavailable as error:
+            print(f"train: {error}", file=sys.stderr)
+            return 2
+    else:
+        run = TrainingRun(config)
     if run.resumed:
         print(f"resuming {config.run_dir} at iteration {run.iteration}", file=sys.stderr)
-    result = run.run()
+    try:
+        result = run.run()
+    finally:
+        run.close()
     print(json.dumps(result, indent=2))
     if args.export:
         print(f"exported {export_network(run.checkpoint_path, args.export)}", file=sys.stderr)
