@@ -380,6 +380,14 @@ def main(argv=None) -> int:
         print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes >= 0", file=sys.stderr)
         return 2
     torch.set_num_threads(args.threads)
+    if args.ray or args.ray_address:
+        try:  # before any work: a missing Ray or an unreachable head is said at once
+            ray_runtime.import_ray()
+            if args.ray_address:
+                ray_runtime.check_reachable(args.ray_address)
+        except ray_runtime.RayUnavailable as error:
+            print(f"eval: {error}", file=sys.stderr)
+            return 2
     checkpoint_dir = pathlib.Path(args.checkpoint_dir)
     results, runnable = {}, {}
     rows = list(dict.fromkeys(row_key(m, r) for r in args.rules for m in args.methods))

@@ -19,7 +19,7 @@ import os
 import pathlib
 import time
 
-CONNECT_TIMEOUT_S = 30.0  # joining a cluster whose head does not answer fails after this long
+CONNECT_TIMEOUT_S = 5.0  # the head's port must accept a connection within this long
 
 
 class RayUnavailable(RuntimeError):
@@ -48,7 +48,7 @@ def connect(address: str | None = None, num_cpus: int | None = None) -> bool:
     if address is None:
         ray.init(num_cpus=num_cpus, **common)
         return True
-    os.environ.setdefault("RAY_gcs_rpc_server_connect_timeout_s", str(int(CONNECT_TIMEOUT_S)))
+    check_reachable(address)
     try:
         ray.init(address=address, log_to_driver=False, configure_logging=True, logging_level="warning")
     except (ConnectionError, TimeoutError, ValueError, RuntimeError) as error:
@@ -56,6 +56,23 @@ def connect(address: str | None = None, num_cpus: int | None = None) -> bool:
                              "`ray start --head` (it prints the address to pass) on a machine with this "
                              "checkout, or drop --ray-address for a local runtime") from error
     return True
+
+
+def check_reachable(address: str, timeout: float = CONNECT_TIMEOUT_S) -> None:
+    """RayUnavailable unless "host:port" accepts a TCP connection (ray.init itself retries an
+    unreachable head for minutes); "auto" and ray:// addresses are left to Ray."""
+    import socket
+
+    if address == "auto" or "://" in address:
+        return
+    host, _, port = address.rpartition(":")
+    if not host or not port.isdigit():
+        raise RayUnavailable(f"--ray-address {address!r} is not host:port (ray start --head prints it)")
+    try:
+        socket.create_connection((host, int(port)), timeout=timeout).close()
+    except OSError as error:
+        raise RayUnavailable(f"the Ray head at {address} does not answer ({error}); is `ray start --head` "
+                             "running there, and is the port open from here?") from error
 
 
 def disconnect(started: bool) -> None:

@@ -7,6 +7,7 @@ import pytest
 import torch
 
 from impurity_learning import eval_cli
+from impurity_learning.ray_runtime import RayUnavailable, check_reachable
 from impurity_learning.ray_train import ActorLearnerRun
 from impurity_learning.train import TrainConfig, TrainingRun, read_log
 from impurity_learning.train_cli import export_network
@@ -32,6 +33,13 @@ def cluster():
     yield local
     ray.shutdown()
     local.shutdown()
+
+
+def test_an_unreachable_or_malformed_cluster_address_is_refused_at_once():
+    with pytest.raises(RayUnavailable, match="does not answer"):
+        check_reachable("127.0.0.1:1")  # nothing listens on port 1
+    with pytest.raises(RayUnavailable, match="not host:port"):
+        check_reachable("head-node")
 
 
 def evaluate(out, *options) -> dict:
