@@ -108,9 +108,24 @@ def _command(pid: int) -> str:
         return ""
 
 
+def process_kind(command: str) -> str:
+    """gcs_server, raylet, helpers (monitor, log monitor, dashboard and its agents), idle workers
+    (prestarted, "ray::IDLE") or actors ("ray::<class>")."""
+    program = command.split(" ")[0]
+    if "gcs_server" in program:
+        return "gcs_server"
+    if program.endswith("raylet"):
+        return "raylet"
+    if program in ("ray::DashboardAgent", "ray::RuntimeEnvAgent") or not program.startswith("ray::") \
+            and "default_worker" not in command:
+        return "helpers"
+    if program == "ray::IDLE" or "default_worker" in command:
+        return "idle workers"
+    return "actors"
+
+
 def ray_processes() -> dict:
-    """Resident memory (MiB) of this machine's Ray processes, by kind: the GCS, the raylet, Ray's
-    helpers (log monitor, dashboard agents, ...) and the workers (idle ones and actors); from /proc
+    """Resident memory (MiB) of this machine's Ray processes, by kind (process_kind); from /proc
     (Linux), {} elsewhere."""
     kinds: dict = {}
     proc = pathlib.Path("/proc")
@@ -123,14 +138,7 @@ def ray_processes() -> dict:
         command = _command(int(entry.name))
         if not any(name in command for name in RAY_PROCESS_NAMES):
             continue
-        if "gcs_server" in command:
-            kind = "gcs_server"
-        elif "raylet" in command.split(" ")[0]:
-            kind = "raylet"
-        elif "default_worker" in command or command.startswith("ray::"):
-            kind = "workers"
-        else:
-            kind = "helpers"
+        kind = process_kind(command)
         entry_kind = kinds.setdefault(kind, {"processes": 0, "rss_mib": 0.0})
         entry_kind["processes"] += 1
         entry_kind["rss_mib"] += _rss_kib(int(entry.name)) / 1024.0
