@@ -319,6 +319,9 @@ def run_episodes(tasks: list, digests: dict, journal: pathlib.Path, args) -> lis
     if episodes:
         print(f"eval: resuming: {len(episodes)} of {len(tasks)} episodes are in {journal}", file=sys.stderr)
     journal.parent.mkdir(parents=True, exist_ok=True)
+    if journal.is_file() and journal.stat().st_size and not journal.read_bytes().endswith(b"\n"):
+        with open(journal, "a") as out:
+            out.write("\n")  # a line cut short by a killed run stays alone (and is skipped)
     with open(journal, "a") as out, tqdm(total=len(tasks), initial=len(episodes), desc="eval", unit="episode",
                                          disable=args.no_progress, dynamic_ncols=True) as bar:
         for task, record in episode_records(todo, args):

@@ -17,6 +17,7 @@ import collections
 import hashlib
 import os
 import pathlib
+import sys
 import tempfile
 
 from . import ray_runtime
@@ -59,11 +60,14 @@ def episodes(tasks: list, workers: int, address: str | None = None, threads: int
     runtime with `workers` CPUs when `address` is None and this process has none; joins `address`
     otherwise. Actors are ended, and a runtime started here is shut down, when the generator ends or is
     closed (an interrupted run)."""
-    started = ray_runtime.connect(address, num_cpus=max(workers, 1) if address is None else None)
+    started = ray_runtime.connect(address, num_cpus=workers if address is None and workers > 0 else None)
     ray = ray_runtime.import_ray()
     actors = []
     try:
-        count = workers if workers > 0 else max(ray_runtime.cluster_cpus(), 1)
+        cpus = ray_runtime.cluster_cpus()
+        if 0 < cpus < workers:
+            print(f"eval: the Ray cluster has {cpus} CPUs: {cpus} workers, not {workers}", file=sys.stderr)
+        count = min(workers, cpus) if workers > 0 else cpus  # an actor takes one CPU for the whole run
         count = max(1, min(count, len(tasks)))
         paths = sorted({task[1] for task in tasks if task[1]})
         checkpoints = ray.put({path: pathlib.Path(path).read_bytes() for path in paths})

@@ -81,6 +81,10 @@ class ActorLearnerRun(TrainingRun):
     # -- the environment side: actors
     def start_rollouts(self) -> None:
         ray = ray_runtime.import_ray()
+        cpus = ray_runtime.cluster_cpus()
+        if cpus < self.actors:  # an actor holds one CPU for the whole run: the others would never start
+            raise ray_runtime.RayUnavailable(f"the Ray cluster has {cpus} CPUs, --actors {self.actors} needs "
+                                             f"{self.actors}: add nodes or ask for fewer actors")
         worker_class = ray.remote(num_cpus=1)(RolloutWorker)
         weights = self._weights()
         network = self.trainer.network_config

@@ -58,8 +58,10 @@ def test_records_are_reused_for_the_same_checkpoint_bytes_only(tmp_path, episode
     assert episodes.ran == SEEDS  # retrained: every episode again
 
 
-def test_a_line_cut_short_by_a_killed_run_is_skipped(tmp_path):
+def test_a_line_cut_short_by_a_killed_run_is_skipped_and_spoils_no_other(tmp_path, episodes):
     journal = tmp_path / "results.partial.jsonl"
     key = eval_cli.task_key(tasks()[0], {})
-    journal.write_text(json.dumps({"key": key, "record": {"seed": 1}}) + '\n{"key": "cut')
-    assert eval_cli.read_journal(journal) == {key: {"seed": 1}}
+    journal.write_text(json.dumps({"key": key, "record": {"seed": SEEDS[0]}}) + '\n{"key": "cut')
+    assert eval_cli.read_journal(journal) == {key: {"seed": SEEDS[0]}}
+    eval_cli.run_episodes(tasks(), {}, journal, ARGS)
+    assert episodes.ran == SEEDS[1:] and len(eval_cli.read_journal(journal)) == 4
