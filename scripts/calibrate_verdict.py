@@ -10,8 +10,11 @@ every grasp of an attended TARGET with what perception knew when judging it, bes
   target_score    attention's saliency contrast of the attended region (AttentionResult.score)
   gone_fraction   share of the target's cells changed in the next view (verdict.target_gone_fraction)
   holding         the gripper's report after the lift
-  color_contrast  the attended region's colour distance from the product, in units of the product's own
-                  colour spread (verdict.product_color_contrast: palette-relative, no RGB constant)
+  color_contrast  the attended region's colour distance from the product (verdict.ProductReference.contrast:
+                  Mahalanobis, palette-relative, no RGB constant), the product as the episode's first view
+                  showed it, as the loop judges; computed when loading from the raw colours kept in the
+                  files (the region's mean RGB, every 8th product cell of the first view), so a change of
+                  the measure needs no new episodes
 
 The gone and holding tests are kept as they are (geometry: they do not depend on the palette); `sweep`
 chooses min_target_score and min_color_contrast by the agreement of the verdict with the truth on the
@@ -42,9 +45,16 @@ from impurity_learning.evaluate import PerceptionSimCell, _reraise
 from impurity_policy.core import picking
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRequest
-from impurity_policy.core.verdict import VerdictParams, product_color_contrast, product_color_distance
+from impurity_policy.core.verdict import (
+    MIN_COLOR_SPREAD,
+    ProductReference,
+    VerdictParams,
+    product_color_distance,
+    region_color,
+)
 
 SCENARIOS = ("random", "challenging", "invisible")
+SPREADS = (2, 4, 8, 12, 16, 20, 24, 32)  # least product colour spreads (RGB) the sweep tries
 # (num_targets, num_objects, max_actions) per scenario: the real-cell-mode graph test's small scenes and
 # the paper-sized ones (more products left when the last impurity is gone: more chances of a false TARGET).
 SCENE_SIZES = {"random": [(1, 5, 15), (2, 10, 25)], "challenging": [(1, 5, 15), (2, 10, 25)],
@@ -60,9 +70,13 @@ class RecordingCell(PerceptionSimCell):
         super().__init__(*args, **kwargs)
         self.last_view = None
         self.decided_on = None
+        self.reference = None  # as picking's loop builds it: from the episode's first view
 
     def observe(self):
         self.last_view = super().observe()
+        if self.reference is None:
+            view = self.last_view
+            self.reference = ProductReference.from_view(view.color, view.height, view.target_mask)
         return self.last_view
 
     def execute(self, action):
@@ -73,12 +87,14 @@ class RecordingCell(PerceptionSimCell):
 def palettes_of(split: str, random_count: int) -> list:
     if split == "tuning":
         return splits.tuning_palettes(random_count)
+    if split == "exposure":  # the default palette one stop darker and brighter (evaluation seeds)
+        return [f"{splits.DEFAULT_PALETTE}@x0.5", f"{splits.DEFAULT_PALETTE}@x2"]
     return [splits.DEFAULT_PALETTE, *splits.held_out_palettes(random_count)]
 
 
 def seeds_of(split: str, count: int) -> list:
     """Tuning seeds 50 000+ (apart from the attention calibration's and the graph tests' small seeds);
-    evaluation seeds EVAL_SEED_BASE + 500 000+ (apart from make eval's first ones)."""
+    evaluation seeds EVAL_SEED_BASE + 500 000+ (apart from make eval's first ones and the graph test's)."""
     base = 50_000 if split == "tuning" else splits.EVAL_SEED_BASE + 500_000
     return [base + k for k in range(count)]
 
@@ -112,13 +128,17 @@ def collect(args) -> int:
 
             def on_step(step, cell=cell, grasps=grasps):
                 view = cell.decided_on
-                if step.kind != "grasp" or view is None or view.target_mask is None:
+                if step.kind != "grasp":
                     return
-                grasps.append({
+                if view is None or view.target_mask is None:  # not a TARGET: never counted as picked
+                    grasps.append({"step": step.step, "target": False,
+                                   "truth": bool(step.truth_target_grasped)})
+                    return
+                grasps.append({"target": True,
                     "step": step.step, "target_score": step.target_score, "gone_fraction": step.gone_fraction,
                     "holding": bool(step.holding), "truth": bool(step.truth_target_grasped),
                     "color_distance": product_color_distance(view.color, view.height, view.target_mask),
-                    "color_contrast": product_color_contrast(view.color, view.height, view.target_mask)})
+                    "region_rgb": region_color(view.color, view.target_mask).round(1).tolist()})
 
             request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
                                      max_actions=max_actions, palette=palette)
@@ -126,22 +146,39 @@ def collect(args) -> int:
                                           on_error=_reraise)
             row = {"scenario": scenario, "num_objects": objects, "palette": palette, "seed": seed,
                    "group": splits.palette_group(palette), "termination": summary["termination_reason"],
-                   "truth_total": summary["truth_targets_total"], "grasps": grasps}
+                   "truth_total": summary["truth_targets_total"], "grasps": grasps,
+                   # the product reference's colours (every 8th kept): measures can be compared offline
+                   "reference_rgb": cell.reference.colors[::8].round().astype(int).tolist()
+                   if cell.reference is not None else []}
             sink.write(json.dumps(row) + "\n")
             sink.flush()
     return 0
 
 
-def load(paths) -> list:
+def load(paths, min_spread: float = MIN_COLOR_SPREAD) -> list:
+    """Episodes of the files, each TARGET grasp's color_contrast computed from the raw colours with a
+    ProductReference of the given least spread (RGB)."""
     rows = []
     for path in paths:
         rows += [json.loads(line) for line in pathlib.Path(path).read_text().splitlines() if line.strip()]
+    return with_contrast(rows, min_spread)
+
+
+def with_contrast(rows: list, min_spread: float) -> list:
+    for row in rows:
+        colors = row["reference_rgb"]
+        reference = ProductReference.from_colors(colors, min_spread) if colors else None
+        for grasp in row["grasps"]:
+            if grasp["target"]:
+                grasp["color_contrast"] = reference.contrast(grasp["region_rgb"]) if reference else None
     return rows
 
 
 def verdict(grasp: dict, min_score: float, min_contrast: float,
             params: VerdictParams = VerdictParams()) -> bool:
     """judge_grasp's decision from the recorded features (same tests, same order)."""
+    if not grasp["target"]:
+        return False
     if grasp["gone_fraction"] < params.min_gone_fraction or not grasp["holding"]:
         return False
     if grasp["target_score"] < min_score:
@@ -169,24 +206,21 @@ def agreement(rows: list, min_score: float, min_contrast: float) -> dict:
             "episodes": episodes, "count_match": matching / max(episodes, 1)}
 
 
-def grasps_without_target(rows: list) -> int:
-    """Grasps that removed an impurity while attention was not on a target (not in the rows: not judged
-    as picked by any threshold) - printed so that a reader sees what the thresholds cannot reach."""
-    return sum(1 for row in rows for g in row["grasps"] if g["truth"] and not g["holding"])
-
-
 def sweep(args) -> int:
     rows = [r for r in load(args.files) if r["group"] in ("default", "tuning")]
     if len(rows) < len(load(args.files)):
         print("sweep: rows of held-out palettes ignored (they are only measured)", file=sys.stderr)
-    grasps = [g for r in rows for g in r["grasps"]]
+    grasps = [g for r in rows for g in r["grasps"] if g["target"]]
     if not grasps:
         print("sweep: no judged grasps in the files", file=sys.stderr)
         return 2
     truths = [g for g in grasps if g["truth"]]
     others = [g for g in grasps if not g["truth"] and g["gone_fraction"] >= 0.5 and g["holding"]]
-    print(f"{len(rows)} tuning episodes, {len(grasps)} judged grasps: {len(truths)} removed an impurity, "
-          f"{len(others)} lifted something else that the gone and holding tests pass")
+    untargeted = sum(not g["target"] and g["truth"] for r in rows for g in r["grasps"])
+    print(f"{len(rows)} tuning episodes, {len(grasps)} grasps of a TARGET: {len(truths)} removed an "
+          f"impurity, {len(others)} lifted something else that the gone and holding tests pass; "
+          f"{untargeted} grasps without a TARGET removed one (never counted: they disagree whatever "
+          "the thresholds)")
     for name in ("target_score", "color_contrast"):
         for label, subset in (("impurity", truths), ("other", others)):
             values = np.array([g[name] for g in subset if g[name] is not None], dtype=float)
@@ -196,35 +230,54 @@ def sweep(args) -> int:
                       f"max {values.max():6.2f}")
     scores = np.round(np.arange(0.0, 12.01, 0.25), 2)
     contrasts = np.round(np.arange(0.0, 6.01, 0.25), 2)
-    table = [(s, c, agreement(rows, s, c)) for s in scores for c in contrasts]
     # Best agreement; ties broken by the episode count match, then by the lowest thresholds (fewest
-    # true impurities refused on scenes unlike the tuning ones).
-    best = max(table, key=lambda t: (round(t[2]["agreement"], 4), round(t[2]["count_match"], 4),
-                                     -t[0], -t[1]))
+    # true impurities refused on scenes unlike the tuning ones) and the least spread (most relative).
+
+    def key(t):
+        return round(t[3]["agreement"], 4), round(t[3]["count_match"], 4), -t[1], -t[2], -t[0]
+
+    print("least spread (RGB)  min_target_score  min_color_contrast  agreement  missed  false  count_match")
+    best_of = []
+    for spread in SPREADS:
+        with_contrast(rows, spread)
+        table = [(spread, s, c, agreement(rows, s, c)) for s in scores for c in contrasts]
+        best_of.append(max(table, key=key))
+    best = max(best_of, key=key)
+    for spread, s, c, a in best_of:
+        mark = "  <- chosen" if spread == best[0] else ""
+        print(f"{spread:18.0f} {s:17.2f} {c:19.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  "
+              f"{a['false']:5d}  {a['count_match']:10.1%}{mark}")
+    with_contrast(rows, best[0])
+    print(f"at least spread {best[0]:.0f}:")
     print("min_target_score min_color_contrast  agreement  missed  false  count_match")
-    for s, c, a in table:
-        if (s, c) == best[:2] or (c == 0 and s in (0.0, 4.4, 6.25)) or (s == 0 and c in (1.0, 2.0, 3.0)):
-            mark = "  <- chosen" if (s, c) == best[:2] else ""
-            print(f"{s:16.2f} {c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
-                  f"{a['count_match']:10.1%}{mark}")
+    for s, c in ((0.0, 0.0), (0.0, 1.0), (best[1], best[2]), (0.0, 3.0), (6.25, 0.0)):
+        a = agreement(rows, s, c)
+        print(f"{s:16.2f} {c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
+              f"{a['count_match']:10.1%}")
+    best = (best[1], best[2], best[3], best[0])
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(
-            {"chosen": {"min_target_score": best[0], "min_color_contrast": best[1], **best[2]},
+            {"chosen": {"min_color_spread": best[3], "min_target_score": best[0],
+                        "min_color_contrast": best[1], **best[2]},
              "episodes": len(rows), "files": [str(f) for f in args.files]}, indent=1) + "\n")
     return 0
 
 
 def measure(args) -> int:
-    rows = load(args.files)
-    print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}")
-    print("group     scenario      episodes grasps agreement missed false count_match")
-    for group in ("default", "tuning", "held_out"):
+    rows = load(args.files, args.min_color_spread)
+    print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}, least "
+          f"colour spread {args.min_color_spread}")
+    print("palettes            scenario      episodes grasps agreement missed false count_match")
+    groups = [(g, lambda r, g=g: r["group"] == g and "@" not in r["palette"])
+              for g in ("default", "tuning", "held_out")]
+    groups += [(f"default {e}", lambda r, e=e: r["palette"].endswith("@" + e)) for e in ("x0.5", "x2")]
+    for group, member in groups:
         for scenario in (*SCENARIOS, "all"):
-            subset = [r for r in rows if r["group"] == group and scenario in ("all", r["scenario"])]
+            subset = [r for r in rows if member(r) and scenario in ("all", r["scenario"])]
             if not subset:
                 continue
             a = agreement(subset, args.min_target_score, args.min_color_contrast)
-            print(f"{group:9s} {scenario:12s} {a['episodes']:9d} {a['grasps']:6d} {a['agreement']:9.1%} "
+            print(f"{group:19s} {scenario:12s} {a['episodes']:9d} {a['grasps']:6d} {a['agreement']:9.1%} "
                   f"{a['missed']:6d} {a['false']:5d} {a['count_match']:11.1%}")
     return 0
 
@@ -233,9 +286,9 @@ def parse_args(argv=None):
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     sub = p.add_subparsers(dest="command", required=True)
     c = sub.add_parser("collect", help="run episodes counted by perception, write their grasps (resumable)")
-    c.add_argument("--split", choices=("tuning", "evaluation"), required=True,
+    c.add_argument("--split", choices=("tuning", "evaluation", "exposure"), required=True,
                    help="tuning: tuning palettes and seeds; evaluation: default and held-out palettes, "
-                        "evaluation seeds")
+                        "evaluation seeds; exposure: the default palette at x0.5 and x2, evaluation seeds")
     c.add_argument("--seeds", type=int, default=12, help="episodes per scene size and scenario")
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
@@ -248,6 +301,7 @@ def parse_args(argv=None):
     m.add_argument("files", nargs="+")
     m.add_argument("--min-target-score", type=float, required=True)
     m.add_argument("--min-color-contrast", type=float, required=True)
+    m.add_argument("--min-color-spread", type=float, default=MIN_COLOR_SPREAD)
     return p.parse_args(argv)
 
 

@@ -67,7 +67,7 @@ from .episode import (
     action_limit,
     truth_audit,
 )
-from .verdict import GraspVerdict, GripperReport, VerdictParams, judge_grasp
+from .verdict import GraspVerdict, GripperReport, ProductReference, VerdictParams, judge_grasp
 
 MODE_NAMES = {int(mode): mode.name for mode in AttentionMode}  # 1 -> "TARGET", as the records spell it
 
@@ -255,6 +255,7 @@ class _Episode:
         self.cell, self.request, self.limits, self.tracker = cell, request, limits, tracker
         self.recorder, self.on_step, self.stop = recorder, on_step, stop
         self.first_view = True
+        self.reference: ProductReference | None = None  # the product as the first view showed it
         self.truth_targets_total: int | None = None  # simulator truth beside perception, if offered
         self._truth_removed = 0
 
@@ -262,6 +263,9 @@ class _Episode:
         view = self.cell.observe()
         if self.first_view and self.recorder is not None and view.color is not None:
             self.recorder.write_first_view(view.color)
+        if self.reference is None and view.color is not None and view.height is not None:
+            self.reference = ProductReference.from_view(view.color, view.height, view.target_mask,
+                                                        self.limits.verdict.min_object_height)
         self.first_view = False
         return view
 
@@ -364,7 +368,7 @@ class _Episode:
             return GraspVerdict(False, -1.0, False, "not judged: no view after the grasp")
         mask = before.target_mask if before.mode == AttentionMode.TARGET else None
         return judge_grasp(before.height, before.color, mask, after.height, after.color, gripper,
-                           self.limits.verdict, before.target_score)
+                           self.limits.verdict, before.target_score, self.reference)
 
     def _truth_of_grasp(self) -> bool | None:
         """Did the grasp just recorded remove a target? From the cell's truth (None: it offers none)."""
