@@ -26,11 +26,15 @@ thresholds on fresh evaluation seeds, default and held-out palettes, without cha
     python scripts/calibrate_verdict.py collect --split evaluation --out runs/verdict/evaluation.jsonl
     python scripts/calibrate_verdict.py measure runs/verdict/evaluation.jsonl --min-target-score S \\
         --min-color-contrast C
+
+The episodes behind docs/verdict/*.txt are kept gzipped beside them (tuning.jsonl.gz, evaluation.jsonl.gz,
+exposure.jsonl.gz): `sweep` and `measure` read them as they are.
 """
 
 from __future__ import annotations
 
 import argparse
+import gzip
 import itertools
 import json
 import pathlib
@@ -44,7 +48,7 @@ from impurity_learning.agents import make_agent
 from impurity_learning.evaluate import PerceptionSimCell, _reraise
 from impurity_policy.core import picking
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
-from impurity_policy.core.episode import EpisodeRequest
+from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, EpisodeRequest
 from impurity_policy.core.verdict import (
     MIN_COLOR_SPREAD,
     ProductReference,
@@ -159,8 +163,9 @@ def load(paths, min_spread: float = MIN_COLOR_SPREAD) -> list:
     """Episodes of the files, each TARGET grasp's color_contrast computed from the raw colours with a
     ProductReference of the given least spread (RGB)."""
     rows = []
-    for path in paths:
-        rows += [json.loads(line) for line in pathlib.Path(path).read_text().splitlines() if line.strip()]
+    for path in map(pathlib.Path, paths):
+        text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else path.read_text()
+        rows += [json.loads(line) for line in text.splitlines() if line.strip()]
     return with_contrast(rows, min_spread)
 
 
@@ -267,7 +272,8 @@ def measure(args) -> int:
     rows = load(args.files, args.min_color_spread)
     print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}, least "
           f"colour spread {args.min_color_spread}")
-    print("palettes            scenario      episodes grasps agreement missed false count_match")
+    print("palettes            scenario      episodes grasps agreement missed false count_match "
+          "ended_by_NONE")
     groups = [(g, lambda r, g=g: r["group"] == g and "@" not in r["palette"])
               for g in ("default", "tuning", "held_out")]
     groups += [(f"default {e}", lambda r, e=e: r["palette"].endswith("@" + e)) for e in ("x0.5", "x2")]
@@ -277,8 +283,9 @@ def measure(args) -> int:
             if not subset:
                 continue
             a = agreement(subset, args.min_target_score, args.min_color_contrast)
+            ended = np.mean([r["termination"] == TERMINATION_NOTHING_LEFT for r in subset])
             print(f"{group:19s} {scenario:12s} {a['episodes']:9d} {a['grasps']:6d} {a['agreement']:9.1%} "
-                  f"{a['missed']:6d} {a['false']:5d} {a['count_match']:11.1%}")
+                  f"{a['missed']:6d} {a['false']:5d} {a['count_match']:11.1%} {ended:13.1%}")
     return 0
 
 
