@@ -36,8 +36,9 @@ NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_r
                           "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node",
                           "impurity_common.calibrate_camera", "impurity_common.cell_state_publisher",
                           "impurity_common.decision_markers")
-# Never on a real cell: the simulator, its physics engine, training and evaluation.
-FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning")
+# Never on a real cell: the simulator, its physics engine, training and evaluation, and the cluster
+# runtime they may run on (ray, issue 20).
+FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning", "ray")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
 RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy", "ur5_driver_rtde")
 # Dependencies on a package's installed files rather than its modules.
