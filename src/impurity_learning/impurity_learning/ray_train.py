@@ -58,9 +58,6 @@ class RolloutWorker:
     def state(self) -> dict:
         return self.rollout.state()
 
-    def close(self) -> None:
-        self.rollout.close()
-
 
 class ActorLearnerRun(TrainingRun):
     """TrainingRun whose experiences come from `actors` Ray actors (see the module docstring)."""
@@ -94,8 +91,7 @@ class ActorLearnerRun(TrainingRun):
         ray.get([worker.state.remote() for worker in self.workers])  # every actor has its cell: all start
         self.weights, self.version, self.broadcast_at = weights, 0, self.trainer.updates
         self.seen = [0] * self.actors  # the weights version each actor has
-        self.pending = collections.OrderedDict()  # reference -> actor
-        self.rows_per_actor = collections.Counter()
+        self.pending = {}  # reference of an action in flight -> its actor
 
     def _weights(self):
         """The online network's weights in the object store (one copy for every actor)."""
@@ -139,7 +135,6 @@ class ActorLearnerRun(TrainingRun):
         self._broadcast_if_due()
         if self.lockstep:
             self._submit(actor, self.iteration + 1)
-        self.rows_per_actor[actor] += 1
         return row
 
     def current_rollout_states(self) -> list:
@@ -154,9 +149,9 @@ class ActorLearnerRun(TrainingRun):
 
     def close(self) -> None:
         """End the actors (their simulators with them) and a Ray runtime this run started."""
-        if not ray_runtime.import_ray().is_initialized():
-            return
         ray = ray_runtime.import_ray()
+        if not ray.is_initialized():
+            return
         for worker in self.workers:
             ray.kill(worker)
         self.workers = []
