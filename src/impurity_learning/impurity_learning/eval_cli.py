@@ -457,7 +457,8 @@ def main(argv=None) -> int:
     results["_meta"] = {"episodes": args.episodes, "seed_base": args.seed_base, "scenarios": args.scenarios,
                         "methods": args.methods, "rules": args.rules, "rows": rows,
                         "seconds": episodes_seconds,
-                        "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs}
+                        "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs,
+                        "ray": args.ray_address or ("local" if args.ray else "")}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_learning.eval_cli " + " ".join(arguments)
     markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
