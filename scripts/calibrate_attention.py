@@ -33,6 +33,7 @@ from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
     AttentionParams,
     attend,
+    region_color_contrast,
     saliency_input,
     salient_regions,
     scene_saliency,
@@ -361,43 +362,70 @@ def print_palette_rates(rates: dict) -> dict:
             "visible_scenes": len(totals["visible"]), "clean_scenes": len(totals["no_impurity"])}
 
 
+COLOR_SPREADS = (4.0, 8.0, 16.0, 24.0)  # attention's least product colour spreads (RGB) palette-sweep tries
+
+
 def palette_sweep(params: AttentionParams) -> None:
     """Tuning palettes (and the default at exposure x0.5 and x2) only: detection and false TARGET (on
-    scenes without a visible impurity: clean and invisible) for a range of min_relative_contrast; the
-    chosen value is the middle of the thresholds that meet
-    both aims (found >= TARGET_FOUND_AIM, false TARGET <= FALSE_TARGET_AIM): the most margin to either
-    side; when none meets both, the lowest threshold within the false-TARGET aim."""
+    scenes without a visible impurity: clean and invisible) for a grid of min_relative_contrast x
+    min_color_contrast x color_min_spread. Chosen: among the triples that meet both aims (found >=
+    TARGET_FOUND_AIM, false TARGET <= FALSE_TARGET_AIM), the fewest false TARGETs, then the most found,
+    then the least spread and colour threshold, and the middle of the saliency thresholds that give the
+    same figures; when none meets both, the most found within the false-TARGET aim."""
     records = collect_palettes("tuning")
     default = [r for r in records if r.palette == "blocks"]
     records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
     print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes + default at x0.5, x2)")
     rows = []
-    for record in records:  # the threshold does not change regions: compute the best region once
+    for record in records:  # the thresholds do not change regions: compute the best region once
         objects = record.height > params.density.occupied_height
         regions = salient_regions(scene_saliency(record.color, objects, params), objects, params)
         best = regions[0] if regions else None
         on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
-        rows.append((record.category(), best.score if best else 0.0, on_target))
-    visible = np.array([(score, on) for category, score, on in rows if category == "visible"])
+        colours = [region_color_contrast(record.color, objects, best,
+                                         dataclasses.replace(params, color_min_spread=spread))
+                   if best is not None else 0.0 for spread in COLOR_SPREADS]
+        rows.append((record.category(), best.score if best else 0.0, on_target, *colours))
+    visible = np.array([row[1:] for row in rows if row[0] == "visible"], dtype=float)
     # false TARGET: scenes with no visible impurity - without impurities, and invisible scenes (a heap
     # hides every target: TARGET there sends the gripper to a product block instead of the heap)
-    clean = np.array([score for category, score, _ in rows if category in ("no_impurity", "invisible")])
-    sweep = []  # (threshold, found, false TARGET)
-    for threshold in np.round(np.arange(2.0, 12.01, 0.1), 2):
-        found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold)))
-        false = float(np.mean(clean >= threshold))
-        print(f"  min_relative_contrast {threshold:4.1f}: impurity found {100 * found:5.1f} %  "
-              f"false TARGET {100 * false:5.1f} %")
-        sweep.append((float(threshold), found, false))
-    meeting = [row for row in sweep if row[2] <= FALSE_TARGET_AIM and row[1] >= TARGET_FOUND_AIM]
+    clean = np.array([row[1:] for row in rows if row[0] in ("no_impurity", "invisible")], dtype=float)
+    sweep = []  # (spread, threshold, colour threshold, found, false TARGET)
+    for k, spread in enumerate(COLOR_SPREADS):
+        for threshold in np.round(np.arange(2.0, 12.01, 0.1), 2):
+            for colour in np.round(np.arange(0.0, 8.01, 0.25), 2):
+                found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold) &
+                                      (visible[:, 2 + k] >= colour)))
+                false = float(np.mean((clean[:, 0] >= threshold) & (clean[:, 2 + k] >= colour)))
+                sweep.append((spread, float(threshold), float(colour), found, false))
+    print("saliency only (min_color_contrast 0):")
+    for row in sweep:
+        shown = 3.0 <= row[1] <= 6.0 and round(row[1] * 10) % 4 == 0
+        if row[0] == COLOR_SPREADS[0] and row[2] == 0.0 and shown:
+            print(f"  min_relative_contrast {row[1]:4.1f}: impurity found {100 * row[3]:5.1f} %  "
+                  f"false TARGET {100 * row[4]:5.1f} %")
+    meeting = [row for row in sweep if row[4] <= FALSE_TARGET_AIM and row[3] >= TARGET_FOUND_AIM]
     if meeting:
-        chosen = meeting[len(meeting) // 2]
-        print(f"thresholds meeting both aims: {meeting[0][0]:.1f} ... {meeting[-1][0]:.1f}")
+        best = min(meeting, key=lambda r: (r[4], -r[3], r[0], r[2]))
+        # the saliency thresholds giving the same figures with that spread and colour threshold: their
+        # middle (the most margin to either side)
+        ties = sorted(r for r in meeting if r[0] == best[0] and r[2] == best[2] and r[3:] == best[3:])
+        chosen = ties[len(ties) // 2]
+        print(f"min_relative_contrast {ties[0][1]:.1f} ... {ties[-1][1]:.1f} give the best figures; the "
+              "middle is chosen")
+        print(f"{len(meeting)} triples meet both aims; the best of each least spread:")
+        for spread in COLOR_SPREADS:
+            of = [row for row in meeting if row[0] == spread]
+            if of:
+                row = min(of, key=lambda r: (r[4], -r[3], r[1], r[2]))
+                print(f"  spread {spread:4.0f}: min_relative_contrast {row[1]:4.1f}, min_color_contrast "
+                      f"{row[2]:4.2f}: found {100 * row[3]:5.1f} %, false TARGET {100 * row[4]:4.1f} %")
     else:  # false TARGET matters more (a grasp on product): the most found within the false-TARGET aim
-        chosen = next(row for row in sweep if row[2] <= FALSE_TARGET_AIM)
-        print("no threshold meets both aims on the tuning scenes; the lowest within the false-TARGET aim:")
-    print(f"chosen min_relative_contrast = {chosen[0]:.1f}: found {100 * chosen[1]:.1f} %, false TARGET "
-          f"{100 * chosen[2]:.1f} % on {len(visible)} visible / {len(clean)} tuning scenes without a visible "
+        chosen = max((row for row in sweep if row[4] <= FALSE_TARGET_AIM), key=lambda r: (r[3], -r[4]))
+        print("no triple meets both aims on the tuning scenes; the most found within the false-TARGET aim:")
+    print(f"chosen color_min_spread = {chosen[0]:.0f}, min_relative_contrast = {chosen[1]:.1f}, "
+          f"min_color_contrast = {chosen[2]:.2f}: found {100 * chosen[3]:.1f} %, false TARGET "
+          f"{100 * chosen[4]:.1f} % on {len(visible)} visible / {len(clean)} tuning scenes without a visible "
           "impurity")
 
 
@@ -456,6 +484,9 @@ def main() -> None:
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
+    parser.add_argument("--color-test", nargs=3, type=float, default=None,
+                        metavar=("MIN_RELATIVE_CONTRAST", "MIN_COLOR_CONTRAST", "COLOR_MIN_SPREAD"),
+                        help="attention with the colour test on (palette-sweep's triple), e.g. 2.7 3.0 4")
     parser.add_argument("--verbose", action="store_true", help="list every miss")
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
@@ -463,6 +494,10 @@ def main() -> None:
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
     params = AttentionParams()
+    if args.color_test is not None:
+        relative, colour, spread = args.color_test
+        params = dataclasses.replace(params, min_relative_contrast=relative, min_color_contrast=colour,
+                                     color_min_spread=spread)
     suffix = ""
     if args.patch_prism_winding:
         patched = patch_prism_winding()

@@ -54,6 +54,7 @@ from impurity_policy.core.verdict import (
     ProductReference,
     VerdictParams,
     product_color_distance,
+    product_reference,
     region_color,
 )
 
@@ -80,7 +81,7 @@ class RecordingCell(PerceptionSimCell):
         self.last_view = super().observe()
         if self.reference is None:
             view = self.last_view
-            self.reference = ProductReference.from_view(view.color, view.height, view.target_mask)
+            self.reference = product_reference(view.color, view.height, view.target_mask)
         return self.last_view
 
     def execute(self, action):

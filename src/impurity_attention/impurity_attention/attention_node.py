@@ -85,6 +85,11 @@ class AttentionNodeParameters:
                                     "lightness)", low=0.01, high=1.0)
     min_relative_contrast: float = param(DEFAULTS.min_relative_contrast, "relative: mean relative saliency "
                                          "of the best region below this: no visible target", low=0.0)
+    min_color_contrast: float = param(DEFAULTS.min_color_contrast, "relative: the best region's mean colour "
+                                      "must lie at least this far (Mahalanobis) from the other objects' "
+                                      "colours to be a target; 0: no colour test", low=0.0)
+    color_min_spread: float = param(DEFAULTS.color_min_spread, "relative: least colour spread (RGB) granted "
+                                    "to the other objects in the colour test", low=0.1, high=255.0)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -102,8 +107,9 @@ class AttentionNodeParameters:
             background=self.background, region_fraction=self.region_fraction,
             min_region_area=self.min_region_area, contrast=self.contrast,
             min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
-            lightness_weight=self.lightness_weight,
-            mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
+            lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
+            color_min_spread=self.color_min_spread, mask_chroma_tolerance=self.mask_chroma_tolerance,
+            crop_size=self.crop_size)
 
 
 class AttentionNode(Node):

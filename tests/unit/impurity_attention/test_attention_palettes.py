@@ -100,3 +100,28 @@ def test_relative_saliency_is_dimensionless():
 def test_unknown_contrast_rule_is_refused():
     with pytest.raises(ValueError, match="contrast"):
         att.AttentionParams(contrast="vivid")
+
+
+WITH_COLOUR_TEST = att.AttentionParams(min_relative_contrast=2.7, min_color_contrast=3.0,
+                                       color_min_spread=4.0)  # palette-sweep's best on tuning scenes
+
+
+@pytest.mark.parametrize("palette", sorted(PALETTES))
+def test_with_the_colour_test_the_impurity_is_found_and_the_clean_scene_stays_quiet(palette):
+    color, height, impurity = scene(palette, 0)
+    found = att.attend(color, height, WITH_COLOUR_TEST)
+    assert found.mode == att.AttentionMode.TARGET and "colour contrast" in found.reason
+    assert np.count_nonzero(found.target_mask & impurity) > 0.5 * np.count_nonzero(found.target_mask)
+    clean = att.attend(*scene(palette, 0, with_impurity=False)[:2], WITH_COLOUR_TEST)
+    assert clean.mode != att.AttentionMode.TARGET, clean.reason
+
+
+def test_the_colour_test_refuses_a_salient_region_coloured_like_the_other_objects():
+    # the clean blue scene: with a low saliency threshold its best region would be a TARGET; its colour
+    # lies within the other blue boxes' spread, so the colour test says no
+    color, height, _ = scene("blue_red", 0, with_impurity=False)
+    low = att.AttentionParams(min_relative_contrast=0.0)
+    assert att.attend(color, height, low).mode == att.AttentionMode.TARGET
+    with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=3.0)
+    refused = att.attend(color, height, with_colour)
+    assert refused.mode != att.AttentionMode.TARGET and "coloured like the other objects" in refused.reason

@@ -46,6 +46,7 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
+from impurity_common.colour import ProductReference
 from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
 from impurity_common.grid import HeightmapGrid
 
@@ -89,9 +90,17 @@ class AttentionParams:
     # relative: mean relative saliency of m_t below this -> no visible target. Chosen by
     # `scripts/calibrate_attention.py palette-sweep` on tuning palettes and tuning seeds only (29 palettes
     # and the default at exposure x0.5 and x2; 310 scenes with a visible impurity, 279 without: clean
-    # scenes and heaps hiding every target): no threshold meets both aims (>= 95 % found, <= 5 % false
+    # scenes and heaps hiding every target): saliency alone meets no aim pair (>= 95 % found, <= 5 % false
     # TARGET); 4.4 is the lowest within the false-TARGET aim: 93.5 % found, 3.2 % false TARGET.
     min_relative_contrast: float = 4.4
+    # relative: the best region must also stand apart in colour from the other object cells: the
+    # Mahalanobis distance of its mean colour from theirs (impurity_common.colour.ProductReference, least
+    # spread color_min_spread RGB) at least this; 0 = no colour test (the default). palette-sweep's best
+    # triple on tuning scenes (min_relative_contrast 2.7, min_color_contrast 3.0, spread 4: 95.5 % found,
+    # 2.2 % false TARGET, docs/attention_palette_sweep.txt) found 86.7 % on held-out palettes (0/10 on
+    # mushrooms_stones; false TARGET 0.0 %) against 91.7 % / 1.4 % for saliency alone: not adopted.
+    min_color_contrast: float = 0.0
+    color_min_spread: float = 4.0
     # absolute: mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99, default
     # palette only, saliency ABSOLUTE_SALIENCY = (2, 6)): targets >= 0.054, scenes without impurity
     # <= 0.021; 0.034 is their geometric mean. Use it with saliency=ABSOLUTE_SALIENCY.
@@ -111,6 +120,10 @@ class AttentionParams:
             raise ValueError(f"lightness_weight must be in (0, 1], got {self.lightness_weight}")
         if not 0.0 < self.region_fraction < 1.0:
             raise ValueError(f"region_fraction must be in (0, 1), got {self.region_fraction}")
+        if not self.min_color_contrast >= 0.0:
+            raise ValueError(f"min_color_contrast must be >= 0, got {self.min_color_contrast}")
+        if not self.color_min_spread > 0.0:
+            raise ValueError(f"color_min_spread must be > 0 (RGB), got {self.color_min_spread}")
 
 
 @dataclass
@@ -276,17 +289,25 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
     threshold = params.min_relative_contrast if params.contrast == "relative" else params.min_target_contrast
-    if best is not None and best.score >= threshold:
+    colour = region_color_contrast(color, objects, best, params) if best is not None else float("inf")
+    colour_ok = params.contrast != "relative" or colour >= params.min_color_contrast
+    if best is not None and best.score >= threshold and colour_ok:
         target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
         return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
                        params, grid, regions=regions, target_region=best, mask_cells=target_cells,
-                       reason=f"salient region of {best.area} px, contrast {best.score:.4f}")
+                       reason=f"salient region of {best.area} px, contrast {best.score:.4f}, colour "
+                              f"contrast {colour:.2f}")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
-    no_target = ("no salient region" if best is None else
-                 f"best region {params.contrast} contrast {best.score:.4f} < {threshold:.4f}")
+    if best is None:
+        no_target = "no salient region"
+    elif best.score < threshold:
+        no_target = f"best region {params.contrast} contrast {best.score:.4f} < {threshold:.4f}"
+    else:
+        no_target = (f"best region's colour contrast {colour:.2f} < {params.min_color_contrast:.2f} "
+                     "(coloured like the other objects)")
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,
@@ -298,6 +319,19 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     centre = ((height.shape[0] - 1) / 2.0, (height.shape[1] - 1) / 2.0)
     return _output(AttentionMode.NONE, 0.0, centre, color, height, saliency, params, grid,
                    regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
+
+
+def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
+                          params: AttentionParams) -> float:
+    """How far a salient region's mean colour stands apart from the other object cells' colours:
+    ProductReference.contrast (Mahalanobis, dimensionless) with least spread params.color_min_spread.
+    color (H, W, 3) uint8, objects (H, W) bool. inf when no other object cell is in view (nothing to
+    compare with: the saliency decides alone)."""
+    others = objects & ~region.mask
+    if not others.any():
+        return float("inf")
+    reference = ProductReference.from_colors(color[others], params.color_min_spread)
+    return reference.contrast(color[region.mask].mean(axis=0))
 
 
 def _output(mode, score, centroid, color, height, saliency, params, grid, regions=(), clusters=(),

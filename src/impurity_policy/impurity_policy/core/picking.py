@@ -67,7 +67,14 @@ from .episode import (
     action_limit,
     truth_audit,
 )
-from .verdict import GraspVerdict, GripperReport, ProductReference, VerdictParams, judge_grasp
+from .verdict import (
+    GraspVerdict,
+    GripperReport,
+    ProductReference,
+    VerdictParams,
+    judge_grasp,
+    product_reference,
+)
 
 MODE_NAMES = {int(mode): mode.name for mode in AttentionMode}  # 1 -> "TARGET", as the records spell it
 
@@ -264,8 +271,7 @@ class _Episode:
         if self.first_view and self.recorder is not None and view.color is not None:
             self.recorder.write_first_view(view.color)
         if self.reference is None and view.color is not None and view.height is not None:
-            self.reference = ProductReference.from_view(view.color, view.height, view.target_mask,
-                                                        self.limits.verdict.min_object_height)
+            self.reference = product_reference(view.color, view.height, view.target_mask, self.limits.verdict)
         self.first_view = False
         return view
 

@@ -39,6 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from impurity_common.colour import ProductReference  # noqa: F401 (the verdict's reference, re-exported)
+
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
 # Test 3's threshold (module docstring): chosen by scripts/calibrate_verdict.py sweep on tuning episodes
@@ -162,69 +164,20 @@ def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: n
     return float(np.linalg.norm(target.mean(axis=0) - np.median(others, axis=0)))
 
 
-# The product's colour covariance gets a ridge on its diagonal: RIDGE_SHARE of its mean variance per axis
-# (an axis along which the product hardly varies would make every colour off it infinitely far; being a
-# share, the ridge scales with brightness as the covariance does), and at least MIN_COLOR_SPREAD**2.
-RIDGE_SHARE = 0.05
 # RGB standard deviation: the least colour spread granted to the product on every axis. The first view
 # often shows one face of every product block, evenly lit (heaps: a spread of 2-3); blocks seen later on
 # another face or in shade differ by 10-15 and are still product. Chosen with the verdict's thresholds by
 # scripts/calibrate_verdict.py sweep on tuning scenes (docs/verdict/tuning_sweep.txt): agreement with
 # the truth 85.4 % at 2, 94.2 % at 16, 95.0 % at 24, 94.0 % at 32.
 MIN_COLOR_SPREAD = 24.0
-REFERENCE_CELLS = 4096  # most product cells a ProductReference keeps (an even subsample)
 
 
-@dataclass(frozen=True)
-class ProductReference:
-    """The product's colours, to judge how far an attended region's colour stands apart from them.
-
-    colors: (N, 3) float64 RGB of object cells; mean (3,) and covariance (3, 3) of them, the covariance
-    with its ridge added on the diagonal (RIDGE_SHARE, MIN_COLOR_SPREAD). Built from a view (from_view):
-    every object cell except the attended target's. The episode loop builds one from the episode's first
-    view (the most product in sight: once the last impurity is gone, the few products left are no longer
-    a fair sample; one odd shade among four blocks looks unique).
-    """
-
-    colors: np.ndarray
-    mean: np.ndarray
-    covariance: np.ndarray
-
-    @classmethod
-    def from_colors(cls, colors: np.ndarray, min_spread: float = MIN_COLOR_SPREAD) -> ProductReference:
-        """From (N, 3) RGB colours; min_spread (RGB) as MIN_COLOR_SPREAD. ValueError when N is 0."""
-        colors = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
-        if len(colors) == 0:
-            raise ValueError("a product reference needs at least one object cell")
-        if len(colors) > REFERENCE_CELLS:
-            colors = colors[np.linspace(0, len(colors) - 1, REFERENCE_CELLS).astype(int)]
-        covariance = np.cov(colors.T) if len(colors) > 1 else np.zeros((3, 3))
-        ridge = max(RIDGE_SHARE * float(np.trace(covariance)) / 3.0, float(min_spread) ** 2)
-        covariance = covariance + ridge * np.eye(3)
-        return cls(colors, colors.mean(axis=0), covariance)
-
-    @classmethod
-    def from_view(cls, color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None = None,
-                  min_object_height: float = 0.01) -> ProductReference | None:
-        """From a colour (H, W, 3) uint8 and height (H, W) m view: object cells (height >
-        min_object_height) outside target_mask ((H, W) bool, or None). None without such cells."""
-        objects = np.asarray(height) > min_object_height
-        if np.shape(color) != (*objects.shape, 3):
-            raise ValueError(f"color {np.shape(color)} and height {objects.shape} must share one (H, W)")
-        if target_mask is not None:
-            objects &= ~np.asarray(target_mask).astype(bool)
-        if not objects.any():
-            return None
-        return cls.from_colors(np.asarray(color)[objects])
-
-    def contrast(self, rgb) -> float:
-        """Mahalanobis distance of an RGB colour from the product's colours (mean, covariance):
-        dimensionless, so one threshold serves dark and light products, one shade or several; the
-        product's own shading (darker sides of the same hue) lies along its covariance and counts little
-        (issue 17: decisions relative to the scene). Chosen over the distance to the median colour in
-        units of the median spread by scripts/calibrate_verdict.py on tuning scenes."""
-        offset = np.asarray(rgb, dtype=np.float64) - self.mean
-        return float(np.sqrt(offset @ np.linalg.solve(self.covariance, offset)))
+def product_reference(color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None,
+                      params: VerdictParams = VerdictParams()) -> ProductReference | None:
+    """The verdict's product reference from a view (the episode loop: its first view): the object cells'
+    colours outside target_mask, with the verdict's least spread MIN_COLOR_SPREAD. None without object
+    cells. color (H, W, 3) uint8, height (H, W) m, target_mask (H, W) bool or None."""
+    return ProductReference.from_view(color, height, target_mask, MIN_COLOR_SPREAD, params.min_object_height)
 
 
 def region_color(color: np.ndarray, target_mask: np.ndarray) -> np.ndarray:
@@ -242,7 +195,7 @@ def product_color_contrast(color: np.ndarray, height: np.ndarray, target_mask: n
     target, others = _region_and_others(color, height, target_mask, min_object_height)
     if others is None:
         return None
-    return ProductReference.from_colors(others).contrast(target.mean(axis=0))
+    return ProductReference.from_colors(others, MIN_COLOR_SPREAD).contrast(target.mean(axis=0))
 
 
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,

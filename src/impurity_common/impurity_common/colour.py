@@ -1,0 +1,72 @@
+"""How far a colour stands apart from a product's colours: a Mahalanobis distance from the colours of the
+product's cells (issue 17: decisions relative to the scene, not to a palette). Pure numpy; no ROS.
+
+Used by attention (is the best salient region's colour unlike the other objects'?) and by the grasp
+verdict (is the lifted region's colour unlike the product's in the episode's first view?), each with its
+own least spread (`min_spread`, chosen with its thresholds on tuning scenes).
+
+    reference = ProductReference.from_view(color, height, target_mask, min_spread=4.0)
+    reference.contrast(rgb)  # dimensionless: about 1 for the product's own colours
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+# The product's colour covariance gets a ridge on its diagonal: RIDGE_SHARE of its mean variance per axis
+# (an axis along which the product hardly varies would make every colour off it infinitely far; being a
+# share, the ridge scales with brightness as the covariance does), and at least min_spread**2.
+RIDGE_SHARE = 0.05
+REFERENCE_CELLS = 4096  # most product cells a ProductReference keeps (an even subsample)
+
+
+@dataclass(frozen=True)
+class ProductReference:
+    """The product's colours, to judge how far a region's colour stands apart from them.
+
+    colors: (N, 3) float64 RGB of object cells; mean (3,) and covariance (3, 3) of them, the covariance
+    with its ridge added on the diagonal (RIDGE_SHARE of the mean variance, at least min_spread**2).
+    """
+
+    colors: np.ndarray
+    mean: np.ndarray
+    covariance: np.ndarray
+
+    @classmethod
+    def from_colors(cls, colors: np.ndarray, min_spread: float) -> ProductReference:
+        """From (N, 3) RGB colours; min_spread: the least standard deviation (RGB) granted on every axis
+        (a one-colour product under flat light would otherwise make every other colour infinitely far).
+        ValueError when N is 0 or min_spread <= 0."""
+        colors = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
+        if len(colors) == 0:
+            raise ValueError("a product reference needs at least one object cell")
+        if not min_spread > 0:
+            raise ValueError(f"min_spread must be > 0 (RGB), got {min_spread}")
+        if len(colors) > REFERENCE_CELLS:
+            colors = colors[np.linspace(0, len(colors) - 1, REFERENCE_CELLS).astype(int)]
+        covariance = np.cov(colors.T) if len(colors) > 1 else np.zeros((3, 3))
+        ridge = max(RIDGE_SHARE * float(np.trace(covariance)) / 3.0, float(min_spread) ** 2)
+        return cls(colors, colors.mean(axis=0), covariance + ridge * np.eye(3))
+
+    @classmethod
+    def from_view(cls, color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None,
+                  min_spread: float, min_object_height: float = 0.01) -> ProductReference | None:
+        """From a colour (H, W, 3) uint8 and height (H, W) m view: object cells (height >
+        min_object_height m) outside target_mask ((H, W) bool, or None). None without such cells."""
+        objects = np.asarray(height) > min_object_height
+        if np.shape(color) != (*objects.shape, 3):
+            raise ValueError(f"color {np.shape(color)} and height {objects.shape} must share one (H, W)")
+        if target_mask is not None:
+            objects &= ~np.asarray(target_mask).astype(bool)
+        if not objects.any():
+            return None
+        return cls.from_colors(np.asarray(color)[objects], min_spread)
+
+    def contrast(self, rgb) -> float:
+        """Mahalanobis distance of an RGB colour from the product's colours (mean, covariance):
+        dimensionless, so one threshold serves dark and light products, one shade or several; the
+        product's own shading (darker faces of the same hue) lies along its covariance and counts little."""
+        offset = np.asarray(rgb, dtype=np.float64) - self.mean
+        return float(np.sqrt(offset @ np.linalg.solve(self.covariance, offset)))

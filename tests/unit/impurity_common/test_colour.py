@@ -1,0 +1,57 @@
+"""A colour's distance from a product's colours (impurity_common.colour.ProductReference): Mahalanobis, so
+that the product's own shading counts little and one threshold serves every palette."""
+
+import numpy as np
+import pytest
+
+from impurity_common.colour import REFERENCE_CELLS, ProductReference
+
+LIT, SHADED = (40, 120, 200), (30, 90, 150)  # one blue block, a lit and a shaded face
+
+
+def test_the_contrast_is_a_mahalanobis_distance_from_the_products_colours():
+    reference = ProductReference.from_colors([LIT] * 50 + [SHADED] * 50, min_spread=2.0)
+    assert reference.mean == pytest.approx([35, 105, 175])
+    # a blue between the two faces is product, even one further from the mean in RGB than a reddish one
+    between, reddish = (36, 108, 180), (60, 105, 175)
+    assert np.linalg.norm(np.subtract(between, reference.mean)) > 0
+    assert np.linalg.norm(np.subtract(between, reference.mean)) < np.linalg.norm(np.subtract(reddish,
+                                                                                             reference.mean))
+    assert reference.contrast(between) < 1.0 < 4.0 < reference.contrast(reddish)
+    assert reference.contrast((200, 30, 30)) > 20
+
+
+def test_the_least_spread_bounds_the_contrast_on_axes_the_product_does_not_vary_along():
+    one_colour = ProductReference.from_colors([LIT] * 100, min_spread=4.0)
+    assert one_colour.contrast(np.add(LIT, (0, 0, 8))) == pytest.approx(2.0)  # 8 RGB = 2 spreads of 4
+    assert ProductReference.from_colors([LIT] * 100, min_spread=8.0).contrast(np.add(LIT, (0, 0, 8))) == \
+        pytest.approx(1.0)
+
+
+def test_brightness_leaves_the_contrast_unchanged_where_the_product_spreads_beyond_the_least_spread():
+    shades = [(100, 100, 100), (160, 130, 150), (120, 170, 110), (150, 110, 170)]
+    products, impurity = np.repeat(shades, 64, axis=0), np.array([220, 90, 60])
+    for floor in (2.0, 12.0):
+        bright = ProductReference.from_colors(products, floor).contrast(impurity)
+        dark = ProductReference.from_colors(products * 0.5, floor / 2).contrast(impurity * 0.5)
+        assert dark == pytest.approx(bright)  # one stop darker: the same contrast, the same decision
+
+
+def test_a_view_gives_its_object_cells_outside_the_mask_and_large_views_are_subsampled():
+    height = np.zeros((100, 100), np.float32)
+    color = np.zeros((100, 100, 3), np.uint8)
+    height[:80], color[:80] = 0.03, LIT
+    mask = np.zeros((100, 100), bool)
+    mask[:10] = True
+    reference = ProductReference.from_view(color, height, mask, min_spread=4.0)
+    assert len(reference.colors) == min(70 * 100, REFERENCE_CELLS)
+    assert reference.mean == pytest.approx(LIT)
+    assert ProductReference.from_view(color, np.zeros((100, 100)), None, min_spread=4.0) is None
+
+
+@pytest.mark.parametrize("colors, spread, fragment", [
+    (np.zeros((0, 3)), 4.0, "at least one"), ([LIT], 0.0, "min_spread"),
+])
+def test_bad_input_is_refused_with_the_reason(colors, spread, fragment):
+    with pytest.raises(ValueError, match=fragment):
+        ProductReference.from_colors(colors, spread)
