@@ -16,15 +16,17 @@ import sys
 import time
 
 import rclpy
+from rclpy.signals import SignalHandlerOptions
 
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
-from impurity_policy.core.episode import is_failure
+from impurity_policy.core.episode import TERMINATION_CANCELED, is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
+CANCEL_TIMEOUT = 30.0  # s for the episode node to confirm a cancel (the arm stops and leaves upwards)
 
 
 @contextlib.contextmanager
@@ -87,8 +89,10 @@ def format_result(result) -> str:
 
 
 def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
-    """Send the goal, print feedback as it comes; returns the result (None if rejected). The action
-    client lives for this episode only (clients left behind pile up in the node)."""
+    """Send the goal, print feedback as it comes; returns the result (None if rejected). Ctrl-C
+    (KeyboardInterrupt) while the episode runs cancels the goal and waits up to CANCEL_TIMEOUT s for the
+    episode's result ("canceled": no new motion, the one in progress stopped); a second Ctrl-C leaves at
+    once. The action client lives for this episode only (clients left behind pile up in the node)."""
     client = RaceFreeActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
     try:
         if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
@@ -103,11 +107,22 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
             return None
         result_future = handle.get_result_async()
         deadline = time.monotonic() + timeout
-        while not result_future.done():
-            if time.monotonic() > deadline:
-                handle.cancel_goal_async()
-                raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
-            rclpy.spin_once(node, timeout_sec=0.1)
+        try:
+            while not result_future.done():
+                if time.monotonic() > deadline:
+                    handle.cancel_goal_async()
+                    raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
+                rclpy.spin_once(node, timeout_sec=0.1)
+        except KeyboardInterrupt:
+            printer("episode_client: Ctrl-C: canceling the episode (Ctrl-C again to leave at once)")
+            handle.cancel_goal_async()
+            deadline = time.monotonic() + CANCEL_TIMEOUT
+            while not result_future.done():
+                if time.monotonic() > deadline:
+                    raise TimeoutError(f"the episode did not confirm the cancel within {CANCEL_TIMEOUT:.0f} "
+                                       "s: stop the cell (Ctrl-C on launch_cell.py) or the arm (pendant)"
+                                       ) from None
+                rclpy.spin_once(node, timeout_sec=0.1)
         return result_future.result().result
     finally:
         client.destroy()
@@ -130,7 +145,9 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
                   max_actions=args.max_actions, scene_file=args.scene_file, palette=args.palette)
-    rclpy.init()
+    # Python's own SIGINT handler (KeyboardInterrupt), not rclpy's, which would shut the context down
+    # before the cancel could be sent
+    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("episode_client")
     try:
         if args.start_only:
@@ -150,10 +167,15 @@ def main(argv=None) -> int:
                   file=sys.stderr)
             return 1
         print(format_result(result))
+        if result.termination_reason == TERMINATION_CANCELED:
+            return 130  # as a shell reports Ctrl-C
         return 1 if is_failure(result.termination_reason) else 0  # node_lost, stale_input, error
     except TimeoutError as error:
         print(f"episode_client: {error}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:  # before the goal was accepted, or a second Ctrl-C while canceling
+        print("episode_client: interrupted", file=sys.stderr)
+        return 130
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
