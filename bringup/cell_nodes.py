@@ -3,9 +3,11 @@ launch file bringup/launch/cell.launch.py and the pip launcher bringup/launch_ce
 
 Two cells share every node but the hardware's:
   sim   ur5_driver_sim/sim_cell: PyBullet world, simulated camera, UR5 and gripper (bringup/config/cell.yaml)
-  real  ur5_driver_rtde/ur5_driver: a UR5 through ur-rtde and a Robotiq 2F-85 (bringup/config/real_cell.yaml);
-        the camera driver (realsense2_camera) is started apart (README, "Running on a real cell")
-Every node reads the cell's file, then the camera calibration (bringup/config/camera_calibration.yaml, the
+  real  ur5_driver_rtde/ur5_driver: a UR5 through ur-rtde and a Robotiq 2F-85 (bringup/config/real_cell.yaml,
+        read over cell.yaml); the camera driver (realsense2_camera) is started apart (README, "Running on a
+        real cell")
+Every node reads cell.yaml, on the real cell then real_cell.yaml (only what differs: the arm driver, the
+episode without simulator truth), then the camera calibration (bringup/config/camera_calibration.yaml, the
 camera pose in a `/**` section), then any `-p` override.
 """
 
@@ -29,7 +31,8 @@ CELLS = {
     "sim": (("ur5_driver_sim", "sim_cell"), *COMMON_NODES),
     "real": (("ur5_driver_rtde", "ur5_driver"), *COMMON_NODES),
 }
-CONFIGS = {"sim": CONFIG_DIR / "cell.yaml", "real": CONFIG_DIR / "real_cell.yaml"}
+BASE_CONFIG = CONFIG_DIR / "cell.yaml"  # every node's settings; the simulated cell's whole file
+CONFIGS = {"sim": BASE_CONFIG, "real": CONFIG_DIR / "real_cell.yaml"}  # each cell's own file
 CELL_NODES = list(CELLS["sim"])  # the simulated cell's nodes (make demo, the graph tests)
 
 
@@ -42,11 +45,13 @@ def nodes_of(cell: str) -> tuple[tuple[str, str], ...]:
 
 def parameter_files(cell: str, config: str | pathlib.Path | None = None,
                     calibration: str | pathlib.Path | None = CALIBRATION) -> list[pathlib.Path]:
-    """The parameter files every node of `cell` reads, in order: `config` (default: the cell's file in
-    CONFIGS), then `calibration` (None: none, the nodes' built-in camera pose). ValueError for an unknown
+    """The parameter files every node of `cell` reads, in order (a later file wins): the cell's own file
+    (`config`, default CONFIGS[cell]), on the real cell read over BASE_CONFIG (its own file holds only what
+    differs), then `calibration` (None: none, the nodes' built-in camera pose). ValueError for an unknown
     cell."""
     nodes_of(cell)
-    files = [pathlib.Path(config) if config else CONFIGS[cell]]
+    own = pathlib.Path(config) if config else CONFIGS[cell]
+    files = [own] if cell == "sim" else [BASE_CONFIG, own]
     if calibration:
         files.append(pathlib.Path(calibration))
     return files

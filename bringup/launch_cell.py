@@ -3,9 +3,10 @@
 and the camera calibration.
 
 `--cell sim` (default): the PyBullet cell, bringup/config/cell.yaml. `--cell real`: the UR5 driver on
-ur-rtde instead of the simulator, bringup/config/real_cell.yaml (start the camera driver apart: README,
-"Running on a real cell"). Every node reads `--config`, then `--calibration`, then its `--param`
-overrides. `--print` lists the command lines and starts nothing.
+ur-rtde instead of the simulator, bringup/config/real_cell.yaml read over cell.yaml (start the camera
+driver apart: README, "Running on a real cell"). Every node reads the cell's files (`--config` replaces
+the cell's own), then `--calibration`, then its `--param` overrides. `--print` lists the command lines
+and starts nothing.
 
 Ctrl-C (SIGINT) or SIGTERM stops all of them; if any node dies, the others are stopped and the
 launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node.
@@ -109,7 +110,8 @@ def main(argv=None) -> int:
     parser.add_argument("--cell", choices=tuple(CELLS), default="sim",
                         help="sim: the PyBullet cell (default); real: the UR5 driver, camera started apart")
     parser.add_argument("--config", type=pathlib.Path, default=None,
-                        help="parameter file (default: config/cell.yaml; --cell real: config/real_cell.yaml)")
+                        help="the cell's own parameter file (default: config/cell.yaml; --cell real: "
+                        "config/real_cell.yaml, read over config/cell.yaml)")
     parser.add_argument("--calibration", type=pathlib.Path, default=CALIBRATION,
                         help="camera calibration file, read after --config (default: %(default)s)")
     parser.add_argument("--only", default="", help="comma-separated executables to start (default: all)")
@@ -123,8 +125,9 @@ def main(argv=None) -> int:
                         help="print each node's command line and start nothing")
     args = parser.parse_args(argv)
     files = parameter_files(args.cell, args.config, args.calibration)
-    for path, what in zip(files, ("config", "calibration"), strict=True):
+    for path in files:
         if not path.is_file():
+            what = "calibration" if args.calibration and path == pathlib.Path(args.calibration) else "config"
             parser.error(f"{what} {path} not found")
     cell_nodes = CELLS[args.cell]
     wanted = {n for n in args.only.split(",") if n}

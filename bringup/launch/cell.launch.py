@@ -2,8 +2,9 @@
 starts the whole cell.
 
 cell:=sim (default): the PyBullet cell with bringup/config/cell.yaml. cell:=real: the UR5 driver on
-ur-rtde instead of the simulator, with bringup/config/real_cell.yaml; start the camera driver apart
-(README, "Running on a real cell"). Every node reads `config`, then `calibration` (the camera pose).
+ur-rtde instead of the simulator, with bringup/config/real_cell.yaml read over cell.yaml; start the
+camera driver apart (README, "Running on a real cell"). Every node reads the cell's files (`config`
+replaces the cell's own), then `calibration` (the camera pose).
 The pip environment (no launch/launch_ros wheels) uses bringup/launch_cell.py with the same node lists
 and parameter files (bringup/cell_nodes.py).
 """
@@ -22,7 +23,8 @@ from cell_nodes import CALIBRATION, CELLS, nodes_of, parameter_files  # noqa: E4
 
 
 def cell_nodes(context):
-    """The nodes of the chosen cell, each with the cell's parameter file and then the calibration."""
+    """The nodes of the chosen cell, each with the cell's parameter files (cell_nodes.parameter_files) and
+    then the calibration."""
     cell = LaunchConfiguration("cell").perform(context)
     files = [str(path) for path in parameter_files(cell, LaunchConfiguration("config").perform(context),
                                                    LaunchConfiguration("calibration").perform(context))]
@@ -35,8 +37,8 @@ def generate_launch_description():
         DeclareLaunchArgument("cell", default_value="sim", choices=list(CELLS),
                               description="sim: the PyBullet cell; real: the UR5 driver (camera apart)"),
         DeclareLaunchArgument("config", default_value="",
-                              description="Parameters of every node ('' = config/cell.yaml, or "
-                              "config/real_cell.yaml for cell:=real)"),
+                              description="The cell's own parameter file ('' = config/cell.yaml, or "
+                              "config/real_cell.yaml, read over config/cell.yaml, for cell:=real)"),
         DeclareLaunchArgument("calibration", default_value=str(CALIBRATION),
                               description="Camera calibration (camera pose), read after config"),
         OpaqueFunction(function=cell_nodes),

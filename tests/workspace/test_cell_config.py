@@ -1,6 +1,6 @@
 """The cells' parameter files as rcl reads them and as the launchers pass them.
 
-Every node reads its cell's file (bringup/config/cell.yaml, or real_cell.yaml for the real cell), then
+Every node reads bringup/config/cell.yaml, on the real cell then real_cell.yaml (only what differs), then
 the camera calibration (bringup/config/camera_calibration.yaml: the camera pose in a `/**` section, the
 only place it lives), then `-p` overrides, which beat both files. rcl lets a node's own section beat
 `-p` overrides when a `/**` section comes before it in the same file, so neither cell file has one.
@@ -22,7 +22,6 @@ BRINGUP = ROOT / "bringup"
 SIM_CONFIG = BRINGUP / "config" / "cell.yaml"
 REAL_CONFIG = BRINGUP / "config" / "real_cell.yaml"
 CALIBRATION = BRINGUP / "config" / "camera_calibration.yaml"
-CONFIGS = {"sim": SIM_CONFIG, "real": REAL_CONFIG}
 sys.path.insert(0, str(BRINGUP))
 from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
 from launch_cell import main as launch_cell_main  # noqa: E402
@@ -53,12 +52,12 @@ def parameter_class(node_name: str):
     return getattr(importlib.import_module(module), name)
 
 
-def parameter_as_read(node_name: str, name: str, default, *overrides: str, config=SIM_CONFIG,
+def parameter_as_read(node_name: str, name: str, default, *overrides: str, cell="sim",
                       calibration=CALIBRATION):
-    """The value node `node_name` gets for `name` when started as the launchers start it: `config`, then
-    `calibration`, then the `-p` overrides ("name:=value")."""
+    """The value node `node_name` gets for `name` when started as the launchers start it: the cell's
+    files (parameter_files), then `calibration`, then the `-p` overrides ("name:=value")."""
     context = rclpy.Context()
-    args = ["test", *ros_arguments([config, calibration])]
+    args = ["test", *ros_arguments(parameter_files(cell, None, calibration))]
     for override in overrides:
         args += ["-p", override]
     rclpy.init(args=args, context=context)
@@ -92,10 +91,9 @@ def sections(config: pathlib.Path) -> dict:
                                             ("real", "cell_state_publisher")])
 def test_the_camera_pose_comes_from_the_calibration_file(cell, node_name):
     position, orientation = read_calibration_file(CALIBRATION)
-    config = CONFIGS[cell]
-    assert list(parameter_as_read(node_name, "camera_position", [0.0, 0.0, 0.0], config=config)) == \
+    assert list(parameter_as_read(node_name, "camera_position", [0.0, 0.0, 0.0], cell=cell)) == \
         pytest.approx(position)
-    assert list(parameter_as_read(node_name, "camera_orientation", [0.0, 0.0, 0.0, 1.0], config=config)) == \
+    assert list(parameter_as_read(node_name, "camera_orientation", [0.0, 0.0, 0.0, 1.0], cell=cell)) == \
         pytest.approx(orientation)
 
 
@@ -120,34 +118,47 @@ def test_a_command_line_override_beats_both_files():
 
 
 # ------------------------------------------------------------------------------------ the files' sections
-@pytest.mark.parametrize("cell", list(CELLS))
-def test_a_cell_file_has_a_section_for_every_node_of_its_cell_and_no_other(cell):
-    assert set(sections(CONFIGS[cell])) == {NODE_NAMES[executable] for _, executable in CELLS[cell]}
+def test_cell_yaml_has_a_section_for_every_node_of_the_simulated_cell_and_no_other():
+    assert set(sections(SIM_CONFIG)) == {NODE_NAMES[executable] for _, executable in CELLS["sim"]}
+
+
+def test_real_cell_yaml_holds_only_what_differs_the_arm_driver_and_the_episode_without_truth():
+    assert set(sections(REAL_CONFIG)) == {"ur5_driver", "episode"}
+    assert parameter_files("real", None, None) == [SIM_CONFIG, REAL_CONFIG]  # read over cell.yaml
+
+
+def as_read_by(cell: str, node_name: str) -> dict:
+    """The node's section as the cell's files give it (later files win, parameter by parameter)."""
+    merged = {}
+    for path in parameter_files(cell, None, None):
+        merged.update(flatten(sections(path).get(node_name, {}).get("ros__parameters", {})))
+    return merged
 
 
 @pytest.mark.parametrize("cell,node_name", [(cell, NODE_NAMES[executable]) for cell in CELLS
                                             for _, executable in CELLS[cell]])
-def test_a_cell_file_names_only_declared_parameters_with_allowed_values(cell, node_name):
+def test_a_cell_names_only_declared_parameters_with_allowed_values(cell, node_name):
     cls = parameter_class(node_name)
-    config = flatten(sections(CONFIGS[cell])[node_name]["ros__parameters"])
+    config = as_read_by(cell, node_name)
     specs = {spec.name: spec for spec in parameter_specs(cls)}
     assert set(config) <= set(specs), f"{node_name} declares no {sorted(set(config) - set(specs))}"
     build(node_name, cls, {**{name: spec.default for name, spec in specs.items()}, **config})
 
 
 def test_the_real_cell_needs_no_simulator_truth_and_first_runs_dry():
+    assert parameter_as_read("episode", "use_ground_truth", True, cell="real") is False
+    assert parameter_as_read("episode", "scene_service_timeout", 3.0, cell="real") == 0.0  # never asks a sim
+    assert parameter_as_read("episode", "use_ground_truth", False, cell="sim") is True
     real = sections(REAL_CONFIG)
-    assert real["episode"]["ros__parameters"]["use_ground_truth"] is False
-    assert real["episode"]["ros__parameters"]["scene_service_timeout"] == 0.0  # never asks for a sim's scene
     assert real["ur5_driver"]["ros__parameters"]["dry_run"] is True
     assert real["ur5_driver"]["ros__parameters"]["speed_scale"] <= 0.25
 
 
 def test_perception_and_policy_are_configured_alike_on_both_cells():
-    sim, real = sections(SIM_CONFIG), sections(REAL_CONFIG)
     for node_name in ("heightmap", "attention", "policy"):
-        assert real[node_name] == sim[node_name], \
-            f"real_cell.yaml's {node_name} section differs from cell.yaml's: copy the section across"
+        assert as_read_by("real", node_name) == as_read_by("sim", node_name)
+    assert parameter_as_read("attention", "min_relative_contrast", 0.0, cell="real") == \
+        parameter_as_read("attention", "min_relative_contrast", 0.0, cell="sim")
 
 
 # ------------------------------------------------------------------------------------ the launchers
@@ -170,7 +181,8 @@ def test_the_real_cell_runs_the_ur5_driver_instead_of_the_simulator(capsys):
     assert list(by_name) == ["ur5_driver", "heightmap_node", "attention_node", "policy_node", "episode_node",
                              "cell_state_publisher", "decision_markers"]
     assert pathlib.Path(by_name["ur5_driver"][0]).parent.name == "ur5_driver_rtde"
-    files = ["--params-file", str(REAL_CONFIG), "--params-file", str(CALIBRATION)]
+    files = ["--params-file", str(SIM_CONFIG), "--params-file", str(REAL_CONFIG), "--params-file",
+             str(CALIBRATION)]
     assert by_name["ur5_driver"][1:] == ["--ros-args", *files, "-p", "robot_ip:=10.0.0.2"]
     assert by_name["episode_node"][1:] == ["--ros-args", *files, "-p", "record_dir:=/tmp/records"]
     assert by_name["heightmap_node"][1:] == ["--ros-args", *files]
@@ -182,8 +194,8 @@ def test_the_launcher_takes_another_config_and_calibration(capsys, tmp_path):
     calibration.write_text(CALIBRATION.read_text())
     commands = printed_commands(capsys, "--cell", "real", "--config", str(config), "--calibration",
                                 str(calibration), "--only", "heightmap_node")
-    assert [c[1:] for c in commands] == [["--ros-args", "--params-file", str(config), "--params-file",
-                                         str(calibration)]]
+    assert [c[1:] for c in commands] == [["--ros-args", "--params-file", str(SIM_CONFIG), "--params-file",
+                                         str(config), "--params-file", str(calibration)]]
 
 
 @pytest.mark.parametrize("argv,says", [
@@ -201,9 +213,9 @@ def test_the_launcher_refuses_what_it_cannot_start_and_says_why(capsys, argv, sa
 
 def test_the_launch_file_reads_the_same_files_in_the_same_order():
     assert parameter_files("sim") == [SIM_CONFIG, CALIBRATION]
-    assert parameter_files("real") == [REAL_CONFIG, CALIBRATION]
+    assert parameter_files("real") == [SIM_CONFIG, REAL_CONFIG, CALIBRATION]
     # the launch file's config:='' means the cell's own file
-    assert parameter_files("real", "", str(CALIBRATION)) == [REAL_CONFIG, CALIBRATION]
+    assert parameter_files("real", "", str(CALIBRATION)) == [SIM_CONFIG, REAL_CONFIG, CALIBRATION]
     with pytest.raises(ValueError, match="unknown cell 'lab'"):
         parameter_files("lab")
 
@@ -267,16 +279,17 @@ class FakeLaunch:
                 for _, _, kwargs in function(context)]
 
 
-@pytest.mark.parametrize("arguments,cell,config", [({}, "sim", SIM_CONFIG),
-                                                   ({"cell": "real"}, "real", REAL_CONFIG)])
-def test_the_launch_file_starts_the_cells_nodes_with_its_file_then_the_calibration(monkeypatch, arguments,
-                                                                                   cell, config):
+@pytest.mark.parametrize("arguments,cell,configs", [({}, "sim", [SIM_CONFIG]),
+                                                    ({"cell": "real"}, "real", [SIM_CONFIG, REAL_CONFIG])])
+def test_the_launch_file_starts_the_cells_nodes_with_its_files_then_the_calibration(monkeypatch, arguments,
+                                                                                    cell, configs):
     nodes = FakeLaunch(arguments).nodes(monkeypatch)
     assert [(package, executable) for package, executable, _ in nodes] == list(CELLS[cell])
-    assert all(files == [str(config), str(CALIBRATION)] for _, _, files in nodes)
+    assert all(files == [*map(str, configs), str(CALIBRATION)] for _, _, files in nodes)
 
 
 def test_the_launch_file_takes_another_config_and_calibration(monkeypatch):
     nodes = FakeLaunch({"cell": "real", "config": "/cells/a.yaml", "calibration": "/cells/a_cal.yaml"}
                        ).nodes(monkeypatch)
-    assert {tuple(files) for _, _, files in nodes} == {("/cells/a.yaml", "/cells/a_cal.yaml")}
+    expected = (str(SIM_CONFIG), "/cells/a.yaml", "/cells/a_cal.yaml")  # its own file, over cell.yaml
+    assert {tuple(files) for _, _, files in nodes} == {expected}
