@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """The deployed graph against the fast sim: a few episodes per scenario through the full node graph
 (camera/heightmap, attention, policy, episode node, UR5 arm driver), on the same held-out seeds as
-`make eval`, side by side with the fast sim's records of those seeds (docs/results.json, "ours").
+`make eval`, side by side with the fast sim's records of those seeds (docs/results.json, row "ours@cell").
 
     python bringup/eval_graph.py --episodes 2            # after python -m impurity_learning.eval_cli
 
@@ -37,12 +37,17 @@ def graph_record(result) -> dict:
     return record
 
 
-def fast_sim_records(path: pathlib.Path) -> dict:
-    """{(scenario, seed): episode} of "ours" in a make-eval results file (empty when absent)."""
+FAST_SIM_ROW = "ours@cell"  # make eval's row of the network and rules the graph runs (cell.yaml: rules cell)
+
+
+def fast_sim_records(path: pathlib.Path, row: str = FAST_SIM_ROW) -> dict:
+    """{(scenario, seed): episode} of `row` on the default palette in a make-eval results file (empty
+    when absent)."""
     if not path.is_file():
         return {}
     results = json.loads(path.read_text())
-    return {(e["scenario"], e["seed"]): e for e in results.get("ours", {}).get("episodes", [])}
+    return {(e["scenario"], e["seed"]): e for e in results.get(row, {}).get("episodes", [])
+            if e.get("group", "default") == "default"}
 
 
 def cells(record: dict | None) -> list:
