@@ -70,3 +70,18 @@ class ProductReference:
         product's own shading (darker faces of the same hue) lies along its covariance and counts little."""
         offset = np.asarray(rgb, dtype=np.float64) - self.mean
         return float(np.sqrt(offset @ np.linalg.solve(self.covariance, offset)))
+
+
+def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
+                    min_spread: float) -> float | None:
+    """ProductReference.contrast of a region's mean colour against the other object cells of the same
+    view (objects outside the region): how far the region stands apart from the rest. color (H, W, 3)
+    uint8, region and objects (H, W) bool (region not empty), min_spread RGB as in from_colors. None when
+    no other object cell is in view (nothing to compare with)."""
+    region = np.asarray(region, dtype=bool)
+    others = np.asarray(objects, dtype=bool) & ~region
+    if not others.any():
+        return None
+    rgb = np.asarray(color)
+    reference = ProductReference.from_colors(rgb[others], min_spread)
+    return reference.contrast(rgb[region].astype(np.float64).mean(axis=0))

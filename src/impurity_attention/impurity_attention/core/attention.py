@@ -46,7 +46,7 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
-from impurity_common.colour import ProductReference
+from impurity_common.colour import region_contrast
 from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
 from impurity_common.grid import HeightmapGrid
 
@@ -327,11 +327,8 @@ def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: Salien
     ProductReference.contrast (Mahalanobis, dimensionless) with least spread params.color_min_spread.
     color (H, W, 3) uint8, objects (H, W) bool. inf when no other object cell is in view (nothing to
     compare with: the saliency decides alone)."""
-    others = objects & ~region.mask
-    if not others.any():
-        return float("inf")
-    reference = ProductReference.from_colors(color[others], params.color_min_spread)
-    return reference.contrast(color[region.mask].mean(axis=0))
+    contrast = region_contrast(color, region.mask, objects, params.color_min_spread)
+    return float("inf") if contrast is None else contrast
 
 
 def _output(mode, score, centroid, color, height, saliency, params, grid, regions=(), clusters=(),
