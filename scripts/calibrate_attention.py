@@ -404,6 +404,14 @@ def palette_sweep(params: AttentionParams) -> None:
         if row[0] == COLOR_SPREADS[0] and row[2] == 0.0 and shown:
             print(f"  min_relative_contrast {row[1]:4.1f}: impurity found {100 * row[3]:5.1f} %  "
                   f"false TARGET {100 * row[4]:5.1f} %")
+    # A colour floor under the shipped saliency rule: what it costs in first views (found) and saves
+    # (false TARGET); scripts/calibrate_episode_end.py measures what it saves late in episodes.
+    shipped = round(params.min_relative_contrast, 2)
+    print(f"colour floor under min_relative_contrast {shipped} (spread {COLOR_SPREADS[0]:.0f}):")
+    for row in sweep:
+        if row[0] == COLOR_SPREADS[0] and row[1] == shipped and row[2] <= 3.0:
+            print(f"  min_color_contrast {row[2]:4.2f}: impurity found {100 * row[3]:5.1f} %  "
+                  f"false TARGET {100 * row[4]:5.1f} %")
     meeting = [row for row in sweep if row[4] <= FALSE_TARGET_AIM and row[3] >= TARGET_FOUND_AIM]
     if meeting:
         best = min(meeting, key=lambda r: (r[4], -r[3], r[0], r[2]))

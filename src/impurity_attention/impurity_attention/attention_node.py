@@ -55,7 +55,8 @@ class DensityParameters:
     height_weight: float = param(DEFAULTS.density.height_weight,
                                  "Height as a DBSCAN coordinate: m per m (0 = off)", low=0.0, high=100.0)
     min_cluster_height: float = param(DEFAULTS.density.min_cluster_height,
-                                      "Lower clusters cannot hide a target (m)", low=0.0, high=1.0)
+                                      "Lower clusters cannot hide a target (m): the tallest single "
+                                      "product piece plus a margin", low=0.0, high=1.0)
     min_cluster_area: float = param(DEFAULTS.density.min_cluster_area,
                                     "Smaller clusters cannot hide a target (m^2)", low=0.0, high=1.0)
     height_percentile: float = param(DEFAULTS.density.height_percentile,

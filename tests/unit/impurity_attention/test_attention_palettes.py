@@ -120,8 +120,10 @@ def test_the_colour_test_refuses_a_salient_region_coloured_like_the_other_object
     # the clean blue scene: with a low saliency threshold its best region would be a TARGET; its colour
     # lies within the other blue boxes' spread, so the colour test says no
     color, height, _ = scene("blue_red", 0, with_impurity=False)
-    low = att.AttentionParams(min_relative_contrast=0.0)
+    low = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=0.0)
     assert att.attend(color, height, low).mode == att.AttentionMode.TARGET
-    with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=3.0)
-    refused = att.attend(color, height, with_colour)
-    assert refused.mode != att.AttentionMode.TARGET and "coloured like the other objects" in refused.reason
+    for floor in (3.0, att.AttentionParams().min_color_contrast):  # the default floor refuses it as well
+        with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=floor)
+        refused = att.attend(color, height, with_colour)
+        assert refused.mode != att.AttentionMode.TARGET
+        assert "coloured like the other objects" in refused.reason
