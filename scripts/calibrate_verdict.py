@@ -113,7 +113,7 @@ def collect(args) -> int:
     palettes = palettes_of(args.split, args.random_palettes)
     seeds = seeds_of(args.split, args.seeds)
     jobs = [(scenario, size, palette, seed) for scenario in SCENARIOS for size in SCENE_SIZES[scenario]
-            for palette, seed in zip(itertools.cycle(palettes), seeds)]
+            for palette, seed in zip(itertools.cycle(palettes), seeds)][args.shard::args.shards]
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = set()
@@ -301,6 +301,8 @@ def parse_args(argv=None):
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
     c.add_argument("--threads", type=int, default=1, help="torch threads")
+    c.add_argument("--shard", type=int, default=0, help="run every --shards-th episode from this one")
+    c.add_argument("--shards", type=int, default=1, help="processes sharing the episodes (each its own --out)")
     c.add_argument("--out", required=True, help="JSON lines, one episode each (appended: resumable)")
     s = sub.add_parser("sweep", help="choose the thresholds on the tuning episodes of the files")
     s.add_argument("files", nargs="+")
