@@ -44,9 +44,11 @@ REAL_CELL_EPISODE = {"use_ground_truth": False, "none_frames_to_finish": 3, "dec
 # that can hide something and attention's colour floor (scripts/calibrate_episode_end.py) were chosen on
 # tuning seeds and palettes. Earlier blocks each ran once and are not run again: 700 000 with 3 cm heaps
 # and no floor (an invisible episode ended by repeated failure on a flattened heap), 800 000 with 4 cm
-# heaps and no floor (one ended by repeated failed grasps at a product). This block had never run when
-# both were chosen.
-FRESH = EVAL_SEED_BASE + 900_000
+# heaps and no floor (one ended by repeated failed grasps at a product), 900 000 with the floor and the
+# verdict's first threshold, 1.25 (18/19 verdicts; one invisible episode ended by repeated failed grasps at
+# its target on a heap's edge). This block had never run when the verdict was re-tuned (1.5) on tuning
+# episodes with the floor.
+FRESH = EVAL_SEED_BASE + 1_000_000
 EPISODES = [("random", FRESH + k, 1, 5, 15) for k in (1, 2, 3, 4)] + \
            [("challenging", FRESH + k, 1, 5, 15) for k in (1, 2, 3)] + \
            [("invisible", FRESH + k, 1, 10, 60) for k in (1, 2, 3)]
@@ -147,13 +149,17 @@ def test_real_cell_mode_runs_without_counts_or_truth_and_records_the_truth_besid
         assert e.summary["termination_reason"] == r.termination_reason
 
 
-# What the last run of this block measured short of the acceptance (run once, 2026-11-30); each item's
-# test stays a real check and passes once the cell meets it.
-VERDICTS_NOT_MET = ("issue 18 acceptance not met on this block: 18/19 grasp verdicts agree (94.7 %); random "
-                    f"{FRESH + 1} step 6 counted a lifted product as an impurity")
-ENDS_NOT_MET = (f"issue 18 acceptance not met on this block: invisible {FRESH + 1} ends by repeated_failure "
-                "at 17 actions (its target, visible at a heap's edge, is grasped five times and the fingers "
-                "close on nothing); 9/10 end by perception")
+# What the last run of this block measured short of the acceptance (run once, 2026-11-30). The graph's
+# episodes are not repeatable to the frame (which fresh frame a decision is taken on depends on timing), so
+# an item met once is a measurement, not a guarantee: in the fast sim the same loop ended by perception in
+# 98 % of 150 tuning episodes (docs/episode_end/tuning.txt) and its verdicts agreed with the truth on 96.3 %
+# of tuning grasps and all 42 default-palette grasps (docs/verdict/). These two items are reported (xfail,
+# not strict), not gating, until the cell meets them reliably; the picked-count item gates.
+VERDICTS_NOT_MET = ("issue 18 acceptance not met on this block: 12/13 grasp verdicts agree (92.3 %); random "
+                    f"{FRESH + 3} step 2 counted a lifted product block (attention contrast 7.1) as an "
+                    "impurity")
+ENDS_NOT_MET = ("issue 18 acceptance: met on this block (10/10 ended by perception), not on the three before "
+                "it (9/10 each; module comment)")
 
 
 @pytest.mark.xfail(strict=False, reason=VERDICTS_NOT_MET)
