@@ -302,7 +302,8 @@ def parse_args(argv=None):
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
     c.add_argument("--threads", type=int, default=1, help="torch threads")
     c.add_argument("--shard", type=int, default=0, help="run every --shards-th episode from this one")
-    c.add_argument("--shards", type=int, default=1, help="processes sharing the episodes (each its own --out)")
+    c.add_argument("--shards", type=int, default=1,
+                   help="processes sharing the episodes (each its own --out)")
     c.add_argument("--out", required=True, help="JSON lines, one episode each (appended: resumable)")
     s = sub.add_parser("sweep", help="choose the thresholds on the tuning episodes of the files")
     s.add_argument("files", nargs="+")
