@@ -88,41 +88,84 @@ def format_result(result) -> str:
     return "\n".join(lines)
 
 
-def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print):
-    """Send the goal, print feedback as it comes; returns the result (None if rejected). Ctrl-C
-    (KeyboardInterrupt) while the episode runs cancels the goal and waits up to CANCEL_TIMEOUT s for the
-    episode's result ("canceled": no new motion, the one in progress stopped); a second Ctrl-C leaves at
-    once. The action client lives for this episode only (clients left behind pile up in the node)."""
+class CtrlC:
+    """Ctrl-C (SIGINT) counted by a handler that only adds one, read by the client's waiting loops. A
+    KeyboardInterrupt raised wherever the signal lands can surface inside rclpy's C++ calls as another
+    error (seen: a TypeError out of the action client's take_feedback), and the goal would be left
+    running; the loops read the count between spins instead."""
+
+    def __init__(self):
+        self.count = 0
+
+    def __call__(self, signum, frame) -> None:
+        self.count += 1
+
+
+def _wait(node, future, seconds: float, ctrl_c: CtrlC | None, presses: int = 1) -> bool:
+    """Spin until the future is done (True), or `seconds` passed or Ctrl-C was pressed `presses` times
+    (False). Without ctrl_c a KeyboardInterrupt from Python's own handler propagates."""
+    deadline = time.monotonic() + seconds
+    while not future.done():
+        if time.monotonic() > deadline or (ctrl_c is not None and ctrl_c.count >= presses):
+            return False
+        rclpy.spin_once(node, timeout_sec=0.1)
+    return True
+
+
+def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl_c: CtrlC | None = None):
+    """Send the goal, print feedback as it comes; returns the result (None if rejected). Ctrl-C while the
+    episode runs cancels the goal and waits up to CANCEL_TIMEOUT s for the episode's result ("canceled":
+    no new motion, the one in progress stopped); a second Ctrl-C leaves at once (KeyboardInterrupt). With
+    ctrl_c (a CtrlC installed as the SIGINT handler) the presses are read from it, else Python's
+    KeyboardInterrupt is caught. A Ctrl-C while the goal is being sent waits for its answer and cancels
+    an accepted goal at once. The action client lives for this episode only (clients left behind pile up
+    in the node)."""
     client = RaceFreeActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
+    interrupted = False
+
+    def pressed(times: int = 1) -> bool:
+        return (ctrl_c is not None and ctrl_c.count >= times) or (interrupted and times == 1)
+
     try:
-        if not client.wait_for_server(timeout_sec=min(timeout, 60.0)):
-            raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
+        deadline = time.monotonic() + min(timeout, 60.0)
+        while not client.server_is_ready():
+            if pressed():
+                raise KeyboardInterrupt
+            if time.monotonic() > deadline:
+                raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
+            rclpy.spin_once(node, timeout_sec=0.1)
         future = client.send_goal_async(goal,
                                         feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
-        rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
-        handle = future.result()
+        try:
+            _wait(node, future, 30.0, ctrl_c, presses=2)
+        except KeyboardInterrupt:
+            interrupted = True  # wait for the answer: an accepted goal is canceled below
+            _wait(node, future, 30.0, None)
+        if pressed(2):
+            raise KeyboardInterrupt
+        handle = future.result() if future.done() else None
         if handle is None:
+            if pressed():
+                raise KeyboardInterrupt
             raise TimeoutError(f"{RUN_EPISODE_ACTION} did not answer the goal within 30 s")
         if not handle.accepted:
             return None
         result_future = handle.get_result_async()
-        deadline = time.monotonic() + timeout
         try:
-            while not result_future.done():
-                if time.monotonic() > deadline:
-                    handle.cancel_goal_async()
-                    raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
-                rclpy.spin_once(node, timeout_sec=0.1)
+            done = not pressed() and _wait(node, result_future, timeout, ctrl_c)
         except KeyboardInterrupt:
+            interrupted, done = True, False
+        if not done and not pressed():
+            handle.cancel_goal_async()
+            raise TimeoutError(f"episode did not finish within {timeout:.0f} s")
+        if not done:
             printer("episode_client: Ctrl-C: canceling the episode (Ctrl-C again to leave at once)")
             handle.cancel_goal_async()
-            deadline = time.monotonic() + CANCEL_TIMEOUT
-            while not result_future.done():
-                if time.monotonic() > deadline:
-                    raise TimeoutError(f"the episode did not confirm the cancel within {CANCEL_TIMEOUT:.0f} "
-                                       "s: stop the cell (Ctrl-C on launch_cell.py) or the arm (pendant)"
-                                       ) from None
-                rclpy.spin_once(node, timeout_sec=0.1)
+            if not _wait(node, result_future, CANCEL_TIMEOUT, ctrl_c, presses=2):
+                if pressed(2):
+                    raise KeyboardInterrupt
+                raise TimeoutError(f"the episode did not confirm the cancel within {CANCEL_TIMEOUT:.0f} "
+                                   "s: stop the cell (Ctrl-C on launch_cell.py) or the arm (pendant)")
         return result_future.result().result
     finally:
         client.destroy()
@@ -145,23 +188,33 @@ def main(argv=None) -> int:
     args = parser.parse_args(argv)
     fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
                   max_actions=args.max_actions, scene_file=args.scene_file, palette=args.palette)
-    # Python's own SIGINT handler (KeyboardInterrupt), not rclpy's, which would shut the context down
-    # before the cancel could be sent
+    # Our own SIGINT handler (CtrlC: counted, read between spins), not rclpy's, which would shut the
+    # context down before the cancel could be sent
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
+    ctrl_c = CtrlC()
+    signal.signal(signal.SIGINT, ctrl_c)
     node = rclpy.create_node("episode_client")
     try:
         if args.start_only:
             client = node.create_client(StartEpisode, START_EPISODE_SERVICE)
-            if not client.wait_for_service(timeout_sec=60.0):
-                print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
-                      file=sys.stderr)
-                return 2
+            deadline = time.monotonic() + 60.0
+            while not client.service_is_ready():
+                if ctrl_c.count:
+                    raise KeyboardInterrupt
+                if time.monotonic() > deadline:
+                    print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
+                          file=sys.stderr)
+                    return 2
+                rclpy.spin_once(node, timeout_sec=0.1)
             future = client.call_async(StartEpisode.Request(**fields))
-            rclpy.spin_until_future_complete(node, future, timeout_sec=30.0)
+            if not _wait(node, future, 30.0, ctrl_c, presses=2):
+                if ctrl_c.count >= 2:
+                    raise KeyboardInterrupt
+                raise TimeoutError(f"{START_EPISODE_SERVICE} did not answer within 30 s")
             response = future.result()
             print(f"accepted={response.accepted} episode_id={response.episode_id} {response.reason}")
             return 0 if response.accepted else 1
-        result = run_episode(node, RunEpisode.Goal(**fields), args.timeout)
+        result = run_episode(node, RunEpisode.Goal(**fields), args.timeout, ctrl_c=ctrl_c)
         if result is None:
             print("goal rejected (see the episode node's log for the reason: busy, bad request)",
                   file=sys.stderr)
