@@ -101,11 +101,12 @@ class CtrlC:
         self.count += 1
 
 
-def _wait(node, future, seconds: float, ctrl_c: CtrlC | None, presses: int = 1) -> bool:
-    """Spin until the future is done (True), or `seconds` passed or Ctrl-C was pressed `presses` times
-    (False). Without ctrl_c a KeyboardInterrupt from Python's own handler propagates."""
+def _spin_until(node, done, seconds: float, ctrl_c: CtrlC | None, presses: int = 1) -> bool:
+    """Spin until done() (True: a future's done, a server's ready), or `seconds` passed or Ctrl-C was
+    pressed `presses` times (False). Without ctrl_c a KeyboardInterrupt from Python's own handler
+    propagates."""
     deadline = time.monotonic() + seconds
-    while not future.done():
+    while not done():
         if time.monotonic() > deadline or (ctrl_c is not None and ctrl_c.count >= presses):
             return False
         rclpy.spin_once(node, timeout_sec=0.1)
@@ -127,20 +128,17 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
         return (ctrl_c is not None and ctrl_c.count >= times) or (interrupted and times == 1)
 
     try:
-        deadline = time.monotonic() + min(timeout, 60.0)
-        while not client.server_is_ready():
+        if not _spin_until(node, client.server_is_ready, min(timeout, 60.0), ctrl_c):
             if pressed():
                 raise KeyboardInterrupt
-            if time.monotonic() > deadline:
-                raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
-            rclpy.spin_once(node, timeout_sec=0.1)
+            raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
         future = client.send_goal_async(goal,
                                         feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
         try:
-            _wait(node, future, 30.0, ctrl_c, presses=2)
+            _spin_until(node, future.done, 30.0, ctrl_c, presses=2)
         except KeyboardInterrupt:
             interrupted = True  # wait for the answer: an accepted goal is canceled below
-            _wait(node, future, 30.0, None)
+            _spin_until(node, future.done, 30.0, None)
         if pressed(2):
             raise KeyboardInterrupt
         handle = future.result() if future.done() else None
@@ -152,7 +150,7 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
             return None
         result_future = handle.get_result_async()
         try:
-            done = not pressed() and _wait(node, result_future, timeout, ctrl_c)
+            done = not pressed() and _spin_until(node, result_future.done, timeout, ctrl_c)
         except KeyboardInterrupt:
             interrupted, done = True, False
         if not done and not pressed():
@@ -161,7 +159,7 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
         if not done:
             printer("episode_client: Ctrl-C: canceling the episode (Ctrl-C again to leave at once)")
             handle.cancel_goal_async()
-            if not _wait(node, result_future, CANCEL_TIMEOUT, ctrl_c, presses=2):
+            if not _spin_until(node, result_future.done, CANCEL_TIMEOUT, ctrl_c, presses=2):
                 if pressed(2):
                     raise KeyboardInterrupt
                 raise TimeoutError(f"the episode did not confirm the cancel within {CANCEL_TIMEOUT:.0f} "
@@ -197,17 +195,14 @@ def main(argv=None) -> int:
     try:
         if args.start_only:
             client = node.create_client(StartEpisode, START_EPISODE_SERVICE)
-            deadline = time.monotonic() + 60.0
-            while not client.service_is_ready():
+            if not _spin_until(node, client.service_is_ready, 60.0, ctrl_c):
                 if ctrl_c.count:
                     raise KeyboardInterrupt
-                if time.monotonic() > deadline:
-                    print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
-                          file=sys.stderr)
-                    return 2
-                rclpy.spin_once(node, timeout_sec=0.1)
+                print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
+                      file=sys.stderr)
+                return 2
             future = client.call_async(StartEpisode.Request(**fields))
-            if not _wait(node, future, 30.0, ctrl_c, presses=2):
+            if not _spin_until(node, future.done, 30.0, ctrl_c, presses=2):
                 if ctrl_c.count >= 2:
                     raise KeyboardInterrupt
                 raise TimeoutError(f"{START_EPISODE_SERVICE} did not answer within 30 s")
