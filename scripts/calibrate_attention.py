@@ -296,15 +296,20 @@ def palette_names(split: str) -> list:
 
     if split == "tuning":
         return splits.tuning_palettes(PALETTE_RANDOM_COUNT["tuning"])
+    if split == "retired":  # the first held-out set (splits.RETIRED_NAMED), measured for comparison
+        return splits.retired_palettes(PALETTE_RANDOM_COUNT["acceptance"])
     return splits.held_out_palettes(PALETTE_RANDOM_COUNT["acceptance"])
 
 
 def collect_palettes(split: str, scale: int = 1) -> list:
     """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz); the same
-    scene seeds under every palette, tuning seeds for tuning palettes, acceptance seeds otherwise."""
+    scene seeds under every palette, tuning seeds for tuning palettes, acceptance seeds otherwise (the
+    retired held-out palettes share the acceptance cache: records are keyed by palette)."""
+    palettes = palette_names(split)
+    split = "acceptance" if split == "retired" else split
     path = CACHE / f"palettes_{split}{'' if scale == 1 else f'_x{scale}'}.npz"
     wanted = []
-    for palette in palette_names(split):
+    for palette in palettes:
         for index, (scenario, targets, count) in enumerate(PALETTE_PLAN):
             base = SEED_BASE[split] + 100 * index
             wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
@@ -412,6 +417,7 @@ def palette_sweep(params: AttentionParams) -> None:
         if row[0] == COLOR_SPREADS[0] and row[1] == shipped and row[2] <= 3.0:
             print(f"  min_color_contrast {row[2]:4.2f}: impurity found {100 * row[3]:5.1f} %  "
                   f"false TARGET {100 * row[4]:5.1f} %")
+    distinct_path(params, visible, clean)
     meeting = [row for row in sweep if row[4] <= FALSE_TARGET_AIM and row[3] >= TARGET_FOUND_AIM]
     if meeting:
         best = min(meeting, key=lambda r: (r[4], -r[3], r[0], r[2]))
@@ -437,12 +443,57 @@ def palette_sweep(params: AttentionParams) -> None:
           "impurity")
 
 
+def distinct_path(params: AttentionParams, visible: np.ndarray, clean: np.ndarray) -> tuple:
+    """The second way to be a target (AttentionParams.distinct_color_contrast): under the shipped rule
+    (min_relative_contrast, min_color_contrast), a best region whose colour contrast reaches c is a
+    target from saliency s on. visible / clean: palette_sweep's rows (score, on target, colour contrast
+    per COLOR_SPREADS) of the scenes with and without a visible impurity. Chosen: the most found with no
+    more false TARGETs than the rule alone; ties: the highest c (the widest colour margin), then the
+    middle of the saliency thresholds. Prints the table and returns (s, c, found, false TARGET)."""
+    k = 2 + COLOR_SPREADS.index(params.color_min_spread)
+
+    def targets(rows, s=None, c=None):
+        rule = (rows[:, 0] >= params.min_relative_contrast) & (rows[:, k] >= params.min_color_contrast)
+        if s is None:
+            return rule
+        return rule | ((rows[:, 0] >= s) & np.isfinite(rows[:, k]) & (rows[:, k] >= c))
+
+    on_target = visible[:, 1].astype(bool)
+    base_found = float(np.mean(on_target & targets(visible)))
+    base_false = float(np.mean(targets(clean)))
+    grid = []
+    for c in np.round(np.arange(2.0, 8.01, 0.25), 2):
+        for s in np.round(np.arange(2.0, params.min_relative_contrast + 1e-9, 0.1), 2):
+            grid.append((float(s), float(c), float(np.mean(on_target & targets(visible, s, c))),
+                         float(np.mean(targets(clean, s, c)))))
+    print(f"a region distinct in colour, under min_relative_contrast {params.min_relative_contrast} and "
+          f"min_color_contrast {params.min_color_contrast} (found {100 * base_found:.1f} %, false TARGET "
+          f"{100 * base_false:.1f} % alone):")
+    for c in (3.0, 3.5, 4.0, 4.5, 5.0, 6.0):
+        for s in (2.0, 2.5, 3.0, 3.5, 4.0):
+            row = next(r for r in grid if r[0] == s and r[1] == c)
+            print(f"  distinct_color_contrast {c:4.2f}, min_relative_contrast_distinct {s:3.1f}: impurity "
+                  f"found {100 * row[2]:5.1f} %  false TARGET {100 * row[3]:5.1f} %")
+    allowed = [r for r in grid if r[3] <= base_false + 1e-12]
+    most = max(r[2] for r in allowed)
+    widest = max(r[1] for r in allowed if r[2] == most)
+    ties = sorted(r for r in allowed if r[2] == most and r[1] == widest)
+    chosen = ties[len(ties) // 2]
+    print(f"chosen distinct_color_contrast = {chosen[1]:.2f}, min_relative_contrast_distinct = "
+          f"{chosen[0]:.1f} (saliency {ties[0][0]:.1f} ... {ties[-1][0]:.1f} tie; the middle): found "
+          f"{100 * chosen[2]:.1f} %, "
+          f"false TARGET {100 * chosen[3]:.1f} %")
+    return chosen
+
+
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
-    """Held-out palettes (acceptance seeds) and the default palette at exposure x0.5, x1, x2 (acceptance
-    seeds): only measured."""
+    """Held-out palettes (acceptance seeds), the retired first held-out set (for comparison) and the
+    default palette at exposure x0.5, x1, x2 (acceptance seeds): only measured."""
     results = {"params": dataclasses.asdict(params)}
     print("== held-out palettes (acceptance seeds)")
     results["held_out"] = print_palette_rates(palette_rates(collect_palettes("acceptance"), params))
+    print("== retired held-out palettes, the first set (acceptance seeds; measured for comparison)")
+    results["retired"] = print_palette_rates(palette_rates(collect_palettes("retired"), params))
     print("== default palette (acceptance seeds), exposure x0.5 / x1 / x2")
     default = [r for r in collect("acceptance") if r.category() in ("visible", "no_impurity")]
     for exposure in EXPOSURES:

@@ -53,6 +53,10 @@ HEIGHTS = (0.030, 0.035, 0.040, 0.045)  # m, the thresholds `collect` tries by d
 # colour test) tried with them: late in an episode the few products left can outshine each other in
 # saliency (a lone slab, a small block at the edge) while having the product's colour.
 COLOUR_FLOORS = (0.0,)
+# attention's distinct_color_contrast (a best region this distinct in colour is a target from
+# min_relative_contrast_distinct on; 0 = that path off), tried with every height and floor: does finding
+# more impurities in first views (palette-sweep) cost clean ends late in episodes?
+DISTINCT = (0.0,)
 # (scenario, num_targets, num_objects, max_actions): the real-cell-mode graph test's invisible scenes, the
 # paper-sized invisible ones (two heaps, 20 products), random clutter (tilted blocks make low clusters), and
 # the graph test's small random and challenging scenes. Appended, never reordered: a scene's seeds follow
@@ -64,29 +68,32 @@ SCENES = (("invisible", 1, 10, 45), ("invisible", 2, 20, 45), ("random", 2, 10, 
 SEED_BASE = {"tuning": 60_000, "evaluation": splits.EVAL_SEED_BASE + 600_000}
 
 
-def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR_FLOORS) -> list:
+def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR_FLOORS,
+            distinct=DISTINCT) -> list:
     palettes = (splits.tuning_palettes(random_palettes) if split == "tuning"
                 else [splits.DEFAULT_PALETTE, *splits.held_out_palettes(random_palettes)])
     base = SEED_BASE[split]
     scenes = [(scene, palette, base + 100 * index + k) for index, scene in enumerate(SCENES)
               for k, palette in zip(range(seeds), itertools.cycle(palettes))]
-    return [((height, floor), *job) for height in heights for floor in floors for job in scenes]
+    return [((height, floor, path), *job) for height in heights for floor in floors for path in distinct
+            for job in scenes]
 
 
 def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int) -> dict:
-    """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast)
-    = setting."""
-    height, floor = setting
+    """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast,
+    distinct_color_contrast) = setting."""
+    height, floor, distinct = setting
     scenario, targets, objects, max_actions = scene
     base = AttentionParams()
     params = dataclasses.replace(base, density=dataclasses.replace(base.density, min_cluster_height=height),
-                                 min_color_contrast=floor)
+                                 min_color_contrast=floor, distinct_color_contrast=distinct)
     cell = PerceptionSimCell(world, agent, attention_params=params)
     request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
                              max_actions=max_actions, palette=palette)
     summary = picking.run_episode(cell, request, f"{scenario}-{seed}", picking.EpisodeLimits(),
                                   on_error=_reraise)
-    return {"height": height, "colour_floor": floor, "scenario": scenario, "num_targets": targets,
+    return {"height": height, "colour_floor": floor, "distinct_color_contrast": distinct,
+            "scenario": scenario, "num_targets": targets,
             "num_objects": objects,
             "palette": palette, "group": splits.palette_group(palette), "seed": seed,
             "termination": summary["termination_reason"], "actions": summary["actions"],
@@ -96,8 +103,9 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
 
 
 def setting_of(row: dict) -> tuple:
-    """(min_cluster_height, min_color_contrast) of an episode (files from before the colour floor: 0)."""
-    return row["height"], row.get("colour_floor", 0.0)
+    """(min_cluster_height, min_color_contrast, distinct_color_contrast) of an episode (files from
+    before the colour floor or the distinct-colour path: 0, which is how they ran)."""
+    return row["height"], row.get("colour_floor", 0.0), row.get("distinct_color_contrast", 0.0)
 
 
 def key_of(row: dict) -> tuple:
@@ -112,7 +120,7 @@ def collect(args) -> int:
 
     torch.set_num_threads(args.threads)
     jobs = jobs_of(args.split, args.heights, args.seeds, args.random_palettes,
-                   args.colour_floors)[args.shard::args.shards]
+                   args.colour_floors, args.distinct)[args.shard::args.shards]
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {key_of(row) for row in read(out)} if out.exists() else set()
@@ -163,21 +171,23 @@ def common_scenes(rows: list) -> list:
 
 
 def choose(rows: list) -> tuple:
-    """The tuning rows' (min_cluster_height, min_color_contrast) with the most clean ends on the scenes
-    every setting ran; ties go to the lowest colour floor, then the lowest height (the least that a real
-    cell is told to ignore)."""
+    """The tuning rows' (min_cluster_height, min_color_contrast, distinct_color_contrast) with the most
+    clean ends on the scenes every setting ran; ties go to the lowest colour floor, then the lowest height
+    (the least that a real cell is told to ignore), then the distinct-colour path on (it finds more
+    impurities in first views: palette-sweep)."""
     rows = common_scenes(rows)
     settings = sorted({setting_of(r) for r in rows})
 
     def clean_ends(setting):
         return round(figures([r for r in rows if setting_of(r) == setting])["clean_end"], 6)
 
-    return max(settings, key=lambda s: (clean_ends(s), -s[1], -s[0]))
+    return max(settings, key=lambda s: (clean_ends(s), -s[1], -s[0], s[2]))
 
 
 def line(setting: tuple, name: str, rows: list) -> str:
     f = figures(rows)
-    return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {name:22s} {f['episodes']:8d}  {f['clean_end']:9.1%}  "
+    return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {setting[2]:8.2f}  {name:22s} {f['episodes']:8d}  "
+            f"{f['clean_end']:9.1%}  "
             f"{f['ended_by_none']:13.1%}  {f['left_behind']:11d}  {f['completion']:10.1%}  "
             f"{f['actions']:7.1f}  {f['count_match']:11.1%}  {f['verdicts']:8.1%}")
 
@@ -190,7 +200,7 @@ def report(args) -> int:
     tuning = [r for r in rows
               if r["group"] in ("default", "tuning") and r["seed"] in splits.TUNING_SEED_RANGE]
     chosen = choose(tuning) if tuning else None
-    print("min_cluster_height  min_color_contrast  scenes                 episodes  clean_end  "
+    print("min_cluster_height  min_color_contrast  distinct  scenes                 episodes  clean_end  "
           "ended_by_NONE  left_behind  completion  actions  count_match  verdicts")
     for group in sorted({r["group"] for r in rows}):
         print(f"== palettes: {group}")
@@ -207,8 +217,10 @@ def report(args) -> int:
         print("== the choice: default and tuning palettes, tuning seeds, the scenes every setting ran")
         for setting in sorted({setting_of(r) for r in shared}):
             print(line(setting, "all", [r for r in shared if setting_of(r) == setting]))
-        print("chosen on the tuning episodes (most clean ends; ties to the lowest colour floor, then "
-              f"height): min_cluster_height {chosen[0]:.3f} m, min_color_contrast {chosen[1]:.2f}")
+        print("chosen on the tuning episodes (most clean ends; ties to the lowest colour floor, then height, "
+              f"then the distinct-colour path on): min_cluster_height {chosen[0]:.3f} m, min_color_contrast "
+              f"{chosen[1]:.2f}, "
+              f"distinct_color_contrast {chosen[2]:.2f}")
     return 0
 
 
@@ -222,6 +234,9 @@ def parse_args(argv=None):
     c.add_argument("--heights", type=float, nargs="+", default=list(HEIGHTS), help="min_cluster_height (m)")
     c.add_argument("--colour-floors", type=float, nargs="+", default=list(COLOUR_FLOORS),
                    help="attention's min_color_contrast values, each with every height")
+    c.add_argument("--distinct", type=float, nargs="+", default=list(DISTINCT),
+                   help="attention's distinct_color_contrast values (0 = off), each with every height and "
+                        "floor")
     c.add_argument("--seeds", type=int, default=8, help="episodes per scene size")
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))

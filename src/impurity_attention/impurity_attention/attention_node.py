@@ -91,6 +91,13 @@ class AttentionNodeParameters:
                                       "colours to be a target; 0: no colour test", low=0.0)
     color_min_spread: float = param(DEFAULTS.color_min_spread, "relative: least colour spread (RGB) granted "
                                     "to the other objects in the colour test", low=0.1, high=255.0)
+    distinct_color_contrast: float = param(DEFAULTS.distinct_color_contrast, "relative: a best region at "
+                                           "least this far in colour from the other objects is a target "
+                                           "from min_relative_contrast_distinct on; 0: that path off",
+                                           low=0.0)
+    min_relative_contrast_distinct: float = param(DEFAULTS.min_relative_contrast_distinct, "relative: mean "
+                                                  "relative saliency a region distinct in colour needs",
+                                                  low=0.0)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -109,7 +116,9 @@ class AttentionNodeParameters:
             min_region_area=self.min_region_area, contrast=self.contrast,
             min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
             lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
-            color_min_spread=self.color_min_spread, mask_chroma_tolerance=self.mask_chroma_tolerance,
+            color_min_spread=self.color_min_spread, distinct_color_contrast=self.distinct_color_contrast,
+            min_relative_contrast_distinct=self.min_relative_contrast_distinct,
+            mask_chroma_tolerance=self.mask_chroma_tolerance,
             crop_size=self.crop_size)
 
 

@@ -13,11 +13,17 @@ from __future__ import annotations
 
 DEFAULT_PALETTE = "blocks"
 # Named palettes: the tuning ones were chosen to span dark/light/multi-shade products before any
-# measurement; the held-out ones were fixed at the same time (2026-11-30) and never tuned on.
+# measurement.
 TUNING_NAMED = ("coal_slate", "beans_stones", "plastic_flakes", "rice_husks")
-HELD_OUT_NAMED = ("mushrooms_stones", "almonds_shells", "peas_stones", "wood_plastic")
 TUNING_RANDOM_SEEDS = range(0, 1000)  # random-<seed> for tuning
-HELD_OUT_RANDOM_SEEDS = range(1000, 2000)  # random-<seed>, only measured
+# The held-out set, only measured. Rotated on 2026-11-30 (fifth session): the first held-out set (RETIRED_*)
+# had been measured after every change of four sessions, so whatever was changed next was changed knowing
+# its figures; it is kept as the "retired" group, measured for comparison, never again called held-out.
+# The new set was fixed (palettes named and seeds chosen) before any of it was rendered.
+HELD_OUT_NAMED = ("coffee_stones", "walnuts_shells", "glass_ceramic", "cranberries_leaves")
+HELD_OUT_RANDOM_SEEDS = range(2000, 3000)  # random-<seed>, only measured
+RETIRED_NAMED = ("mushrooms_stones", "almonds_shells", "peas_stones", "wood_plastic")
+RETIRED_RANDOM_SEEDS = range(1000, 2000)
 TRAINING_RANDOM_SEEDS = range(10_000, 1_000_000)  # random-<seed> drawn while training
 TRAINING_EXPOSURE = (0.5, 2.0)  # exposure factor drawn log-uniformly while training
 
@@ -30,8 +36,13 @@ def held_out_palettes(random_count: int = 8) -> list:
     return list(HELD_OUT_NAMED) + [f"random-{s}" for s in HELD_OUT_RANDOM_SEEDS[:random_count]]
 
 
+def retired_palettes(random_count: int = 8) -> list:
+    return list(RETIRED_NAMED) + [f"random-{s}" for s in RETIRED_RANDOM_SEEDS[:random_count]]
+
+
 def palette_group(name: str) -> str:
-    """"default", "tuning", "held_out" or "training" for a palette name (exposure suffix ignored)."""
+    """"default", "tuning", "held_out", "retired" (the first held-out set) or "training" for a
+    palette name (exposure suffix ignored)."""
     base = name.split("@", 1)[0] or DEFAULT_PALETTE
     if base == DEFAULT_PALETTE:
         return "default"
@@ -39,12 +50,16 @@ def palette_group(name: str) -> str:
         return "tuning"
     if base in HELD_OUT_NAMED:
         return "held_out"
+    if base in RETIRED_NAMED:
+        return "retired"
     if base.startswith("random-") and base[7:].isdigit():
         seed = int(base[7:])
         if seed in TUNING_RANDOM_SEEDS:
             return "tuning"
         if seed in HELD_OUT_RANDOM_SEEDS:
             return "held_out"
+        if seed in RETIRED_RANDOM_SEEDS:
+            return "retired"
         if seed in TRAINING_RANDOM_SEEDS:
             return "training"
     raise ValueError(f"palette {name!r} belongs to no group of the split")

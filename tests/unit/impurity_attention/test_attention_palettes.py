@@ -127,3 +127,38 @@ def test_the_colour_test_refuses_a_salient_region_coloured_like_the_other_object
         refused = att.attend(color, height, with_colour)
         assert refused.mode != att.AttentionMode.TARGET
         assert "coloured like the other objects" in refused.reason
+
+
+ONLY_DISTINCT = att.AttentionParams(min_relative_contrast=100.0)  # the first rule never fires
+
+
+@pytest.mark.parametrize("palette", ["blue_red", "coal_slate", "cream_grey"])
+def test_a_region_distinct_in_colour_is_a_target_at_a_lower_saliency_contrast(palette):
+    color, height, impurity = scene(palette, 0)
+    found = att.attend(color, height, ONLY_DISTINCT)
+    assert found.mode == att.AttentionMode.TARGET, found.reason
+    assert np.count_nonzero(found.target_mask & impurity) > 0.5 * np.count_nonzero(found.target_mask)
+    clean = att.attend(*scene(palette, 0, with_impurity=False)[:2], ONLY_DISTINCT)
+    assert clean.mode != att.AttentionMode.TARGET, clean.reason
+    off_params = att.AttentionParams(min_relative_contrast=100.0, distinct_color_contrast=0.0)
+    off = att.attend(color, height, off_params)
+    assert off.mode != att.AttentionMode.TARGET and "distinct" not in off.reason
+
+
+def test_the_distinct_colour_path_needs_its_own_saliency_contrast_and_a_colour_comparison():
+    params = att.AttentionParams()
+    below = params.min_relative_contrast - 0.1
+    assert att.is_target(params.min_relative_contrast, params.min_color_contrast, params)
+    assert not att.is_target(below, params.distinct_color_contrast - 0.01, params)
+    assert att.is_target(below, params.distinct_color_contrast, params)
+    assert not att.is_target(params.min_relative_contrast_distinct - 0.01, 10.0, params)
+    # nothing else in view to compare colours with: the saliency rule decides alone
+    assert not att.is_target(below, float("inf"), params)
+    assert att.is_target(params.min_relative_contrast, float("inf"), params)
+
+
+def test_bad_distinct_colour_parameters_are_refused_by_name():
+    with pytest.raises(ValueError, match="distinct_color_contrast"):
+        att.AttentionParams(distinct_color_contrast=-1.0)
+    with pytest.raises(ValueError, match="min_relative_contrast_distinct"):
+        att.AttentionParams(min_relative_contrast_distinct=-0.5)

@@ -20,8 +20,9 @@ NONE, LIMIT = "no_target_or_cluster_left", "action_limit"
 
 
 def row(height, termination, truth_picked=1, group="tuning", palette="coal_slate", seed=60_000, picked=None,
-        floor=0.0):
-    return {"height": height, "colour_floor": floor, "scenario": "invisible", "num_targets": 1,
+        floor=0.0, distinct=0.0):
+    return {"height": height, "colour_floor": floor, "distinct_color_contrast": distinct,
+            "scenario": "invisible", "num_targets": 1,
             "num_objects": 10, "palette": palette, "group": group, "seed": seed, "termination": termination,
             "actions": 20, "picked": truth_picked if picked is None else picked, "truth_picked": truth_picked,
             "truth_total": 1, "verdicts_checked": 1, "verdicts_agreeing": 1}
@@ -40,27 +41,34 @@ def test_the_choice_is_the_most_clean_ends_ties_to_the_lowest_colour_floor_then_
             row(0.04, NONE), row(0.04, NONE),  # two
             row(0.045, NONE), row(0.045, NONE),  # two as well, but higher
             row(0.05, NONE, truth_picked=0), row(0.05, NONE, truth_picked=0)]  # ends early, leaves impurities
-    assert calibrate.choose(rows) == (0.04, 0.0)
+    assert calibrate.choose(rows) == (0.04, 0.0, 0.0)
     rows += [row(0.045, NONE, floor=2.0), row(0.045, NONE, floor=2.0),  # as clean as 0.04 without a floor
              row(0.03, NONE, floor=1.5), row(0.03, LIMIT, floor=1.5)]
-    assert calibrate.choose(rows) == (0.04, 0.0)
+    assert calibrate.choose(rows) == (0.04, 0.0, 0.0)
     rows.append(row(0.04, LIMIT))  # 0.04 without a floor falls to 2 clean ends of 3
-    assert calibrate.choose(rows) == (0.045, 0.0)
+    assert calibrate.choose(rows) == (0.045, 0.0, 0.0)
     rows.append(row(0.045, "repeated_failure"))  # and so does 0.045: the floor's clean ends win
-    assert calibrate.choose(rows) == (0.045, 2.0)
+    assert calibrate.choose(rows) == (0.045, 2.0, 0.0)
 
 
 def test_settings_are_compared_on_the_scenes_every_setting_ran():
     rows = [row(0.03, NONE, seed=1), row(0.04, NONE, seed=1),
             row(0.03, LIMIT, seed=2)]  # only 0.03 ran seed 2: it does not count against it
-    assert calibrate.choose(rows) == (0.03, 0.0)
-    assert calibrate.choose(rows + [row(0.04, NONE, seed=2)]) == (0.04, 0.0)
+    assert calibrate.choose(rows) == (0.03, 0.0, 0.0)
+    assert calibrate.choose(rows + [row(0.04, NONE, seed=2)]) == (0.04, 0.0, 0.0)
 
 
-def test_files_from_before_the_colour_floor_read_as_no_floor():
+def test_files_from_before_the_colour_floor_and_the_distinct_colour_path_read_as_without_them():
     old = row(0.04, NONE)
-    del old["colour_floor"]
-    assert calibrate.setting_of(old) == (0.04, 0.0)
+    del old["colour_floor"], old["distinct_color_contrast"]
+    assert calibrate.setting_of(old) == (0.04, 0.0, 0.0)
+
+
+def test_a_tie_in_clean_ends_goes_to_the_distinct_colour_path_on():
+    rows = [row(0.04, NONE, floor=2.0), row(0.04, NONE, floor=2.0, distinct=4.0)]
+    assert calibrate.choose(rows) == (0.04, 2.0, 4.0)
+    rows += [row(0.04, LIMIT, floor=2.0, distinct=4.0, seed=60_001), row(0.04, NONE, floor=2.0, seed=60_001)]
+    assert calibrate.choose(rows) == (0.04, 2.0, 0.0)
 
 
 @pytest.fixture
@@ -68,7 +76,7 @@ def files(tmp_path):
     tuning = [row(0.03, NONE), row(0.04, LIMIT), row(0.04, NONE, group="default", palette="blocks")]
     # measured only: a held-out palette and an evaluation seed, where 0.04 would look better
     evaluation = splits.EVAL_SEED_BASE + 600_000
-    measured = [row(0.04, NONE, group="held_out", palette="peas_stones", seed=evaluation),
+    measured = [row(0.04, NONE, group="held_out", palette="coffee_stones", seed=evaluation),
                 row(0.04, NONE, group="default", palette="blocks", seed=evaluation + 1),
                 row(0.04, NONE, group="default", palette="blocks", seed=evaluation + 2)]
     path = tmp_path / "episodes.jsonl.gz"
@@ -88,7 +96,7 @@ def test_tuning_jobs_use_tuning_seeds_and_palettes_and_the_same_scenes_for_every
     assert len(jobs) == 2 * 2 * 3 * len(calibrate.SCENES)
     assert all(seed in splits.TUNING_SEED_RANGE for *_, seed in jobs)
     assert {splits.palette_group(palette) for *_, palette, _ in jobs} <= {"default", "tuning"}
-    by_setting = {s: [job[1:] for job in jobs if job[0] == s] for s in ((0.03, 0.0), (0.04, 2.0))}
-    assert by_setting[(0.03, 0.0)] == by_setting[(0.04, 2.0)]
+    by_setting = {s: [job[1:] for job in jobs if job[0] == s] for s in ((0.03, 0.0, 0.0), (0.04, 2.0, 0.0))}
+    assert by_setting[(0.03, 0.0, 0.0)] == by_setting[(0.04, 2.0, 0.0)]
     evaluation = calibrate.jobs_of("evaluation", (0.04,), seeds=3, random_palettes=2)
     assert all(seed >= splits.EVAL_SEED_BASE for *_, seed in evaluation)

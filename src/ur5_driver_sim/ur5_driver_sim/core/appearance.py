@@ -166,6 +166,19 @@ PALETTES = {p.name: p for p in (
     _palette("wood_plastic", [(172, 128, 84), (186, 140, 94), (160, 118, 76)], [(64, 98, 160)],
              "wood chips with blue plastic pieces", product_jitter=0.025,
              light_direction=(0.5, 0.5, 1.0), ambient=0.65, diffuse=0.4),
+    # Added 2026-11-30 (fifth session) as the new held-out set, fixed before any of them was rendered.
+    _palette("coffee_stones", [(74, 48, 34), (88, 58, 40), (64, 42, 30)], [(132, 128, 120)],
+             "roasted coffee beans of several shades with grey stones", product_jitter=0.02,
+             light_direction=(-0.3, -0.4, 1.0), ambient=0.6, diffuse=0.45),
+    _palette("walnuts_shells", [(196, 160, 108), (182, 146, 96)], [(122, 86, 54)],
+             "light walnut kernels with darker shell fragments", product_jitter=0.02,
+             light_direction=(0.6, -0.2, 1.0)),
+    _palette("glass_ceramic", [(96, 140, 96), (110, 156, 108)], [(214, 210, 200), (150, 92, 48)],
+             "green glass cullet with white ceramic and brown glass", product_jitter=0.02, exposure=1.2),
+    _palette("cranberries_leaves", [(150, 30, 40), (128, 24, 36), (168, 40, 48)],
+             [(84, 110, 52), (110, 84, 50)],
+             "red cranberries of several shades with green leaves and brown stems", product_jitter=0.02,
+             ambient=0.5, diffuse=0.55, exposure=0.85),
 )}
 
 
