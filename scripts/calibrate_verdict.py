@@ -50,6 +50,7 @@ from impurity_policy.core import picking
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, EpisodeRequest
 from impurity_policy.core.verdict import (
+    COLOR_SHADING,
     MIN_COLOR_SPREAD,
     ProductReference,
     VerdictParams,
@@ -59,7 +60,8 @@ from impurity_policy.core.verdict import (
 )
 
 SCENARIOS = ("random", "challenging", "invisible")
-SPREADS = (2, 4, 8, 12, 16, 20, 24, 32)  # least product colour spreads (RGB) the sweep tries
+SPREADS = (2, 4, 8, 12, 16, 20, 24, 32, 40, 48)  # least product colour spreads (RGB) the sweep tries
+SHADINGS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)  # ProductReference shadings (share of the mean colour) it tries
 # (num_targets, num_objects, max_actions) per scenario: the real-cell-mode graph test's small scenes and
 # the paper-sized ones (more products left when the last impurity is gone: more chances of a false TARGET).
 SCENE_SIZES = {"random": [(1, 5, 15), (2, 10, 25)], "challenging": [(1, 5, 15), (2, 10, 25)],
@@ -160,20 +162,20 @@ def collect(args) -> int:
     return 0
 
 
-def load(paths, min_spread: float = MIN_COLOR_SPREAD) -> list:
+def load(paths, min_spread: float = MIN_COLOR_SPREAD, shading: float = COLOR_SHADING) -> list:
     """Episodes of the files, each TARGET grasp's color_contrast computed from the raw colours with a
-    ProductReference of the given least spread (RGB)."""
+    ProductReference of the given least spread (RGB) and shading."""
     rows = []
     for path in map(pathlib.Path, paths):
         text = gzip.decompress(path.read_bytes()).decode() if path.suffix == ".gz" else path.read_text()
         rows += [json.loads(line) for line in text.splitlines() if line.strip()]
-    return with_contrast(rows, min_spread)
+    return with_contrast(rows, min_spread, shading)
 
 
-def with_contrast(rows: list, min_spread: float) -> list:
+def with_contrast(rows: list, min_spread: float, shading: float = 0.0) -> list:
     for row in rows:
         colors = row["reference_rgb"]
-        reference = ProductReference.from_colors(colors, min_spread) if colors else None
+        reference = ProductReference.from_colors(colors, min_spread, shading) if colors else None
         for grasp in row["grasps"]:
             if grasp["target"]:
                 grasp["color_contrast"] = reference.contrast(grasp["region_rgb"]) if reference else None
@@ -237,42 +239,45 @@ def sweep(args) -> int:
     scores = np.round(np.arange(0.0, 12.01, 0.25), 2)
     contrasts = np.round(np.arange(0.0, 6.01, 0.25), 2)
     # Best agreement; ties broken by the episode count match, then by the lowest thresholds (fewest
-    # true impurities refused on scenes unlike the tuning ones) and the least spread (most relative).
+    # true impurities refused on scenes unlike the tuning ones), the least spread (most relative) and the
+    # least shading.
 
     def key(t):
-        return round(t[3]["agreement"], 4), round(t[3]["count_match"], 4), -t[1], -t[2], -t[0]
+        return round(t[3]["agreement"], 4), round(t[3]["count_match"], 4), -t[1], -t[2], -t[0], -t[4]
 
-    print("least spread (RGB)  min_target_score  min_color_contrast  agreement  missed  false  count_match")
+    print("shading  least spread (RGB)  min_target_score  min_color_contrast  agreement  missed  false  "
+          "count_match")
     best_of = []
-    for spread in SPREADS:
-        with_contrast(rows, spread)
-        table = [(spread, s, c, agreement(rows, s, c)) for s in scores for c in contrasts]
-        best_of.append(max(table, key=key))
+    for shading in SHADINGS:
+        for spread in SPREADS:
+            with_contrast(rows, spread, shading)
+            table = [(spread, s, c, agreement(rows, s, c), shading) for s in scores for c in contrasts]
+            best_of.append(max(table, key=key))
     best = max(best_of, key=key)
-    for spread, s, c, a in best_of:
-        mark = "  <- chosen" if spread == best[0] else ""
-        print(f"{spread:18.0f} {s:17.2f} {c:19.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  "
+    for spread, s, c, a, shading in best_of:
+        mark = "  <- chosen" if (spread, shading) == (best[0], best[4]) else ""
+        print(f"{shading:7.1f}  {spread:18.0f} {s:17.2f} {c:19.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  "
               f"{a['false']:5d}  {a['count_match']:10.1%}{mark}")
-    with_contrast(rows, best[0])
-    print(f"at least spread {best[0]:.0f}:")
+    with_contrast(rows, best[0], best[4])
+    print(f"at least spread {best[0]:.0f}, shading {best[4]:.1f}:")
     print("min_target_score min_color_contrast  agreement  missed  false  count_match")
     for s, c in ((0.0, 0.0), (0.0, 1.0), (best[1], best[2]), (0.0, 3.0), (6.25, 0.0)):
         a = agreement(rows, s, c)
         print(f"{s:16.2f} {c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
               f"{a['count_match']:10.1%}")
-    best = (best[1], best[2], best[3], best[0])
+    best = (best[1], best[2], best[3], best[0], best[4])
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(
-            {"chosen": {"min_color_spread": best[3], "min_target_score": best[0],
+            {"chosen": {"min_color_spread": best[3], "shading": best[4], "min_target_score": best[0],
                         "min_color_contrast": best[1], **best[2]},
              "episodes": len(rows), "files": [str(f) for f in args.files]}, indent=1) + "\n")
     return 0
 
 
 def measure(args) -> int:
-    rows = load(args.files, args.min_color_spread)
+    rows = load(args.files, args.min_color_spread, args.shading)
     print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}, least "
-          f"colour spread {args.min_color_spread}")
+          f"colour spread {args.min_color_spread}, shading {args.shading}")
     print("palettes            scenario      episodes grasps agreement missed false count_match "
           "ended_by_NONE")
     groups = [(g, lambda r, g=g: r["group"] == g and "@" not in r["palette"])
@@ -313,6 +318,7 @@ def parse_args(argv=None):
     m.add_argument("--min-target-score", type=float, required=True)
     m.add_argument("--min-color-contrast", type=float, required=True)
     m.add_argument("--min-color-spread", type=float, default=MIN_COLOR_SPREAD)
+    m.add_argument("--shading", type=float, default=COLOR_SHADING)
     return p.parse_args(argv)
 
 

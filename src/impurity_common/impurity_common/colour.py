@@ -15,6 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+# Shading (Lambertian: a face turned from the light scales the surface's RGB by a factor) moves a colour
+# along the direction of the product's mean colour. `shading` grants the product that much spread along that
+# axis, as a share of the mean colour's length: a shaded face of a product block is then near the product
+# even when the first view showed only lit faces, while a colour off the axis (another hue) stays far.
 # The product's colour covariance gets a ridge on its diagonal: RIDGE_SHARE of its mean variance per axis
 # (an axis along which the product hardly varies would make every colour off it infinitely far; being a
 # share, the ridge scales with brightness as the covariance does), and at least min_spread**2.
@@ -27,7 +31,8 @@ class ProductReference:
     """The product's colours, to judge how far a region's colour stands apart from them.
 
     colors: (N, 3) float64 RGB of object cells; mean (3,) and covariance (3, 3) of them, the covariance
-    with its ridge added on the diagonal (RIDGE_SHARE of the mean variance, at least min_spread**2).
+    with its ridge added on the diagonal (RIDGE_SHARE of the mean variance, at least min_spread**2) and,
+    with shading > 0, (shading * |mean|)**2 along the mean colour's direction (module comment).
     """
 
     colors: np.ndarray
@@ -35,26 +40,37 @@ class ProductReference:
     covariance: np.ndarray
 
     @classmethod
-    def from_colors(cls, colors: np.ndarray, min_spread: float) -> ProductReference:
+    def from_colors(cls, colors: np.ndarray, min_spread: float, shading: float = 0.0) -> ProductReference:
         """From (N, 3) RGB colours; min_spread: the least standard deviation (RGB) granted on every axis
-        (a one-colour product under flat light would otherwise make every other colour infinitely far).
-        ValueError when N is 0 or min_spread <= 0."""
+        (a one-colour product under flat light would otherwise make every other colour infinitely far);
+        shading: standard deviation granted along the mean colour's direction, as a share of its length
+        (0 = none). ValueError when N is 0, min_spread <= 0 or shading < 0."""
         colors = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
         if len(colors) == 0:
             raise ValueError("a product reference needs at least one object cell")
         if not min_spread > 0:
             raise ValueError(f"min_spread must be > 0 (RGB), got {min_spread}")
+        if not shading >= 0:
+            raise ValueError(f"shading must be >= 0 (a share of the mean colour), got {shading}")
         if len(colors) > REFERENCE_CELLS:
             colors = colors[np.linspace(0, len(colors) - 1, REFERENCE_CELLS).astype(int)]
         covariance = np.cov(colors.T) if len(colors) > 1 else np.zeros((3, 3))
         ridge = max(RIDGE_SHARE * float(np.trace(covariance)) / 3.0, float(min_spread) ** 2)
-        return cls(colors, colors.mean(axis=0), covariance + ridge * np.eye(3))
+        mean = colors.mean(axis=0)
+        covariance = covariance + ridge * np.eye(3)
+        length = float(np.linalg.norm(mean))
+        if shading > 0 and length > 0:
+            axis = mean / length
+            covariance = covariance + (float(shading) * length) ** 2 * np.outer(axis, axis)
+        return cls(colors, mean, covariance)
 
     @classmethod
     def from_view(cls, color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None,
-                  min_spread: float, min_object_height: float = 0.01) -> ProductReference | None:
+                  min_spread: float, min_object_height: float = 0.01,
+                  shading: float = 0.0) -> ProductReference | None:
         """From a colour (H, W, 3) uint8 and height (H, W) m view: object cells (height >
-        min_object_height m) outside target_mask ((H, W) bool, or None). None without such cells."""
+        min_object_height m) outside target_mask ((H, W) bool, or None), shading as in from_colors. None
+        without such cells."""
         objects = np.asarray(height) > min_object_height
         if np.shape(color) != (*objects.shape, 3):
             raise ValueError(f"color {np.shape(color)} and height {objects.shape} must share one (H, W)")
@@ -62,7 +78,7 @@ class ProductReference:
             objects &= ~np.asarray(target_mask).astype(bool)
         if not objects.any():
             return None
-        return cls.from_colors(np.asarray(color)[objects], min_spread)
+        return cls.from_colors(np.asarray(color)[objects], min_spread, shading)
 
     def contrast(self, rgb) -> float:
         """Mahalanobis distance of an RGB colour from the product's colours (mean, covariance):
@@ -73,7 +89,7 @@ class ProductReference:
 
 
 def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
-                    min_spread: float) -> float | None:
+                    min_spread: float, shading: float = 0.0) -> float | None:
     """ProductReference.contrast of a region's mean colour against the other object cells of the same
     view (objects outside the region): how far the region stands apart from the rest. color (H, W, 3)
     uint8, region and objects (H, W) bool (region not empty), min_spread RGB as in from_colors. None when
@@ -83,5 +99,5 @@ def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
     if not others.any():
         return None
     rgb = np.asarray(color)
-    reference = ProductReference.from_colors(rgb[others], min_spread)
+    reference = ProductReference.from_colors(rgb[others], min_spread, shading)
     return reference.contrast(rgb[region].astype(np.float64).mean(axis=0))

@@ -49,9 +49,26 @@ def test_a_view_gives_its_object_cells_outside_the_mask_and_large_views_are_subs
     assert ProductReference.from_view(color, np.zeros((100, 100)), None, min_spread=4.0) is None
 
 
-@pytest.mark.parametrize("colors, spread, fragment", [
-    (np.zeros((0, 3)), 4.0, "at least one"), ([LIT], 0.0, "min_spread"),
+def test_shading_grants_spread_along_the_products_colour_and_not_across_it():
+    # the first view showed lit faces only; a tilted block shows a face of the same hue, 25 % darker
+    lit_only = [LIT] * 100
+    darker_face = np.multiply(LIT, 0.75)
+    other_hue = np.add(LIT, (40, -20, -20))  # a redder blue: off the axis of the product's colour
+    plain = ProductReference.from_colors(lit_only, min_spread=24.0)
+    shaded = ProductReference.from_colors(lit_only, min_spread=24.0, shading=0.2)
+    assert plain.contrast(darker_face) > 2.0  # without shading the darker face reads as another colour
+    assert shaded.contrast(darker_face) < 1.5
+    assert shaded.contrast(other_hue) == pytest.approx(plain.contrast(other_hue), rel=0.15)
+    assert shaded.contrast((200, 30, 30)) > 5
+    # a share of the mean colour: the same decision one stop darker
+    dark = ProductReference.from_colors(np.multiply(lit_only, 0.5), min_spread=12.0, shading=0.2)
+    assert dark.contrast(darker_face * 0.5) == pytest.approx(shaded.contrast(darker_face))
+
+
+@pytest.mark.parametrize("colors, spread, shading, fragment", [
+    (np.zeros((0, 3)), 4.0, 0.0, "at least one"), ([LIT], 0.0, 0.0, "min_spread"),
+    ([LIT], 4.0, -0.1, "shading"),
 ])
-def test_bad_input_is_refused_with_the_reason(colors, spread, fragment):
+def test_bad_input_is_refused_with_the_reason(colors, spread, shading, fragment):
     with pytest.raises(ValueError, match=fragment):
-        ProductReference.from_colors(colors, spread)
+        ProductReference.from_colors(colors, spread, shading)

@@ -187,12 +187,28 @@ def test_the_verdicts_least_spread_keeps_colours_near_the_products_as_product():
 
 
 def test_with_the_episodes_reference_a_product_shade_left_alone_is_not_taken_for_an_impurity():
-    # once the impurity is gone, one light product block among darker ones stands out in its own view
+    # once the impurity is gone, one brownish product block among grey ones stands out in its own view
     products = [(0, 8, 0, 8, 0.03, (100, 100, 100)), (25, 33, 25, 33, 0.03, (100, 100, 100))]
-    light = scene([(10, 20, 10, 20, 0.03, (180, 180, 180))] + products)
-    first = scene([TARGET] + products + [(30, 38, 0, 8, 0.03, (180, 180, 180))])  # both shades in sight
+    light = scene([(10, 20, 10, 20, 0.03, (160, 110, 60))] + products)
+    first = scene([TARGET] + products + [(30, 38, 0, 8, 0.03, (160, 110, 60))])  # both shades in sight
     reference = product_reference(first[1], first[0], MASK)
-    params = VerdictParams(min_target_score=0.0, min_color_contrast=3.0)
+    params = VerdictParams(min_target_score=0.0, min_color_contrast=1.5)
     assert judge_grasp(*light, MASK, *scene(products), HOLDS, params).impurity_picked  # its own view
     judged = judge_grasp(*light, MASK, *scene(products), HOLDS, params, reference=reference)
     assert not judged.impurity_picked and "from the product's" in judged.reason
+
+
+def test_a_shaded_face_of_the_product_is_not_taken_for_an_impurity():
+    # the first view showed the lit tops of the product blocks; after the impurity is gone a tilted block
+    # shows a face of the product's hue, darker by a fifth: product, by the verdict's shading allowance
+    lit, shaded = (40, 120, 200), (32, 96, 160)
+    products = [(0, 8, 0, 8, 0.03, lit), (25, 33, 25, 33, 0.03, lit)]
+    first = scene([TARGET] + products)
+    reference = product_reference(first[1], first[0], MASK)
+    tilted = scene([(10, 20, 10, 20, 0.03, shaded)] + products)
+    judged = judge_grasp(*tilted, MASK, *scene(products), HOLDS, reference=reference)
+    assert not judged.impurity_picked and "from the product's" in judged.reason
+    without_shading = ProductReference.from_view(first[1], first[0], MASK, MIN_COLOR_SPREAD)
+    assert without_shading.contrast(shaded) > DEFAULT_MIN_COLOR_CONTRAST  # it would have counted
+    red = scene([(10, 20, 10, 20, 0.03, RED)] + products)
+    assert judge_grasp(*red, MASK, *scene(products), HOLDS, reference=reference).impurity_picked
