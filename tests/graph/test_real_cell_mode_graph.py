@@ -151,25 +151,35 @@ def test_real_cell_mode_runs_without_counts_or_truth_and_records_the_truth_besid
         assert e.summary["termination_reason"] == r.termination_reason
 
 
-# What the last run of this block measured short of the acceptance (run once, 2026-11-30). The graph's
-# episodes are not repeatable to the frame (which fresh frame a decision is taken on depends on timing), so
-# an item met once is a measurement, not a guarantee: in the fast sim the same loop ended by perception in
-# 98 % of 150 tuning episodes (docs/episode_end/tuning.txt) and its verdicts agreed with the truth on 96.3 %
-# of tuning grasps and all 42 default-palette grasps (docs/verdict/). These two items are reported (xfail,
-# not strict), not gating, until the cell meets them reliably; the picked-count item gates.
-VERDICTS_NOT_MET = ("issue 18 acceptance not met on this block: 12/13 grasp verdicts agree (92.3 %); random "
-                    f"{FRESH + 3} step 2 counted a lifted product block (attention contrast 7.1) as an "
-                    "impurity")
-ENDS_NOT_MET = ("issue 18 acceptance: met on this block (10/10 ended by perception), not on the three before "
-                "it (9/10 each; module comment)")
+# This block, run once with the final settings (2026-11-30, fifth session, in `make test`): 10/10 episodes
+# ended by perception, 13/13 grasp verdicts agreed with the truth, 10/10 picked counts equalled it - the
+# issue 18 acceptance, met. The graph's episodes are not repeatable to the frame (which fresh frame a
+# decision is taken on depends on timing), so the acceptance's strict items are reported each run (xfail,
+# not strict: XPASS when met) and gate with one episode's slack. In the fast sim the same loop ends by
+# perception in 97.7-100 % of tuning episodes (docs/episode_end/tuning.txt) and its verdicts agree on
+# 99.4 % of tuning grasps (docs/verdict/tuning_sweep.txt): a miss somewhere in 10 episodes is expected
+# once in a few runs, a second one would be a regression.
+STRICT = ("issue 18 acceptance, reported each run and not gating: met on this block in the run that "
+          "measured it (10/10 ended by perception, 13/13 verdicts); a single miss is expected once in a few "
+          "runs (module comment)")
+SLACK = 1  # episodes (or grasps) the gating tests allow to miss: one run's chance, not a regression
 
 
-@pytest.mark.xfail(strict=False, reason=VERDICTS_NOT_MET)
+@pytest.mark.xfail(strict=False, reason=STRICT)
 def test_acceptance_verdicts_agree_with_the_truth(real_cell_episodes):
     """Issue 18 acceptance: the verdict agrees with the truth on >= 95 % of grasps."""
     grasps = sum(e.result.verdicts_checked for e in real_cell_episodes)
     agreeing = sum(e.result.verdicts_agreeing for e in real_cell_episodes)
     assert grasps > 0 and agreeing / grasps >= MIN_VERDICT_AGREEMENT, f"{agreeing}/{grasps} grasps agree"
+
+
+def test_verdicts_disagree_with_the_truth_on_one_grasp_at_most(real_cell_episodes):
+    """The verdict's gate: >= 95 % of grasps agree, or all but SLACK."""
+    grasps = sum(e.result.verdicts_checked for e in real_cell_episodes)
+    agreeing = sum(e.result.verdicts_agreeing for e in real_cell_episodes)
+    assert grasps > 0
+    assert agreeing / grasps >= MIN_VERDICT_AGREEMENT or grasps - agreeing <= SLACK, \
+        f"{agreeing}/{grasps} grasps agree"
 
 
 def test_acceptance_picked_counts_match_the_truth(real_cell_episodes):
@@ -179,13 +189,24 @@ def test_acceptance_picked_counts_match_the_truth(real_cell_episodes):
         f"picked count equals the truth in {matching}/{len(real_cell_episodes)} episodes"
 
 
-@pytest.mark.xfail(strict=False, reason=ENDS_NOT_MET)
+def ended_otherwise(episodes) -> list:
+    """(scenario, seed, termination) of the episodes that did not end by perception."""
+    return [(e.scenario, e.seed, e.result.termination_reason) for e in episodes
+            if e.result.termination_reason != TERMINATION_NOTHING_LEFT]
+
+
+@pytest.mark.xfail(strict=False, reason=STRICT)
 def test_acceptance_each_episode_ends_by_perception(real_cell_episodes):
     """Issue 18 acceptance: each episode ends by perception (attention answered NONE on consecutive fresh
     frames), not at one of the loop's limits."""
-    ended_otherwise = [(e.scenario, e.seed, e.result.termination_reason) for e in real_cell_episodes
-                       if e.result.termination_reason != TERMINATION_NOTHING_LEFT]
-    assert not ended_otherwise, f"episodes that did not end by perception: {ended_otherwise}"
+    assert not ended_otherwise(real_cell_episodes), \
+        f"episodes that did not end by perception: {ended_otherwise(real_cell_episodes)}"
+
+
+def test_all_episodes_but_one_at_most_end_by_perception(real_cell_episodes):
+    """The gate of ends: every episode but SLACK ends by perception."""
+    assert len(ended_otherwise(real_cell_episodes)) <= SLACK, \
+        f"episodes that did not end by perception: {ended_otherwise(real_cell_episodes)}"
 
 
 class ScriptedPerception:
