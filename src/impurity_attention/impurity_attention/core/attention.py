@@ -104,7 +104,7 @@ class AttentionParams:
     # no impurity left, 30/30 against 26/30 without (1.5: 29, 2.5: 27; scripts/calibrate_episode_end.py,
     # docs/episode_end/tuning.txt). A detector built on it (palette-sweep's best triple, min_relative_contrast
     # 2.7, min_color_contrast 3.0: 95.5 % found, 2.2 % false TARGET on tuning scenes) found 86.7 % on
-    # held-out palettes against 91.7 % for saliency alone: not adopted.
+    # held-out palettes (the first set, now retired) against 91.7 % for saliency alone: not adopted.
     min_color_contrast: float = 2.0
     color_min_spread: float = 4.0
     # relative: a second way to be a target, for a region distinct in colour. Its saliency contrast may
