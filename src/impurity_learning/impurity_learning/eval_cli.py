@@ -367,11 +367,27 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--group-episodes", type=int, default=4, help="per row, scenario and non-default group")
     p.add_argument("--perception-scenes", type=int, default=10,
                    help="rendered scenes with (and as many without) impurities per group and scenario")
-    p.add_argument("--generalisation", default="docs/generalisation.md")
-    p.add_argument("--generalisation-chart", default="docs/images/generalisation.png")
-    p.add_argument("--generalisation-scenes", default="docs/images/generalisation_scenes.png")
+    p.add_argument("--generalisation", default=None,
+                   help="the generalisation table (default: generalisation.md beside --markdown)")
+    p.add_argument("--generalisation-chart", default=None,
+                   help="its chart (default: images/generalisation.png beside --markdown)")
+    p.add_argument("--generalisation-scenes", default=None,
+                   help="its scene pictures (default: images/generalisation_scenes.png beside --markdown)")
     p.add_argument("--no-progress", action="store_true")
-    return p.parse_args(argv)
+    return generalisation_outputs(p.parse_args(argv))
+
+
+def generalisation_outputs(args):
+    """Fill the generalisation outputs not given beside --markdown (docs/results.md: docs/generalisation.md,
+    docs/images/...), so that a run sent elsewhere does not overwrite the committed table."""
+    where = pathlib.Path(args.markdown).parent
+    defaults = {"generalisation": where / "generalisation.md",
+                "generalisation_chart": where / "images" / "generalisation.png",
+                "generalisation_scenes": where / "images" / "generalisation_scenes.png"}
+    for name, path in defaults.items():
+        if getattr(args, name) is None:
+            setattr(args, name, str(path))
+    return args
 
 
 def main(argv=None) -> int:

@@ -2,6 +2,7 @@
 
 import json
 import math
+import pathlib
 from types import SimpleNamespace
 
 import numpy as np
@@ -9,7 +10,7 @@ import pytest
 import torch
 
 from impurity_common import cell
-from impurity_learning import splits
+from impurity_learning import eval_cli, splits
 from impurity_learning.agents import NetworkAgent, SalientGraspHeuristic, grasp_rectangle
 from impurity_learning.eval_cli import aggregate, main
 from impurity_learning.trainer import Trainer
@@ -220,3 +221,14 @@ def test_eval_episodes_are_the_same_in_one_process_and_in_a_pool(tmp_path):
                                                              ("challenging", 900_000_000),
                                                              ("challenging", 900_000_001)]
     assert pooled == single  # seeded scenes and a deterministic heuristic: the same episodes
+
+
+def test_the_generalisation_outputs_follow_the_markdown_unless_given():
+    default = eval_cli.parse_args([])
+    assert default.generalisation == str(pathlib.Path("docs/generalisation.md"))
+    assert default.generalisation_chart == str(pathlib.Path("docs/images/generalisation.png"))
+    elsewhere = eval_cli.parse_args(["--markdown", "runs/check/results.md"])
+    assert elsewhere.generalisation == str(pathlib.Path("runs/check/generalisation.md"))
+    assert elsewhere.generalisation_scenes == str(pathlib.Path("runs/check/images/generalisation_scenes.png"))
+    given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--generalisation", "x/g.md"])
+    assert given.generalisation == "x/g.md"
