@@ -33,6 +33,7 @@ from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
     AttentionParams,
     attend,
+    is_target,
     region_color_contrast,
     saliency_input,
     salient_regions,
@@ -452,11 +453,9 @@ def distinct_path(params: AttentionParams, visible: np.ndarray, clean: np.ndarra
     middle of the saliency thresholds. Prints the table and returns (s, c, found, false TARGET)."""
     k = 2 + COLOR_SPREADS.index(params.color_min_spread)
 
-    def targets(rows, s=None, c=None):
-        rule = (rows[:, 0] >= params.min_relative_contrast) & (rows[:, k] >= params.min_color_contrast)
-        if s is None:
-            return rule
-        return rule | ((rows[:, 0] >= s) & np.isfinite(rows[:, k]) & (rows[:, k] >= c))
+    def targets(rows, s=0.0, c=0.0):  # the shipped decision (is_target) with the path at (s, c); c 0: off
+        tried = dataclasses.replace(params, min_relative_contrast_distinct=s, distinct_color_contrast=c)
+        return np.array([is_target(row[0], row[k], tried) for row in rows], dtype=bool)
 
     on_target = visible[:, 1].astype(bool)
     base_found = float(np.mean(on_target & targets(visible)))
@@ -481,8 +480,7 @@ def distinct_path(params: AttentionParams, visible: np.ndarray, clean: np.ndarra
     chosen = ties[len(ties) // 2]
     print(f"chosen distinct_color_contrast = {chosen[1]:.2f}, min_relative_contrast_distinct = "
           f"{chosen[0]:.1f} (saliency {ties[0][0]:.1f} ... {ties[-1][0]:.1f} tie; the middle): found "
-          f"{100 * chosen[2]:.1f} %, "
-          f"false TARGET {100 * chosen[3]:.1f} %")
+          f"{100 * chosen[2]:.1f} %, false TARGET {100 * chosen[3]:.1f} %")
     return chosen
 
 

@@ -93,8 +93,7 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
     summary = picking.run_episode(cell, request, f"{scenario}-{seed}", picking.EpisodeLimits(),
                                   on_error=_reraise)
     return {"height": height, "colour_floor": floor, "distinct_color_contrast": distinct,
-            "scenario": scenario, "num_targets": targets,
-            "num_objects": objects,
+            "scenario": scenario, "num_targets": targets, "num_objects": objects,
             "palette": palette, "group": splits.palette_group(palette), "seed": seed,
             "termination": summary["termination_reason"], "actions": summary["actions"],
             "picked": summary["targets_picked"], "truth_picked": summary["truth_targets_picked"],
@@ -187,8 +186,8 @@ def choose(rows: list) -> tuple:
 def line(setting: tuple, name: str, rows: list) -> str:
     f = figures(rows)
     return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {setting[2]:8.2f}  {name:22s} {f['episodes']:8d}  "
-            f"{f['clean_end']:9.1%}  "
-            f"{f['ended_by_none']:13.1%}  {f['left_behind']:11d}  {f['completion']:10.1%}  "
+            f"{f['clean_end']:9.1%}  {f['ended_by_none']:13.1%}"
+            f"  {f['left_behind']:11d}  {f['completion']:10.1%}  "
             f"{f['actions']:7.1f}  {f['count_match']:11.1%}  {f['verdicts']:8.1%}")
 
 
@@ -219,8 +218,7 @@ def report(args) -> int:
             print(line(setting, "all", [r for r in shared if setting_of(r) == setting]))
         print("chosen on the tuning episodes (most clean ends; ties to the lowest colour floor, then height, "
               f"then the distinct-colour path on): min_cluster_height {chosen[0]:.3f} m, min_color_contrast "
-              f"{chosen[1]:.2f}, "
-              f"distinct_color_contrast {chosen[2]:.2f}")
+              f"{chosen[1]:.2f}, distinct_color_contrast {chosen[2]:.2f}")
     return 0
 
 
