@@ -6,7 +6,7 @@
     python scripts/calibrate_attention.py evaluate --split acceptance # the acceptance table (new seeds)
     python scripts/calibrate_attention.py gallery                     # docs/images/attention_*.png
     python scripts/calibrate_attention.py lab-reference               # colour-adaptation reference
-    python scripts/calibrate_attention.py palette-sweep               # relative threshold, tuning palettes
+    python scripts/calibrate_attention.py rule-sweep                  # the whole decision rule (tuning)
     python scripts/calibrate_attention.py palette-evaluate            # held-out palettes + exposure x0.5, x2
     python scripts/calibrate_attention.py palette-gallery             # docs/images/palettes.png
 
@@ -33,7 +33,6 @@ from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
     AttentionParams,
     attend,
-    is_target,
     region_color_contrast,
     saliency_input,
     salient_regions,
@@ -287,7 +286,7 @@ def gallery(params: AttentionParams) -> None:
 # Scenes per palette (scenario, targets, count): a fifth of PLAN's tuning counts, same seed layout.
 PALETTE_PLAN = [("random", 2, 6), ("challenging", 2, 4), ("random", 0, 3), ("challenging", 0, 2),
                 ("invisible", 0, 1), ("invisible", 2, 2), ("invisible", 1, 1)]
-PALETTE_RANDOM_COUNT = {"tuning": 24, "acceptance": 8}  # random palettes per split
+PALETTE_RANDOM_COUNT = {"tuning": 96, "acceptance": 8}  # random palettes per split
 EXPOSURES = (0.5, 1.0, 2.0)
 TARGET_FOUND_AIM, FALSE_TARGET_AIM = 0.95, 0.05
 
@@ -368,120 +367,115 @@ def print_palette_rates(rates: dict) -> dict:
             "visible_scenes": len(totals["visible"]), "clean_scenes": len(totals["no_impurity"])}
 
 
-COLOR_SPREADS = (4.0, 8.0, 16.0, 24.0)  # attention's least product colour spreads (RGB) palette-sweep tries
+SHADINGS = (0.0, 0.1, 0.15, 0.2, 0.3)  # colour-test shading allowances rule-sweep tries
 
 
-def palette_sweep(params: AttentionParams) -> None:
-    """Tuning palettes (and the default at exposure x0.5 and x2) only: detection and false TARGET (on
-    scenes without a visible impurity: clean and invisible) for a grid of min_relative_contrast x
-    min_color_contrast x color_min_spread. Chosen: among the triples that meet both aims (found >=
-    TARGET_FOUND_AIM, false TARGET <= FALSE_TARGET_AIM), the fewest false TARGETs, then the most found,
-    then the least spread and colour threshold, and the middle of the saliency thresholds that give the
-    same figures; when none meets both, the most found within the false-TARGET aim."""
-    records = collect_palettes("tuning")
-    default = [r for r in records if r.palette == "blocks"]
-    records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
-    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes + default at x0.5, x2)")
-    rows = []
-    for record in records:  # the thresholds do not change regions: compute the best region once
+def rule_rows(records, params: AttentionParams, shadings=SHADINGS) -> tuple:
+    """Per scene: (score, on target, colour contrast per shading) of the best salient region, split into
+    scenes with a visible impurity and scenes without one (clean and invisible). The thresholds do not
+    change regions: computed once."""
+    visible, clean = [], []
+    for record in records:
         objects = record.height > params.density.occupied_height
         regions = salient_regions(scene_saliency(record.color, objects, params), objects, params)
         best = regions[0] if regions else None
         on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
         colours = [region_color_contrast(record.color, objects, best,
-                                         dataclasses.replace(params, color_min_spread=spread))
-                   if best is not None else 0.0 for spread in COLOR_SPREADS]
-        rows.append((record.category(), best.score if best else 0.0, on_target, *colours))
-    visible = np.array([row[1:] for row in rows if row[0] == "visible"], dtype=float)
-    # false TARGET: scenes with no visible impurity - without impurities, and invisible scenes (a heap
-    # hides every target: TARGET there sends the gripper to a product block instead of the heap)
-    clean = np.array([row[1:] for row in rows if row[0] in ("no_impurity", "invisible")], dtype=float)
-    sweep = []  # (spread, threshold, colour threshold, found, false TARGET)
-    for k, spread in enumerate(COLOR_SPREADS):
-        for threshold in np.round(np.arange(2.0, 12.01, 0.1), 2):
-            for colour in np.round(np.arange(0.0, 8.01, 0.25), 2):
-                found = float(np.mean(visible[:, 1].astype(bool) & (visible[:, 0] >= threshold) &
-                                      (visible[:, 2 + k] >= colour)))
-                false = float(np.mean((clean[:, 0] >= threshold) & (clean[:, 2 + k] >= colour)))
-                sweep.append((spread, float(threshold), float(colour), found, false))
-    print("saliency only (min_color_contrast 0):")
-    for row in sweep:
-        shown = 3.0 <= row[1] <= 6.0 and round(row[1] * 10) % 4 == 0
-        if row[0] == COLOR_SPREADS[0] and row[2] == 0.0 and shown:
-            print(f"  min_relative_contrast {row[1]:4.1f}: impurity found {100 * row[3]:5.1f} %  "
-                  f"false TARGET {100 * row[4]:5.1f} %")
-    # A colour floor under the shipped saliency rule: what it costs in first views (found) and saves
-    # (false TARGET); scripts/calibrate_episode_end.py measures what it saves late in episodes.
-    shipped = round(params.min_relative_contrast, 2)
-    print(f"colour floor under min_relative_contrast {shipped} (spread {COLOR_SPREADS[0]:.0f}):")
-    for row in sweep:
-        if row[0] == COLOR_SPREADS[0] and row[1] == shipped and row[2] <= 3.0:
-            print(f"  min_color_contrast {row[2]:4.2f}: impurity found {100 * row[3]:5.1f} %  "
-                  f"false TARGET {100 * row[4]:5.1f} %")
-    distinct_path(params, visible, clean)
-    meeting = [row for row in sweep if row[4] <= FALSE_TARGET_AIM and row[3] >= TARGET_FOUND_AIM]
-    if meeting:
-        best = min(meeting, key=lambda r: (r[4], -r[3], r[0], r[2]))
-        # the saliency thresholds giving the same figures with that spread and colour threshold: their
-        # middle (the most margin to either side)
-        ties = sorted(r for r in meeting if r[0] == best[0] and r[2] == best[2] and r[3:] == best[3:])
-        chosen = ties[len(ties) // 2]
-        print(f"min_relative_contrast {ties[0][1]:.1f} ... {ties[-1][1]:.1f} give the best figures; the "
-              "middle is chosen")
-        print(f"{len(meeting)} triples meet both aims; the best of each least spread:")
-        for spread in COLOR_SPREADS:
-            of = [row for row in meeting if row[0] == spread]
-            if of:
-                row = min(of, key=lambda r: (r[4], -r[3], r[1], r[2]))
-                print(f"  spread {spread:4.0f}: min_relative_contrast {row[1]:4.1f}, min_color_contrast "
-                      f"{row[2]:4.2f}: found {100 * row[3]:5.1f} %, false TARGET {100 * row[4]:4.1f} %")
-    else:  # false TARGET matters more (a grasp on product): the most found within the false-TARGET aim
-        chosen = max((row for row in sweep if row[4] <= FALSE_TARGET_AIM), key=lambda r: (r[3], -r[4]))
-        print("no triple meets both aims on the tuning scenes; the most found within the false-TARGET aim:")
-    print(f"chosen color_min_spread = {chosen[0]:.0f}, min_relative_contrast = {chosen[1]:.1f}, "
-          f"min_color_contrast = {chosen[2]:.2f}: found {100 * chosen[3]:.1f} %, false TARGET "
-          f"{100 * chosen[4]:.1f} % on {len(visible)} visible / {len(clean)} tuning scenes without a visible "
-          "impurity")
+                                         dataclasses.replace(params, color_shading=shading))
+                   if best is not None else 0.0 for shading in shadings]
+        row = (best.score if best else 0.0, on_target, *colours)
+        category = record.category()
+        if category == "visible":
+            visible.append(row)
+        elif category in ("no_impurity", "invisible"):
+            clean.append(row)
+    return np.array(visible, dtype=float), np.array(clean, dtype=float)
 
 
-def distinct_path(params: AttentionParams, visible: np.ndarray, clean: np.ndarray) -> tuple:
-    """The second way to be a target (AttentionParams.distinct_color_contrast): under the shipped rule
-    (min_relative_contrast, min_color_contrast), a best region whose colour contrast reaches c is a
-    target from saliency s on. visible / clean: palette_sweep's rows (score, on target, colour contrast
-    per COLOR_SPREADS) of the scenes with and without a visible impurity. Chosen: the most found with no
-    more false TARGETs than the rule alone; ties: the highest c (the widest colour margin), then the
-    middle of the saliency thresholds. Prints the table and returns (s, c, found, false TARGET)."""
-    k = 2 + COLOR_SPREADS.index(params.color_min_spread)
-
-    def targets(rows, s=0.0, c=0.0):  # the shipped decision (is_target) with the path at (s, c); c 0: off
-        tried = dataclasses.replace(params, min_relative_contrast_distinct=s, distinct_color_contrast=c)
-        return np.array([is_target(row[0], row[k], tried) for row in rows], dtype=bool)
-
+def rule_sweep(params: AttentionParams) -> AttentionParams:
+    """The whole decision rule at once (is_target), on tuning palettes (and the default at exposure x0.5
+    and x2) only: colour_shading x min_relative_contrast (s1) x min_color_contrast (c1) x
+    distinct_color_contrast (c2) x min_relative_contrast_distinct (s2), at params.color_min_spread.
+    Chosen: among the settings that meet both aims (found >= TARGET_FOUND_AIM,
+    false TARGET <= FALSE_TARGET_AIM, on scenes without a visible impurity), the fewest false TARGETs,
+    then the most found; ties: the least shading, the highest colour thresholds (c1, then c2: the widest
+    colour margins, which late-episode product blocks need), then the middle of the tied s1 and s2.
+    Returns the chosen parameters, checked through attend() on the same scenes."""
+    records = collect_palettes("tuning")
+    default = [r for r in records if r.palette == "blocks"]
+    records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
+    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes + default at x0.5, x2)")
+    visible, clean = rule_rows(records, params)
+    print(f"{len(visible)} with a visible impurity, {len(clean)} without; the best region lies on the "
+          f"impurity in {100 * np.mean(visible[:, 1]):.1f} % (the ceiling)")
     on_target = visible[:, 1].astype(bool)
-    base_found = float(np.mean(on_target & targets(visible)))
-    base_false = float(np.mean(targets(clean)))
-    grid = []
-    for c in np.round(np.arange(2.0, 8.01, 0.25), 2):
-        for s in np.round(np.arange(2.0, params.min_relative_contrast + 1e-9, 0.1), 2):
-            grid.append((float(s), float(c), float(np.mean(on_target & targets(visible, s, c))),
-                         float(np.mean(targets(clean, s, c)))))
-    print(f"a region distinct in colour, under min_relative_contrast {params.min_relative_contrast} and "
-          f"min_color_contrast {params.min_color_contrast} (found {100 * base_found:.1f} %, false TARGET "
-          f"{100 * base_false:.1f} % alone):")
-    for c in (3.0, 3.5, 4.0, 4.5, 5.0, 6.0):
-        for s in (2.0, 2.5, 3.0, 3.5, 4.0):
-            row = next(r for r in grid if r[0] == s and r[1] == c)
-            print(f"  distinct_color_contrast {c:4.2f}, min_relative_contrast_distinct {s:3.1f}: impurity "
-                  f"found {100 * row[2]:5.1f} %  false TARGET {100 * row[3]:5.1f} %")
-    allowed = [r for r in grid if r[3] <= base_false + 1e-12]
-    most = max(r[2] for r in allowed)
-    widest = max(r[1] for r in allowed if r[2] == most)
-    ties = sorted(r for r in allowed if r[2] == most and r[1] == widest)
-    chosen = ties[len(ties) // 2]
-    print(f"chosen distinct_color_contrast = {chosen[1]:.2f}, min_relative_contrast_distinct = "
-          f"{chosen[0]:.1f} (saliency {ties[0][0]:.1f} ... {ties[-1][0]:.1f} tie; the middle): found "
-          f"{100 * chosen[2]:.1f} %, false TARGET {100 * chosen[3]:.1f} %")
+    grid = []  # (shading, s1, c1, c2, s2, found, false TARGET)
+    for k, shading in enumerate(SHADINGS):
+        v_score, v_colour = visible[:, 0], visible[:, 2 + k]
+        c_score, c_colour = clean[:, 0], clean[:, 2 + k]
+        v_finite, c_finite = np.isfinite(v_colour), np.isfinite(c_colour)
+        for s1 in np.round(np.arange(3.0, 6.01, 0.2), 2):
+            for c1 in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
+                v_base = on_target & (v_score >= s1) & (v_colour >= c1)
+                c_base = (c_score >= s1) & (c_colour >= c1)
+                for c2 in np.round(np.arange(2.0, 8.01, 0.25), 2):
+                    v_distinct = on_target & v_finite & (v_colour >= c2)
+                    c_distinct = c_finite & (c_colour >= c2)
+                    for s2 in np.round(np.arange(2.0, s1 + 1e-9, 0.1), 2):
+                        found = float(np.mean(v_base | (v_distinct & (v_score >= s2))))
+                        false = float(np.mean(c_base | (c_distinct & (c_score >= s2))))
+                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false))
+    grid = np.array(grid)
+    print("the most found within a false-TARGET cap, per shading allowance:")
+    for shading in SHADINGS:
+        of = grid[grid[:, 0] == shading]
+        cells = []
+        for cap in (0.01, 0.02, 0.05):
+            within = of[of[:, 6] <= cap + 1e-12]
+            best = within[np.lexsort((within[:, 6], -within[:, 5]))[0]]
+            cells.append(f"<= {100 * cap:.0f} %: {100 * best[5]:5.1f} % ({100 * best[6]:.1f} %)")
+        print(f"  color_shading {shading:4.2f}: " + "   ".join(cells))
+    meeting = grid[(grid[:, 6] <= FALSE_TARGET_AIM + 1e-12) & (grid[:, 5] >= TARGET_FOUND_AIM - 1e-12)]
+    if len(meeting):
+        print(f"{len(meeting)} settings meet both aims")
+        pool = meeting
+    else:
+        print("no setting meets both aims: the most found within the false-TARGET aim")
+        pool = grid[grid[:, 6] <= FALSE_TARGET_AIM + 1e-12]
+        pool = pool[pool[:, 5] == pool[:, 5].max()]
+    fewest = pool[:, 6].min() if len(meeting) else pool[:, 6].min()
+    pool = pool[pool[:, 6] == fewest]
+    pool = pool[pool[:, 5] == pool[:, 5].max()]
+    pool = pool[pool[:, 0] == pool[:, 0].min()]
+    pool = pool[pool[:, 2] == pool[:, 2].max()]
+    pool = pool[pool[:, 3] == pool[:, 3].max()]
+    s1_values = np.unique(pool[:, 1])
+    s1 = s1_values[len(s1_values) // 2]
+    pool = pool[pool[:, 1] == s1]
+    s2_values = np.unique(pool[:, 4])
+    s2 = s2_values[len(s2_values) // 2]
+    shading, _, c1, c2 = pool[0, :4]
+    print(f"tied: min_relative_contrast {s1_values.min():.1f} ... {s1_values.max():.1f}, "
+          f"min_relative_contrast_distinct {s2_values.min():.1f} ... {s2_values.max():.1f} (the middles)")
+    chosen = dataclasses.replace(params, color_shading=float(shading), min_relative_contrast=float(s1),
+                                 min_color_contrast=float(c1), distinct_color_contrast=float(c2),
+                                 min_relative_contrast_distinct=float(s2))
+    print(f"chosen color_shading = {shading:.2f}, min_relative_contrast = {s1:.1f}, min_color_contrast = "
+          f"{c1:.2f}, distinct_color_contrast = {c2:.2f}, min_relative_contrast_distinct = {s2:.1f}: found "
+          f"{100 * pool[0, 5]:.1f} %, false TARGET {100 * pool[0, 6]:.1f} %")
+    print("checked through attend() on the same scenes (shipped, then chosen):")
+    for name, tried in (("shipped", params), ("chosen", chosen)):
+        print(f" {name}:")
+        print_palette_rates({"ALL tuning": _merged(palette_rates(records, tried))})
     return chosen
+
+
+def _merged(rates: dict) -> dict:
+    merged = {"visible": [], "no_impurity": [], "invisible": []}
+    for entry in rates.values():
+        for key in merged:
+            merged[key] += entry[key]
+    return merged
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
@@ -537,13 +531,11 @@ def palette_gallery(params: AttentionParams) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference",
-                                           "palette-sweep", "palette-evaluate", "palette-gallery"))
+                                           "rule-sweep", "palette-evaluate",
+                                           "palette-gallery"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
-    parser.add_argument("--color-test", nargs=3, type=float, default=None,
-                        metavar=("MIN_RELATIVE_CONTRAST", "MIN_COLOR_CONTRAST", "COLOR_MIN_SPREAD"),
-                        help="attention with the colour test on (palette-sweep's triple), e.g. 2.7 3.0 4")
     parser.add_argument("--verbose", action="store_true", help="list every miss")
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
@@ -551,10 +543,6 @@ def main() -> None:
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
     params = AttentionParams()
-    if args.color_test is not None:
-        relative, colour, spread = args.color_test
-        params = dataclasses.replace(params, min_relative_contrast=relative, min_color_contrast=colour,
-                                     color_min_spread=spread)
     suffix = ""
     if args.patch_prism_winding:
         patched = patch_prism_winding()
@@ -564,8 +552,8 @@ def main() -> None:
     if args.action == "gallery":
         gallery(params)
         return
-    if args.action == "palette-sweep":
-        palette_sweep(params)
+    if args.action == "rule-sweep":
+        rule_sweep(params)
         return
     if args.action == "palette-evaluate":
         palette_evaluate(params, args.json)

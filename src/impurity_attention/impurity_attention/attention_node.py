@@ -91,6 +91,10 @@ class AttentionNodeParameters:
                                       "colours to be a target; 0: no colour test", low=0.0)
     color_min_spread: float = param(DEFAULTS.color_min_spread, "relative: least colour spread (RGB) granted "
                                     "to the other objects in the colour test", low=0.1, high=255.0)
+    color_shading: float = param(DEFAULTS.color_shading, "relative: colour test's spread granted along the "
+                                 "other objects' mean colour (shaded faces), as a share of its length; "
+                                 "0: none",
+                                 low=0.0, high=2.0)
     distinct_color_contrast: float = param(DEFAULTS.distinct_color_contrast, "relative: a best region at "
                                            "least this far in colour from the other objects is a target "
                                            "from min_relative_contrast_distinct on; 0: that path off",
@@ -116,7 +120,8 @@ class AttentionNodeParameters:
             min_region_area=self.min_region_area, contrast=self.contrast,
             min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
             lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
-            color_min_spread=self.color_min_spread, distinct_color_contrast=self.distinct_color_contrast,
+            color_min_spread=self.color_min_spread, color_shading=self.color_shading,
+            distinct_color_contrast=self.distinct_color_contrast,
             min_relative_contrast_distinct=self.min_relative_contrast_distinct,
             mask_chroma_tolerance=self.mask_chroma_tolerance,
             crop_size=self.crop_size)

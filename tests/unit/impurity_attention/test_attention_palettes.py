@@ -122,11 +122,15 @@ def test_the_colour_test_refuses_a_salient_region_coloured_like_the_other_object
     color, height, _ = scene("blue_red", 0, with_impurity=False)
     low = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=0.0)
     assert att.attend(color, height, low).mode == att.AttentionMode.TARGET
-    for floor in (3.0, att.AttentionParams().min_color_contrast):  # the default floor refuses it as well
-        with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=floor)
-        refused = att.attend(color, height, with_colour)
-        assert refused.mode != att.AttentionMode.TARGET
-        assert "coloured like the other objects" in refused.reason
+    with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=3.0)
+    refused = att.attend(color, height, with_colour)
+    assert refused.mode != att.AttentionMode.TARGET
+    assert "coloured like the other objects" in refused.reason
+    # the default rule's colour path, whatever the saliency: not distinct enough in colour
+    any_saliency = att.AttentionParams(min_relative_contrast_distinct=0.0)
+    refused = att.attend(color, height, any_saliency)
+    assert refused.mode != att.AttentionMode.TARGET
+    assert "distinct in colour" in refused.reason
 
 
 ONLY_DISTINCT = att.AttentionParams(min_relative_contrast=100.0)  # the first rule never fires
@@ -162,3 +166,27 @@ def test_bad_distinct_colour_parameters_are_refused_by_name():
         att.AttentionParams(distinct_color_contrast=-1.0)
     with pytest.raises(ValueError, match="min_relative_contrast_distinct"):
         att.AttentionParams(min_relative_contrast_distinct=-0.5)
+
+
+def test_the_colour_test_grants_product_shading_along_the_products_colour_only():
+    rng = np.random.default_rng(0)
+    color = np.clip(np.array([40, 120, 200]) + rng.integers(-5, 6, (40, 40, 3)), 0, 255).astype(np.uint8)
+    objects = np.ones((40, 40), bool)
+    region = np.zeros((40, 40), bool)
+    region[:8, :8] = True
+    shaded = color.copy()
+    shaded[region] = (28, 84, 140)  # the product's colour at 70 % light: a face turned from the light
+    other_hue = color.copy()
+    other_hue[region] = (120, 90, 170)  # as far from the product in RGB, another hue
+    without = att.AttentionParams(color_shading=0.0)
+    with_shading = att.AttentionParams(color_shading=0.15)
+    blob = att.SalientRegion(mask=region, area=64, score=1.0, peak=1.0, centroid=(3.5, 3.5))
+
+    def contrast(image, params):
+        return att.region_color_contrast(image, objects, blob, params)
+
+    assert contrast(shaded, with_shading) < 0.3 * contrast(shaded, without)
+    assert contrast(other_hue, with_shading) > 0.9 * contrast(other_hue, without)
+    assert contrast(other_hue, with_shading) > 3 * contrast(shaded, with_shading)
+    with pytest.raises(ValueError, match="color_shading"):
+        att.AttentionParams(color_shading=-0.1)

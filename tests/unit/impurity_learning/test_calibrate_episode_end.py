@@ -17,6 +17,7 @@ calibrate = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(calibrate)
 
 NONE, LIMIT = "no_target_or_cluster_left", "action_limit"
+OLD = calibrate.LEGACY_RULE  # rows without a recorded rule ran with it
 
 
 def row(height, termination, truth_picked=1, group="tuning", palette="coal_slate", seed=60_000, picked=None,
@@ -41,34 +42,45 @@ def test_the_choice_is_the_most_clean_ends_ties_to_the_lowest_colour_floor_then_
             row(0.04, NONE), row(0.04, NONE),  # two
             row(0.045, NONE), row(0.045, NONE),  # two as well, but higher
             row(0.05, NONE, truth_picked=0), row(0.05, NONE, truth_picked=0)]  # ends early, leaves impurities
-    assert calibrate.choose(rows) == (0.04, 0.0, 0.0)
+    assert calibrate.choose(rows) == (0.04, 0.0, 0.0, *OLD)
     rows += [row(0.045, NONE, floor=2.0), row(0.045, NONE, floor=2.0),  # as clean as 0.04 without a floor
              row(0.03, NONE, floor=1.5), row(0.03, LIMIT, floor=1.5)]
-    assert calibrate.choose(rows) == (0.04, 0.0, 0.0)
+    assert calibrate.choose(rows) == (0.04, 0.0, 0.0, *OLD)
     rows.append(row(0.04, LIMIT))  # 0.04 without a floor falls to 2 clean ends of 3
-    assert calibrate.choose(rows) == (0.045, 0.0, 0.0)
+    assert calibrate.choose(rows) == (0.045, 0.0, 0.0, *OLD)
     rows.append(row(0.045, "repeated_failure"))  # and so does 0.045: the floor's clean ends win
-    assert calibrate.choose(rows) == (0.045, 2.0, 0.0)
+    assert calibrate.choose(rows) == (0.045, 2.0, 0.0, *OLD)
 
 
 def test_settings_are_compared_on_the_scenes_every_setting_ran():
     rows = [row(0.03, NONE, seed=1), row(0.04, NONE, seed=1),
             row(0.03, LIMIT, seed=2)]  # only 0.03 ran seed 2: it does not count against it
-    assert calibrate.choose(rows) == (0.03, 0.0, 0.0)
-    assert calibrate.choose(rows + [row(0.04, NONE, seed=2)]) == (0.04, 0.0, 0.0)
+    assert calibrate.choose(rows) == (0.03, 0.0, 0.0, *OLD)
+    assert calibrate.choose(rows + [row(0.04, NONE, seed=2)]) == (0.04, 0.0, 0.0, *OLD)
 
 
 def test_files_from_before_the_colour_floor_and_the_distinct_colour_path_read_as_without_them():
     old = row(0.04, NONE)
     del old["colour_floor"], old["distinct_color_contrast"]
-    assert calibrate.setting_of(old) == (0.04, 0.0, 0.0)
+    assert calibrate.setting_of(old) == (0.04, 0.0, 0.0, *OLD)
+
+
+def test_a_recorded_rule_is_part_of_the_setting_and_defaults_to_the_shipped_one():
+    new = dict(row(0.04, NONE, floor=1.0, distinct=2.5), color_shading=0.15, min_relative_contrast=5.0,
+               min_relative_contrast_distinct=2.3)
+    assert calibrate.setting_of(new) == (0.04, 1.0, 2.5, 0.15, 5.0, 2.3)
+    assert calibrate.choose([new, row(0.04, LIMIT, floor=1.0, distinct=2.5)]) == calibrate.setting_of(new)
+    jobs = calibrate.jobs_of("tuning", (0.04,), seeds=1, random_palettes=1)
+    assert {job[0][3:] for job in jobs} == {calibrate.default_rule()}
+    jobs = calibrate.jobs_of("tuning", (0.04,), seeds=1, random_palettes=1, rule=(0.3, 4.0, 2.0))
+    assert {job[0] for job in jobs} == {(0.04, 0.0, 0.0, 0.3, 4.0, 2.0)}
 
 
 def test_a_tie_in_clean_ends_goes_to_the_distinct_colour_path_on():
     rows = [row(0.04, NONE, floor=2.0), row(0.04, NONE, floor=2.0, distinct=4.0)]
-    assert calibrate.choose(rows) == (0.04, 2.0, 4.0)
+    assert calibrate.choose(rows) == (0.04, 2.0, 4.0, *OLD)
     rows += [row(0.04, LIMIT, floor=2.0, distinct=4.0, seed=60_001), row(0.04, NONE, floor=2.0, seed=60_001)]
-    assert calibrate.choose(rows) == (0.04, 2.0, 0.0)
+    assert calibrate.choose(rows) == (0.04, 2.0, 0.0, *OLD)
 
 
 @pytest.fixture
@@ -92,11 +104,12 @@ def test_the_report_chooses_on_tuning_rows_only(files, capsys):
 
 
 def test_tuning_jobs_use_tuning_seeds_and_palettes_and_the_same_scenes_for_every_height():
-    jobs = calibrate.jobs_of("tuning", (0.03, 0.04), seeds=3, random_palettes=2, floors=(0.0, 2.0))
+    jobs = calibrate.jobs_of("tuning", (0.03, 0.04), seeds=3, random_palettes=2, floors=(0.0, 2.0), rule=OLD)
     assert len(jobs) == 2 * 2 * 3 * len(calibrate.SCENES)
     assert all(seed in splits.TUNING_SEED_RANGE for *_, seed in jobs)
     assert {splits.palette_group(palette) for *_, palette, _ in jobs} <= {"default", "tuning"}
-    by_setting = {s: [job[1:] for job in jobs if job[0] == s] for s in ((0.03, 0.0, 0.0), (0.04, 2.0, 0.0))}
-    assert by_setting[(0.03, 0.0, 0.0)] == by_setting[(0.04, 2.0, 0.0)]
+    settings = ((0.03, 0.0, 0.0, *OLD), (0.04, 2.0, 0.0, *OLD))
+    by_setting = {s: [job[1:] for job in jobs if job[0] == s] for s in settings}
+    assert by_setting[settings[0]] and by_setting[settings[0]] == by_setting[settings[1]]
     evaluation = calibrate.jobs_of("evaluation", (0.04,), seeds=3, random_palettes=2)
     assert all(seed >= splits.EVAL_SEED_BASE for *_, seed in evaluation)
