@@ -368,10 +368,13 @@ def print_palette_rates(rates: dict) -> dict:
 
 
 SHADINGS = (0.0, 0.1, 0.15, 0.2, 0.3)  # colour-test shading allowances rule-sweep tries
+SATURATIONS = (0.0, 250.0)  # colour-test saturation levels rule-sweep tries (0: every channel compared)
+COLOUR_TESTS = [(shading, level) for level in SATURATIONS for shading in SHADINGS]
 
 
-def rule_rows(records, params: AttentionParams, shadings=SHADINGS) -> tuple:
-    """Per scene: (score, on target, colour contrast per shading) of the best salient region, split into
+def rule_rows(records, params: AttentionParams, tests=COLOUR_TESTS) -> tuple:
+    """Per scene: (score, on target, colour contrast per (shading, saturation) of `tests`) of the best
+    salient region, split into
     scenes with a visible impurity and scenes without one (clean and invisible). The thresholds do not
     change regions: computed once."""
     visible, clean = [], []
@@ -381,8 +384,9 @@ def rule_rows(records, params: AttentionParams, shadings=SHADINGS) -> tuple:
         best = regions[0] if regions else None
         on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
         colours = [region_color_contrast(record.color, objects, best,
-                                         dataclasses.replace(params, color_shading=shading))
-                   if best is not None else 0.0 for shading in shadings]
+                                         dataclasses.replace(params, color_shading=shading,
+                                                             color_saturation=level))
+                   if best is not None else 0.0 for shading, level in tests]
         row = (best.score if best else 0.0, on_target, *colours)
         category = record.category()
         if category == "visible":
@@ -393,24 +397,31 @@ def rule_rows(records, params: AttentionParams, shadings=SHADINGS) -> tuple:
 
 
 def rule_sweep(params: AttentionParams) -> AttentionParams:
-    """The whole decision rule at once (is_target), on tuning palettes (and the default at exposure x0.5
-    and x2) only: colour_shading x min_relative_contrast (s1) x min_color_contrast (c1) x
-    distinct_color_contrast (c2) x min_relative_contrast_distinct (s2), at params.color_min_spread.
+    """The whole decision rule at once (is_target), on tuning palettes and the default palette's tuning
+    scenes (also at exposure x0.5 and x2) only: (color_shading, color_saturation) x
+    min_relative_contrast (s1) x min_color_contrast (c1) x distinct_color_contrast (c2) x
+    min_relative_contrast_distinct (s2), at params.color_min_spread.
     Chosen: among the settings that meet both aims (found >= TARGET_FOUND_AIM,
     false TARGET <= FALSE_TARGET_AIM, on scenes without a visible impurity), the fewest false TARGETs,
-    then the most found; ties: the least shading, the highest colour thresholds (c1, then c2: the widest
-    colour margins, which late-episode product blocks need), then the middle of the tied s1 and s2.
+    then the most found; ties: saturated channels left out, the least shading, the highest colour
+    thresholds (c1, then c2: the widest colour margins, which late-episode product blocks need), then the
+    middle of the tied s1 and s2.
     Returns the chosen parameters, checked through attend() on the same scenes."""
     records = collect_palettes("tuning")
-    default = [r for r in records if r.palette == "blocks"]
+    # the default palette's own tuning scenes (seeds 0-99: the first calibration's) as well: the palette
+    # the cell ships with, and more of its heaps, where product blocks in shadow must not read as targets
+    have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
+    records += [r for r in collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
+    default = [r for r in records if r.palette in ("blocks", "")]
     records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
-    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes + default at x0.5, x2)")
+    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes, the default palette's "
+          f"{len(default)} tuning scenes also at x0.5 and x2)")
     visible, clean = rule_rows(records, params)
     print(f"{len(visible)} with a visible impurity, {len(clean)} without; the best region lies on the "
           f"impurity in {100 * np.mean(visible[:, 1]):.1f} % (the ceiling)")
     on_target = visible[:, 1].astype(bool)
-    grid = []  # (shading, s1, c1, c2, s2, found, false TARGET)
-    for k, shading in enumerate(SHADINGS):
+    grid = []  # (shading, s1, c1, c2, s2, found, false TARGET, saturation)
+    for k, (shading, level) in enumerate(COLOUR_TESTS):
         v_score, v_colour = visible[:, 0], visible[:, 2 + k]
         c_score, c_colour = clean[:, 0], clean[:, 2 + k]
         v_finite, c_finite = np.isfinite(v_colour), np.isfinite(c_colour)
@@ -424,17 +435,17 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
                     for s2 in np.round(np.arange(2.0, s1 + 1e-9, 0.1), 2):
                         found = float(np.mean(v_base | (v_distinct & (v_score >= s2))))
                         false = float(np.mean(c_base | (c_distinct & (c_score >= s2))))
-                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false))
+                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false, level))
     grid = np.array(grid)
-    print("the most found within a false-TARGET cap, per shading allowance:")
-    for shading in SHADINGS:
-        of = grid[grid[:, 0] == shading]
+    print("the most found within a false-TARGET cap, per colour test (shading allowance, saturation level):")
+    for shading, level in COLOUR_TESTS:
+        of = grid[(grid[:, 0] == shading) & (grid[:, 7] == level)]
         cells = []
         for cap in (0.01, 0.02, 0.05):
             within = of[of[:, 6] <= cap + 1e-12]
             best = within[np.lexsort((within[:, 6], -within[:, 5]))[0]]
             cells.append(f"<= {100 * cap:.0f} %: {100 * best[5]:5.1f} % ({100 * best[6]:.1f} %)")
-        print(f"  color_shading {shading:4.2f}: " + "   ".join(cells))
+        print(f"  color_shading {shading:4.2f}, color_saturation {level:3.0f}: " + "   ".join(cells))
     meeting = grid[(grid[:, 6] <= FALSE_TARGET_AIM + 1e-12) & (grid[:, 5] >= TARGET_FOUND_AIM - 1e-12)]
     if len(meeting):
         print(f"{len(meeting)} settings meet both aims")
@@ -446,6 +457,7 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
     fewest = pool[:, 6].min() if len(meeting) else pool[:, 6].min()
     pool = pool[pool[:, 6] == fewest]
     pool = pool[pool[:, 5] == pool[:, 5].max()]
+    pool = pool[pool[:, 7] == pool[:, 7].max()]  # ties: clipped channels left out (a sensor's fact)
     pool = pool[pool[:, 0] == pool[:, 0].min()]
     pool = pool[pool[:, 2] == pool[:, 2].max()]
     pool = pool[pool[:, 3] == pool[:, 3].max()]
@@ -455,12 +467,15 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
     s2_values = np.unique(pool[:, 4])
     s2 = s2_values[len(s2_values) // 2]
     shading, _, c1, c2 = pool[0, :4]
+    level = pool[0, 7]
     print(f"tied: min_relative_contrast {s1_values.min():.1f} ... {s1_values.max():.1f}, "
           f"min_relative_contrast_distinct {s2_values.min():.1f} ... {s2_values.max():.1f} (the middles)")
-    chosen = dataclasses.replace(params, color_shading=float(shading), min_relative_contrast=float(s1),
+    chosen = dataclasses.replace(params, color_shading=float(shading), color_saturation=float(level),
+                                 min_relative_contrast=float(s1),
                                  min_color_contrast=float(c1), distinct_color_contrast=float(c2),
                                  min_relative_contrast_distinct=float(s2))
-    print(f"chosen color_shading = {shading:.2f}, min_relative_contrast = {s1:.1f}, min_color_contrast = "
+    print(f"chosen color_shading = {shading:.2f}, color_saturation = {level:.0f}, min_relative_contrast = "
+          f"{s1:.1f}, min_color_contrast = "
           f"{c1:.2f}, distinct_color_contrast = {c2:.2f}, min_relative_contrast_distinct = {s2:.1f}: found "
           f"{100 * pool[0, 5]:.1f} %, false TARGET {100 * pool[0, 6]:.1f} %")
     print("checked through attend() on the same scenes (shipped, then chosen):")

@@ -58,9 +58,9 @@ COLOUR_FLOORS = (0.0,)
 # more impurities in first views (palette-sweep) cost clean ends late in episodes?
 DISTINCT = (0.0,)
 # the rest of attention's decision rule an episode ran with, (color_shading, min_relative_contrast,
-# min_relative_contrast_distinct): `collect --rule`, by default the shipped AttentionParams. Rows from before
-# these were recorded ran with (0, 4.4, 2.7), the rule of their day.
-LEGACY_RULE = (0.0, 4.4, 2.7)
+# min_relative_contrast_distinct, color_saturation): `collect --rule`, by default the shipped AttentionParams.
+# Rows from before these were recorded ran with (0, 4.4, 2.7, 0), the rule of their day.
+LEGACY_RULE = (0.0, 4.4, 2.7, 0.0)
 # (scenario, num_targets, num_objects, max_actions): the real-cell-mode graph test's invisible scenes, the
 # paper-sized invisible ones (two heaps, 20 products), random clutter (tilted blocks make low clusters), and
 # the graph test's small random and challenging scenes. Appended, never reordered: a scene's seeds follow
@@ -74,7 +74,8 @@ SEED_BASE = {"tuning": 60_000, "evaluation": splits.EVAL_SEED_BASE + 600_000}
 
 def default_rule() -> tuple:
     params = AttentionParams()
-    return params.color_shading, params.min_relative_contrast, params.min_relative_contrast_distinct
+    return (params.color_shading, params.min_relative_contrast, params.min_relative_contrast_distinct,
+            params.color_saturation)
 
 
 def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR_FLOORS,
@@ -91,14 +92,15 @@ def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR
 
 def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int) -> dict:
     """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast,
-    distinct_color_contrast, color_shading, min_relative_contrast, min_relative_contrast_distinct) =
-    setting."""
-    height, floor, distinct, shading, relative, relative_distinct = setting
+    distinct_color_contrast, color_shading, min_relative_contrast, min_relative_contrast_distinct,
+    color_saturation) = setting."""
+    height, floor, distinct, shading, relative, relative_distinct, saturation = setting
     scenario, targets, objects, max_actions = scene
     base = AttentionParams()
     params = dataclasses.replace(base, density=dataclasses.replace(base.density, min_cluster_height=height),
                                  min_color_contrast=floor, distinct_color_contrast=distinct,
-                                 color_shading=shading, min_relative_contrast=relative,
+                                 color_shading=shading, color_saturation=saturation,
+                                 min_relative_contrast=relative,
                                  min_relative_contrast_distinct=relative_distinct)
     cell = PerceptionSimCell(world, agent, attention_params=params)
     request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
@@ -107,7 +109,7 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
                                   on_error=_reraise)
     return {"height": height, "colour_floor": floor, "distinct_color_contrast": distinct,
             "color_shading": shading, "min_relative_contrast": relative,
-            "min_relative_contrast_distinct": relative_distinct,
+            "min_relative_contrast_distinct": relative_distinct, "color_saturation": saturation,
             "scenario": scenario, "num_targets": targets, "num_objects": objects,
             "palette": palette, "group": splits.palette_group(palette), "seed": seed,
             "termination": summary["termination_reason"], "actions": summary["actions"],
@@ -118,11 +120,13 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
 
 def setting_of(row: dict) -> tuple:
     """(min_cluster_height, min_color_contrast, distinct_color_contrast, color_shading,
-    min_relative_contrast, min_relative_contrast_distinct) of an episode (files from before a field was
-    recorded: how they ran, 0 for the colour floor and the distinct-colour path, LEGACY_RULE for the rest)."""
+    min_relative_contrast, min_relative_contrast_distinct, color_saturation) of an episode (files from
+    before a field was recorded: how they ran, 0 for the colour floor and the distinct-colour path,
+    LEGACY_RULE for the rest)."""
     return (row["height"], row.get("colour_floor", 0.0), row.get("distinct_color_contrast", 0.0),
             row.get("color_shading", LEGACY_RULE[0]), row.get("min_relative_contrast", LEGACY_RULE[1]),
-            row.get("min_relative_contrast_distinct", LEGACY_RULE[2]))
+            row.get("min_relative_contrast_distinct", LEGACY_RULE[2]),
+            row.get("color_saturation", LEGACY_RULE[3]))
 
 
 def key_of(row: dict) -> tuple:
@@ -204,7 +208,7 @@ def choose(rows: list) -> tuple:
 def line(setting: tuple, name: str, rows: list) -> str:
     f = figures(rows)
     return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {setting[2]:8.2f}  {setting[3]:7.2f}  "
-            f"{setting[4]:4.1f}  {setting[5]:4.1f}  {name:22s} {f['episodes']:8d}  "
+            f"{setting[4]:4.1f}  {setting[5]:4.1f}  {setting[6]:3.0f}  {name:22s} {f['episodes']:8d}  "
             f"{f['clean_end']:9.1%}  {f['ended_by_none']:13.1%}"
             f"  {f['left_behind']:11d}  {f['completion']:10.1%}  "
             f"{f['actions']:7.1f}  {f['count_match']:11.1%}  {f['verdicts']:8.1%}")
@@ -218,7 +222,7 @@ def report(args) -> int:
     tuning = [r for r in rows
               if r["group"] in ("default", "tuning") and r["seed"] in splits.TUNING_SEED_RANGE]
     chosen = choose(tuning) if tuning else None
-    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  scenes                 "
+    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  scenes                "
           "episodes  clean_end  "
           "ended_by_NONE  left_behind  completion  actions  count_match  verdicts")
     for group in sorted({r["group"] for r in rows}):
@@ -239,7 +243,8 @@ def report(args) -> int:
         print("chosen on the tuning episodes (most clean ends; ties to the lowest colour floor, then height, "
               f"then the distinct-colour path on): min_cluster_height {chosen[0]:.3f} m, min_color_contrast "
               f"{chosen[1]:.2f}, distinct_color_contrast {chosen[2]:.2f}, color_shading {chosen[3]:.2f}, "
-              f"min_relative_contrast {chosen[4]:.1f}, min_relative_contrast_distinct {chosen[5]:.1f}")
+              f"min_relative_contrast {chosen[4]:.1f}, min_relative_contrast_distinct {chosen[5]:.1f}, "
+              f"color_saturation {chosen[6]:.0f}")
     return 0
 
 
@@ -256,8 +261,9 @@ def parse_args(argv=None):
     c.add_argument("--distinct", type=float, nargs="+", default=list(DISTINCT),
                    help="attention's distinct_color_contrast values (0 = off), each with every height and "
                         "floor")
-    c.add_argument("--rule", type=float, nargs=3, default=None,
-                   metavar=("COLOR_SHADING", "MIN_RELATIVE_CONTRAST", "MIN_RELATIVE_CONTRAST_DISTINCT"),
+    c.add_argument("--rule", type=float, nargs=4, default=None,
+                   metavar=("COLOR_SHADING", "MIN_RELATIVE_CONTRAST", "MIN_RELATIVE_CONTRAST_DISTINCT",
+                            "COLOR_SATURATION"),
                    help="the rest of attention's decision rule (default: the shipped AttentionParams)")
     c.add_argument("--seeds", type=int, default=8, help="episodes per scene size")
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")

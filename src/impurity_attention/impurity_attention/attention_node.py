@@ -95,6 +95,9 @@ class AttentionNodeParameters:
                                  "other objects' mean colour (shaded faces), as a share of its length; "
                                  "0: none",
                                  low=0.0, high=2.0)
+    color_saturation: float = param(DEFAULTS.color_saturation, "relative: colour test leaves out channels in "
+                                    "which half the other objects reach this level (8-bit RGB: clipped by "
+                                    "the camera); 0: compare every channel", low=0.0, high=255.0)
     distinct_color_contrast: float = param(DEFAULTS.distinct_color_contrast, "relative: a best region at "
                                            "least this far in colour from the other objects is a target "
                                            "from min_relative_contrast_distinct on; 0: that path off",
@@ -121,6 +124,7 @@ class AttentionNodeParameters:
             min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
             lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
             color_min_spread=self.color_min_spread, color_shading=self.color_shading,
+            color_saturation=self.color_saturation,
             distinct_color_contrast=self.distinct_color_contrast,
             min_relative_contrast_distinct=self.min_relative_contrast_distinct,
             mask_chroma_tolerance=self.mask_chroma_tolerance,

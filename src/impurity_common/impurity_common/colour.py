@@ -11,7 +11,7 @@ own least spread (`min_spread`, chosen with its thresholds on tuning scenes).
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -24,27 +24,37 @@ import numpy as np
 # share, the ridge scales with brightness as the covariance does), and at least min_spread**2.
 RIDGE_SHARE = 0.05
 REFERENCE_CELLS = 4096  # most product cells a ProductReference keeps (an even subsample)
+# A camera channel at its ceiling (a light product, a long exposure) reads 255 whatever the light: shading
+# no longer scales it, so a shaded face of a saturated product is not on the product's mean-colour axis.
+# `saturation` leaves such channels out of the comparison: those in which at least SATURATED_SHARE of the
+# product's colours reach the level. When every channel is saturated all three are kept (no colour is left).
+SATURATED_SHARE = 0.5
 
 
 @dataclass(frozen=True)
 class ProductReference:
     """The product's colours, to judge how far a region's colour stands apart from them.
 
-    colors: (N, 3) float64 RGB of object cells; mean (3,) and covariance (3, 3) of them, the covariance
-    with its ridge added on the diagonal (RIDGE_SHARE of the mean variance, at least min_spread**2) and,
-    with shading > 0, (shading * |mean|)**2 along the mean colour's direction (module comment).
+    colors: (N, 3) float64 RGB of object cells; channels (3,) bool: those compared (all but saturated
+    ones, module comment); mean (C,) and covariance (C, C) of the compared channels, the covariance with its
+    ridge added on the diagonal (RIDGE_SHARE of the mean variance, at least min_spread**2) and, with
+    shading > 0, (shading * |mean|)**2 along the mean colour's direction (module comment).
     """
 
     colors: np.ndarray
     mean: np.ndarray
     covariance: np.ndarray
+    channels: np.ndarray = field(default_factory=lambda: np.ones(3, bool))
 
     @classmethod
-    def from_colors(cls, colors: np.ndarray, min_spread: float, shading: float = 0.0) -> ProductReference:
+    def from_colors(cls, colors: np.ndarray, min_spread: float, shading: float = 0.0,
+                    saturation: float | None = None) -> ProductReference:
         """From (N, 3) RGB colours; min_spread: the least standard deviation (RGB) granted on every axis
         (a one-colour product under flat light would otherwise make every other colour infinitely far);
         shading: standard deviation granted along the mean colour's direction, as a share of its length
-        (0 = none). ValueError when N is 0, min_spread <= 0 or shading < 0."""
+        (0 = none); saturation: the channel level (RGB, e.g. 250 of 255) from which a channel counts as
+        clipped, None = compare every channel (module comment). ValueError when N is 0, min_spread <= 0,
+        shading < 0 or saturation <= 0."""
         colors = np.asarray(colors, dtype=np.float64).reshape(-1, 3)
         if len(colors) == 0:
             raise ValueError("a product reference needs at least one object cell")
@@ -52,17 +62,26 @@ class ProductReference:
             raise ValueError(f"min_spread must be > 0 (RGB), got {min_spread}")
         if not shading >= 0:
             raise ValueError(f"shading must be >= 0 (a share of the mean colour), got {shading}")
+        if saturation is not None and not saturation > 0:
+            raise ValueError(f"saturation must be > 0 (an RGB level) or None, got {saturation}")
         if len(colors) > REFERENCE_CELLS:
             colors = colors[np.linspace(0, len(colors) - 1, REFERENCE_CELLS).astype(int)]
-        covariance = np.cov(colors.T) if len(colors) > 1 else np.zeros((3, 3))
-        ridge = max(RIDGE_SHARE * float(np.trace(covariance)) / 3.0, float(min_spread) ** 2)
-        mean = colors.mean(axis=0)
-        covariance = covariance + ridge * np.eye(3)
+        channels = np.ones(3, bool)
+        if saturation is not None:
+            channels = np.mean(colors >= float(saturation), axis=0) < SATURATED_SHARE
+            if not channels.any():
+                channels[:] = True
+        compared = colors[:, channels]
+        size = int(channels.sum())
+        covariance = np.cov(compared.T).reshape(size, size) if len(compared) > 1 else np.zeros((size, size))
+        ridge = max(RIDGE_SHARE * float(np.trace(covariance)) / size, float(min_spread) ** 2)
+        mean = compared.mean(axis=0)
+        covariance = covariance + ridge * np.eye(size)
         length = float(np.linalg.norm(mean))
         if shading > 0 and length > 0:
             axis = mean / length
             covariance = covariance + (float(shading) * length) ** 2 * np.outer(axis, axis)
-        return cls(colors, mean, covariance)
+        return cls(colors, mean, covariance, channels)
 
     @classmethod
     def from_view(cls, color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None,
@@ -84,20 +103,21 @@ class ProductReference:
         """Mahalanobis distance of an RGB colour from the product's colours (mean, covariance):
         dimensionless, so one threshold serves dark and light products, one shade or several; the
         product's own shading (darker faces of the same hue) lies along its covariance and counts little."""
-        offset = np.asarray(rgb, dtype=np.float64) - self.mean
+        offset = np.asarray(rgb, dtype=np.float64)[self.channels] - self.mean
         return float(np.sqrt(offset @ np.linalg.solve(self.covariance, offset)))
 
 
 def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
-                    min_spread: float, shading: float = 0.0) -> float | None:
+                    min_spread: float, shading: float = 0.0, saturation: float | None = None) -> float | None:
     """ProductReference.contrast of a region's mean colour against the other object cells of the same
     view (objects outside the region): how far the region stands apart from the rest. color (H, W, 3)
-    uint8, region and objects (H, W) bool (region not empty), min_spread RGB as in from_colors. None when
+    uint8, region and objects (H, W) bool (region not empty), min_spread, shading and saturation as in
+    from_colors. None when
     no other object cell is in view (nothing to compare with)."""
     region = np.asarray(region, dtype=bool)
     others = np.asarray(objects, dtype=bool) & ~region
     if not others.any():
         return None
     rgb = np.asarray(color)
-    reference = ProductReference.from_colors(rgb[others], min_spread, shading)
+    reference = ProductReference.from_colors(rgb[others], min_spread, shading, saturation)
     return reference.contrast(rgb[region].astype(np.float64).mean(axis=0))

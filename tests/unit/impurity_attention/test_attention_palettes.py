@@ -190,3 +190,9 @@ def test_the_colour_test_grants_product_shading_along_the_products_colour_only()
     assert contrast(other_hue, with_shading) > 3 * contrast(shaded, with_shading)
     with pytest.raises(ValueError, match="color_shading"):
         att.AttentionParams(color_shading=-0.1)
+
+
+def test_a_bad_colour_saturation_level_is_refused_by_name():
+    with pytest.raises(ValueError, match="color_saturation"):
+        att.AttentionParams(color_saturation=300.0)
+    assert att.AttentionParams(color_saturation=0.0).color_saturation == 0.0  # 0: every channel compared

@@ -72,3 +72,30 @@ def test_shading_grants_spread_along_the_products_colour_and_not_across_it():
 def test_bad_input_is_refused_with_the_reason(colors, spread, shading, fragment):
     with pytest.raises(ValueError, match=fragment):
         ProductReference.from_colors(colors, spread, shading)
+
+
+# a light blue product one stop over: its blue channel at the camera's ceiling on every lit face
+CLIPPED_PRODUCT = [(87 + d, 236 + d, 255) for d in (-4, -2, 0, 2, 4)] * 20
+
+
+def test_a_channel_clipped_on_the_product_is_left_out_with_a_saturation_level():
+    # a shaded face: red and green scaled by 0.72, blue still near the ceiling - not on the mean's axis
+    shaded, other_hue = (63, 170, 251), (140, 170, 251)
+    clipped = ProductReference.from_colors(CLIPPED_PRODUCT, min_spread=4.0, shading=0.15, saturation=250)
+    every_channel = ProductReference.from_colors(CLIPPED_PRODUCT, min_spread=4.0, shading=0.15)
+    assert list(clipped.channels) == [True, True, False]
+    assert list(every_channel.channels) == [True, True, True]
+    assert clipped.contrast(shaded) < 2.0 < 5.0 < every_channel.contrast(shaded)
+    assert clipped.contrast(other_hue) > 4 * clipped.contrast(shaded)  # another hue stays far
+
+
+def test_a_product_clipped_in_every_channel_keeps_all_three():
+    white = ProductReference.from_colors([(255, 255, 254)] * 30 + [(252, 255, 255)] * 30, min_spread=4.0,
+                                         saturation=250)
+    assert list(white.channels) == [True, True, True]
+    assert white.contrast((120, 120, 120)) > 20
+
+
+def test_a_bad_saturation_level_is_refused_by_name():
+    with pytest.raises(ValueError, match="saturation"):
+        ProductReference.from_colors([LIT] * 10, min_spread=4.0, saturation=0.0)

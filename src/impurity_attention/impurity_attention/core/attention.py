@@ -92,28 +92,36 @@ class AttentionParams:
     # reaches distinct_color_contrast (a region distinct in colour) and its saliency
     # min_relative_contrast_distinct. The colour contrast: the Mahalanobis distance of the region's mean
     # colour from the other object cells' colours (impurity_common.colour.ProductReference, least spread
-    # color_min_spread RGB, shading allowance color_shading); inf when nothing else is in view.
-    # The five values were chosen together by `scripts/calibrate_attention.py rule-sweep` on tuning palettes
-    # and tuning seeds only (2026-11-30, sixth session: 101 palettes - the default, 4 named, 96 random - and
-    # the default at exposure x0.5 and x2; 1030 scenes with a visible impurity, 927 without one: clean scenes
-    # and heaps hiding every target): among the settings with >= 95 % found and <= 5 % false TARGET, the
-    # fewest false TARGETs, then the most found: 95.2 % found, 1.0 % false TARGET (the fifth session's rule,
-    # 4.4 / 2.0 / 4.0 / 2.7 without shading, on the same scenes: 91.6 % and 2.0 %; best without shading at
-    # 1 % false TARGET: 88.3 %). So colour decides most targets: the saliency region says where to look, its
-    # colour whether it is unlike the product. Late in an episode the few products left can outshine each
-    # other in saliency (a lone slab, a block at the edge) while having the product's colour; the colour
-    # thresholds keep the cell from grasping at them: checked on tuning episodes by
-    # scripts/calibrate_episode_end.py (docs/episode_end/tuning.txt).
+    # color_min_spread RGB, shading allowance color_shading, clipped channels left out from
+    # color_saturation on); inf when nothing else is in view.
+    # The six values were chosen together by `scripts/calibrate_attention.py rule-sweep` on tuning palettes
+    # and tuning seeds only (2026-11-30, sixth session; docs/attention_rule_sweep.txt): 101 palettes (the
+    # default, 4 named, 96 random), the default palette's 70 tuning scenes, and the default's scenes at
+    # exposure x0.5 and x2 - 1096 scenes with a visible impurity, 1014 without one (clean scenes and heaps
+    # hiding every target). Among the settings with >= 95 % found and <= 5 % false TARGET, the fewest false
+    # TARGETs, then the most found: 95.1 % found, 0.8 % false TARGET. Without the shading allowance and the
+    # clipped channels, the best at 1 % false TARGET finds 89.1 %; the fifth session's rule (4.4 / 2.0 /
+    # 4.0 / 2.7, neither) found 91.6 % at 2.0 % on the 101 palettes. So colour decides most targets: the
+    # saliency region says where to look, its colour whether it is unlike the product. Late in an episode the
+    # few products left can outshine each other in saliency (a lone slab, a block at the edge) while having
+    # the product's colour; the colour thresholds keep the cell from grasping at them: checked on tuning
+    # episodes by scripts/calibrate_episode_end.py (docs/episode_end/tuning.txt).
     min_relative_contrast: float = 5.8
     min_color_contrast: float = 0.5
     color_min_spread: float = 4.0
     # the shading allowance: the other objects' colours get this much spread along their mean colour's
     # direction, as a share of its length, so that a shaded or sunlit face of a product block (its RGB
-    # scaled) stays near the product while another hue stays far. 0 = none. rule-sweep: 0.1-0.3 all find
-    # 94-95 % at 1 % false TARGET against 88 % without; the least of the best is taken.
-    color_shading: float = 0.15
+    # scaled) stays near the product while another hue stays far. 0 = none. rule-sweep: 0.1-0.3 find
+    # 95.2-95.7 % at 1 % false TARGET (with clipped channels left out) against 90.4 % without.
+    color_shading: float = 0.10
+    # a channel at the camera's ceiling reads the same whatever the light, so shading no longer scales it:
+    # channels in which at least half the other objects reach this level (8-bit RGB) are left out of the
+    # colour test (impurity_common.colour, `saturation`); 0 = compare every channel. A sensor's property
+    # (250 of 255), tried on and off by rule-sweep: at 1 % false TARGET 95.7 against 94.8 % found at best;
+    # the default palette one stop over (its blue at 255) gave most of the false TARGETs without it.
+    color_saturation: float = 250.0
     distinct_color_contrast: float = 2.5
-    min_relative_contrast_distinct: float = 2.3
+    min_relative_contrast_distinct: float = 2.7
     # absolute: mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99, default
     # palette only, saliency ABSOLUTE_SALIENCY = (2, 6)): targets >= 0.054, scenes without impurity
     # <= 0.021; 0.034 is their geometric mean. Use it with saliency=ABSOLUTE_SALIENCY.
@@ -137,6 +145,9 @@ class AttentionParams:
             raise ValueError(f"min_color_contrast must be >= 0, got {self.min_color_contrast}")
         if not self.color_min_spread > 0.0:
             raise ValueError(f"color_min_spread must be > 0 (RGB), got {self.color_min_spread}")
+        if not 0.0 <= self.color_saturation <= 255.0:
+            raise ValueError(f"color_saturation must be in [0, 255] (8-bit RGB; 0 = off), got "
+                             f"{self.color_saturation}")
         if not self.color_shading >= 0.0:
             raise ValueError(f"color_shading must be >= 0 (a share of the mean colour), got "
                              f"{self.color_shading}")
@@ -364,10 +375,12 @@ def is_target(score: float, colour: float, params: AttentionParams) -> bool:
 def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
                           params: AttentionParams) -> float:
     """How far a salient region's mean colour stands apart from the other object cells' colours:
-    ProductReference.contrast (Mahalanobis, dimensionless) with least spread params.color_min_spread and
-    shading allowance params.color_shading. color (H, W, 3) uint8, objects (H, W) bool. inf when no other
-    object cell is in view (nothing to compare with: the saliency decides alone)."""
-    contrast = region_contrast(color, region.mask, objects, params.color_min_spread, params.color_shading)
+    ProductReference.contrast (Mahalanobis, dimensionless) with least spread params.color_min_spread,
+    shading allowance params.color_shading and saturated channels (params.color_saturation) left out.
+    color (H, W, 3) uint8, objects (H, W) bool. inf when no other object cell is in view (nothing to
+    compare with: the saliency decides alone)."""
+    contrast = region_contrast(color, region.mask, objects, params.color_min_spread, params.color_shading,
+                               params.color_saturation or None)
     return float("inf") if contrast is None else contrast
 
 
