@@ -296,7 +296,7 @@ def palette_names(split: str) -> list:
 
     if split == "tuning":
         return splits.tuning_palettes(PALETTE_RANDOM_COUNT["tuning"])
-    if split == "retired":  # the first held-out set (splits.RETIRED_NAMED), measured for comparison
+    if split == "retired":  # the earlier held-out sets (splits.RETIRED_SETS), measured for comparison
         return splits.retired_palettes(PALETTE_RANDOM_COUNT["acceptance"])
     return splits.held_out_palettes(PALETTE_RANDOM_COUNT["acceptance"])
 
@@ -494,12 +494,12 @@ def _merged(rates: dict) -> dict:
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
-    """Held-out palettes (acceptance seeds), the retired first held-out set (for comparison) and the
+    """Held-out palettes (acceptance seeds), the retired held-out sets (for comparison) and the
     default palette at exposure x0.5, x1, x2 (acceptance seeds): only measured."""
     results = {"params": dataclasses.asdict(params)}
     print("== held-out palettes (acceptance seeds)")
     results["held_out"] = print_palette_rates(palette_rates(collect_palettes("acceptance"), params))
-    print("== retired held-out palettes, the first set (acceptance seeds; measured for comparison)")
+    print("== retired held-out palettes, the earlier sets (acceptance seeds; measured for comparison)")
     results["retired"] = print_palette_rates(palette_rates(collect_palettes("retired"), params))
     print("== default palette (acceptance seeds), exposure x0.5 / x1 / x2")
     default = [r for r in collect("acceptance") if r.category() in ("visible", "no_impurity")]

@@ -89,7 +89,7 @@ def files(tmp_path):
     tuning = [row(0.03, NONE), row(0.04, LIMIT), row(0.04, NONE, group="default", palette="blocks")]
     # measured only: a held-out palette and an evaluation seed, where 0.04 would look better
     evaluation = splits.EVAL_SEED_BASE + 600_000
-    measured = [row(0.04, NONE, group="held_out", palette="coffee_stones", seed=evaluation),
+    measured = [row(0.04, NONE, group="held_out", palette="lentils_stones", seed=evaluation),
                 row(0.04, NONE, group="default", palette="blocks", seed=evaluation + 1),
                 row(0.04, NONE, group="default", palette="blocks", seed=evaluation + 2)]
     path = tmp_path / "episodes.jsonl.gz"

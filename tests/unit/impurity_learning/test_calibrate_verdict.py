@@ -33,7 +33,7 @@ def files(tmp_path):
     tuning = [episode("default", [grasp([200, 30, 30], True), grasp([36, 108, 180], False)]),
               episode("tuning", [grasp([220, 200, 40], True), grasp([38, 112, 190], False),
                                  {"step": 3, "target": False, "truth": False}], palette="coal_slate")]
-    held_out = [episode("held_out", [grasp([35, 100, 170], False)], palette="coffee_stones")]
+    held_out = [episode("held_out", [grasp([35, 100, 170], False)], palette="lentils_stones")]
     path = tmp_path / "episodes.jsonl.gz"
     path.write_bytes(gzip.compress("\n".join(json.dumps(r) for r in tuning + held_out).encode()))
     return path

@@ -115,9 +115,10 @@ class AttentionParams:
     # are left out (a channel at the camera's ceiling is not scaled by shading). Tried on 2026-11-30 (sixth
     # session; README "Perception", docs/experiments.md): with both on, `scripts/calibrate_attention.py
     # rule-sweep` finds 95.1 % at 0.8 % false TARGET on 101 tuning palettes, against 89.1 % at 1 % with
-    # neither; but every rule built on them found fewer impurities on the held-out and retired palettes than
-    # the rule below (75.8-83.3 % against 80.0 % held-out, 75.8-93.3 % against 92.5 % retired), and the one
-    # with the most found in first views grasped more product in the default palette's heaps. Not adopted.
+    # neither. On the held-out sets (the second and the first, both retired since) three rules built on them
+    # found 83.3 / 83.3 / 75.8 % against 80.0 % and 93.3 / 80.8 / 75.8 % against 92.5 % for the rule below:
+    # no clear gain, and the first of them grasped twice as many product blocks in the default palette's
+    # heaps (6 against 3 in 20 invisible episodes). Not adopted.
     color_shading: float = 0.0
     color_saturation: float = 0.0
     # relative: a second way to be a target, for a region distinct in colour. Its saliency contrast may

@@ -179,6 +179,17 @@ PALETTES = {p.name: p for p in (
              [(84, 110, 52), (110, 84, 50)],
              "red cranberries of several shades with green leaves and brown stems", product_jitter=0.02,
              ambient=0.5, diffuse=0.55, exposure=0.85),
+    # Added 2026-11-30 (sixth session) as the third held-out set, fixed before any of them was rendered.
+    _palette("lentils_stones", [(214, 120, 64), (200, 108, 56), (226, 132, 72)], [(118, 112, 104)],
+             "red lentils of several shades with grey stones", product_jitter=0.02,
+             light_direction=(0.2, 0.5, 1.0), ambient=0.55, diffuse=0.5),
+    _palette("tea_stems", [(58, 54, 36), (48, 46, 30), (66, 60, 40)], [(150, 128, 84)],
+             "dark tea leaves with light woody stems", product_jitter=0.015, exposure=1.1),
+    _palette("pistachios_shells", [(132, 150, 70), (120, 140, 64)], [(204, 184, 150), (96, 70, 60)],
+             "green pistachio kernels with beige shell fragments and dark husk", product_jitter=0.02,
+             light_direction=(-0.5, 0.1, 1.0), ambient=0.65, diffuse=0.4),
+    _palette("pvc_in_pet", [(200, 214, 220), (188, 204, 214)], [(236, 234, 226)],
+             "clear PET flakes with opaque white PVC flakes", product_jitter=0.02, exposure=0.9),
 )}
 
 
