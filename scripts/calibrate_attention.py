@@ -33,6 +33,7 @@ from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
     AttentionParams,
     attend,
+    is_target,
     region_color_contrast,
     saliency_input,
     salient_regions,
@@ -348,15 +349,17 @@ def palette_rates(records, params: AttentionParams) -> dict:
     return rates
 
 
-def print_palette_rates(rates: dict) -> dict:
+def print_palette_rates(rates: dict, per_palette: bool = True) -> dict:
+    """Print a line per palette (unless per_palette is False) and the totals; return the totals."""
     totals = {"visible": [], "no_impurity": [], "invisible": []}
     for palette, entry in rates.items():
         for key in totals:
             totals[key] += entry[key]
-        print(f"  {palette:22s} impurity found {sum(entry['visible']):3d}/{len(entry['visible']):3d}  "
-              f"false TARGET {len(entry['no_impurity']) - sum(entry['no_impurity']):2d}/"
-              f"{len(entry['no_impurity']):2d}  hidden target in chosen cluster "
-              f"{sum(entry['invisible'])}/{len(entry['invisible'])}")
+        if per_palette:
+            print(f"  {palette:22s} impurity found {sum(entry['visible']):3d}/{len(entry['visible']):3d}  "
+                  f"false TARGET {len(entry['no_impurity']) - sum(entry['no_impurity']):2d}/"
+                  f"{len(entry['no_impurity']):2d}  hidden target in chosen cluster "
+                  f"{sum(entry['invisible'])}/{len(entry['invisible'])}")
     found = float(np.mean(totals["visible"])) if totals["visible"] else float("nan")
     false = 1.0 - float(np.mean(totals["no_impurity"])) if totals["no_impurity"] else float("nan")
     hidden = float(np.mean(totals["invisible"])) if totals["invisible"] else float("nan")
@@ -374,9 +377,8 @@ COLOUR_TESTS = [(shading, level) for level in SATURATIONS for shading in SHADING
 
 def rule_rows(records, params: AttentionParams, tests=COLOUR_TESTS) -> tuple:
     """Per scene: (score, on target, colour contrast per (shading, saturation) of `tests`) of the best
-    salient region, split into
-    scenes with a visible impurity and scenes without one (clean and invisible). The thresholds do not
-    change regions: computed once."""
+    salient region, split into scenes with a visible impurity and scenes without one (clean and
+    invisible). The thresholds do not change regions: computed once."""
     visible, clean = [], []
     for record in records:
         objects = record.height > params.density.occupied_height
@@ -394,6 +396,28 @@ def rule_rows(records, params: AttentionParams, tests=COLOUR_TESTS) -> tuple:
         elif category in ("no_impurity", "invisible"):
             clean.append(row)
     return np.array(visible, dtype=float), np.array(clean, dtype=float)
+
+
+def sweep_grid(visible: np.ndarray, clean: np.ndarray, params: AttentionParams) -> np.ndarray:
+    """rule-sweep's grid: one row (shading, s1, c1, c2, s2, found, false TARGET, saturation) per colour test
+    of COLOUR_TESTS x min_relative_contrast (s1) x min_color_contrast (c1) x distinct_color_contrast (c2)
+    x min_relative_contrast_distinct (s2), each decided by attention's own is_target. visible / clean:
+    rule_rows' arrays; found: share of visible scenes whose best region is on the impurity and a target;
+    false TARGET: share of clean scenes whose best region is a target."""
+    on_target = visible[:, 1].astype(bool)
+    grid = []
+    for k, (shading, level) in enumerate(COLOUR_TESTS):
+        for s1 in np.round(np.arange(3.0, 6.01, 0.2), 2):
+            for c1 in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
+                for c2 in np.round(np.arange(2.0, 8.01, 0.25), 2):
+                    for s2 in np.round(np.arange(2.0, s1 + 1e-9, 0.1), 2):
+                        tried = dataclasses.replace(params, min_relative_contrast=float(s1),
+                                                    min_color_contrast=c1, distinct_color_contrast=float(c2),
+                                                    min_relative_contrast_distinct=float(s2))
+                        found = float(np.mean(on_target & is_target(visible[:, 0], visible[:, 2 + k], tried)))
+                        false = float(np.mean(is_target(clean[:, 0], clean[:, 2 + k], tried)))
+                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false, level))
+    return np.array(grid)
 
 
 def rule_sweep(params: AttentionParams) -> AttentionParams:
@@ -419,24 +443,7 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
     visible, clean = rule_rows(records, params)
     print(f"{len(visible)} with a visible impurity, {len(clean)} without; the best region lies on the "
           f"impurity in {100 * np.mean(visible[:, 1]):.1f} % (the ceiling)")
-    on_target = visible[:, 1].astype(bool)
-    grid = []  # (shading, s1, c1, c2, s2, found, false TARGET, saturation)
-    for k, (shading, level) in enumerate(COLOUR_TESTS):
-        v_score, v_colour = visible[:, 0], visible[:, 2 + k]
-        c_score, c_colour = clean[:, 0], clean[:, 2 + k]
-        v_finite, c_finite = np.isfinite(v_colour), np.isfinite(c_colour)
-        for s1 in np.round(np.arange(3.0, 6.01, 0.2), 2):
-            for c1 in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
-                v_base = on_target & (v_score >= s1) & (v_colour >= c1)
-                c_base = (c_score >= s1) & (c_colour >= c1)
-                for c2 in np.round(np.arange(2.0, 8.01, 0.25), 2):
-                    v_distinct = on_target & v_finite & (v_colour >= c2)
-                    c_distinct = c_finite & (c_colour >= c2)
-                    for s2 in np.round(np.arange(2.0, s1 + 1e-9, 0.1), 2):
-                        found = float(np.mean(v_base | (v_distinct & (v_score >= s2))))
-                        false = float(np.mean(c_base | (c_distinct & (c_score >= s2))))
-                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false, level))
-    grid = np.array(grid)
+    grid = sweep_grid(visible, clean, params)
     print("the most found within a false-TARGET cap, per colour test (shading allowance, saturation level):")
     for shading, level in COLOUR_TESTS:
         of = grid[(grid[:, 0] == shading) & (grid[:, 7] == level)]
@@ -454,8 +461,7 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
         print("no setting meets both aims: the most found within the false-TARGET aim")
         pool = grid[grid[:, 6] <= FALSE_TARGET_AIM + 1e-12]
         pool = pool[pool[:, 5] == pool[:, 5].max()]
-    fewest = pool[:, 6].min() if len(meeting) else pool[:, 6].min()
-    pool = pool[pool[:, 6] == fewest]
+    pool = pool[pool[:, 6] == pool[:, 6].min()]
     pool = pool[pool[:, 5] == pool[:, 5].max()]
     pool = pool[pool[:, 7] == pool[:, 7].max()]  # ties: clipped channels left out (a sensor's fact)
     pool = pool[pool[:, 0] == pool[:, 0].min()]
@@ -475,22 +481,14 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
                                  min_color_contrast=float(c1), distinct_color_contrast=float(c2),
                                  min_relative_contrast_distinct=float(s2))
     print(f"chosen color_shading = {shading:.2f}, color_saturation = {level:.0f}, min_relative_contrast = "
-          f"{s1:.1f}, min_color_contrast = "
-          f"{c1:.2f}, distinct_color_contrast = {c2:.2f}, min_relative_contrast_distinct = {s2:.1f}: found "
-          f"{100 * pool[0, 5]:.1f} %, false TARGET {100 * pool[0, 6]:.1f} %")
+          f"{s1:.1f}, min_color_contrast = {c1:.2f}, distinct_color_contrast = {c2:.2f}, "
+          f"min_relative_contrast_distinct = {s2:.1f}: found {100 * pool[0, 5]:.1f} %, false TARGET "
+          f"{100 * pool[0, 6]:.1f} %")
     print("checked through attend() on the same scenes (shipped, then chosen):")
     for name, tried in (("shipped", params), ("chosen", chosen)):
         print(f" {name}:")
-        print_palette_rates({"ALL tuning": _merged(palette_rates(records, tried))})
+        print_palette_rates(palette_rates(records, tried), per_palette=False)
     return chosen
-
-
-def _merged(rates: dict) -> dict:
-    merged = {"visible": [], "no_impurity": [], "invisible": []}
-    for entry in rates.values():
-        for key in merged:
-            merged[key] += entry[key]
-    return merged
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:

@@ -196,3 +196,14 @@ def test_a_bad_colour_saturation_level_is_refused_by_name():
     with pytest.raises(ValueError, match="color_saturation"):
         att.AttentionParams(color_saturation=300.0)
     assert att.AttentionParams(color_saturation=0.0).color_saturation == 0.0  # 0: every channel compared
+
+
+def test_is_target_decides_arrays_of_regions_as_it_decides_each_one():
+    params = att.AttentionParams()
+    scores = np.array([params.min_relative_contrast, params.min_relative_contrast - 0.1,
+                       params.min_relative_contrast - 0.1, params.min_relative_contrast_distinct - 0.01, 9.0])
+    colours = np.array([params.min_color_contrast, params.distinct_color_contrast, np.inf, 10.0, 0.0])
+    decided = att.is_target(scores, colours, params)
+    assert decided.dtype == bool and decided.shape == scores.shape
+    assert list(decided) == [att.is_target(s, c, params) for s, c in zip(scores, colours, strict=True)]
+    assert list(decided) == [True, True, False, False, False]

@@ -368,19 +368,22 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                    regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
 
 
-def is_target(score: float, colour: float, params: AttentionParams) -> bool:
+def is_target(score, colour, params: AttentionParams):
     """Whether the best salient region is an impurity, from its contrast `score` (relative saliency, or
     opponent-colour units with contrast "absolute") and its colour contrast `colour` (region_color_contrast;
     inf when nothing to compare with): relative - score >= min_relative_contrast and colour >=
     min_color_contrast, or a region distinct in colour (a finite colour >= distinct_color_contrast > 0)
-    with score >= min_relative_contrast_distinct; absolute - score >= min_target_contrast."""
+    with score >= min_relative_contrast_distinct; absolute - score >= min_target_contrast.
+    Scalars give a bool; arrays of scores and colours (one per region) give a bool array."""
+    score, colour = np.asarray(score, dtype=float), np.asarray(colour, dtype=float)
     if params.contrast != "relative":
-        return score >= params.min_target_contrast
-    if score >= params.min_relative_contrast and colour >= params.min_color_contrast:
-        return True
-    distinct = params.distinct_color_contrast > 0 and np.isfinite(colour) and \
-        colour >= params.distinct_color_contrast
-    return bool(distinct and score >= params.min_relative_contrast_distinct)
+        decided = score >= params.min_target_contrast
+    else:
+        salient = (score >= params.min_relative_contrast) & (colour >= params.min_color_contrast)
+        distinct = (params.distinct_color_contrast > 0) & np.isfinite(colour) & \
+            (colour >= params.distinct_color_contrast) & (score >= params.min_relative_contrast_distinct)
+        decided = salient | distinct
+    return bool(decided) if decided.ndim == 0 else decided
 
 
 def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
