@@ -57,10 +57,13 @@ COLOUR_FLOORS = (0.0,)
 # min_relative_contrast_distinct on; 0 = that path off), tried with every height and floor: does finding
 # more impurities in first views (palette-sweep) cost clean ends late in episodes?
 DISTINCT = (0.0,)
-# the rest of attention's decision rule an episode ran with, (color_shading, min_relative_contrast,
-# min_relative_contrast_distinct, color_saturation): `collect --rule`, by default the shipped AttentionParams.
-# Rows from before these were recorded ran with (0, 4.4, 2.7, 0), the rule of their day.
-LEGACY_RULE = (0.0, 4.4, 2.7, 0.0)
+# A setting: its fields in order, as rows name them, each with what rows from before it was recorded ran with
+# (None: always recorded). The first three are tried as axes (--heights, --colour-floors, --distinct); the
+# rest of attention's decision rule comes from `collect --rule`, by default the shipped AttentionParams.
+SETTING_FIELDS = (("height", None), ("colour_floor", 0.0), ("distinct_color_contrast", 0.0),
+                  ("color_shading", 0.0), ("min_relative_contrast", 4.4),
+                  ("min_relative_contrast_distinct", 2.7), ("color_saturation", 0.0))
+LEGACY_RULE = tuple(old for _, old in SETTING_FIELDS[3:])  # the rule of the days before --rule
 # (scenario, num_targets, num_objects, max_actions): the real-cell-mode graph test's invisible scenes, the
 # paper-sized invisible ones (two heaps, 20 products), random clutter (tilted blocks make low clusters), and
 # the graph test's small random and challenging scenes. Appended, never reordered: a scene's seeds follow
@@ -107,9 +110,7 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
                              max_actions=max_actions, palette=palette)
     summary = picking.run_episode(cell, request, f"{scenario}-{seed}", picking.EpisodeLimits(),
                                   on_error=_reraise)
-    return {"height": height, "colour_floor": floor, "distinct_color_contrast": distinct,
-            "color_shading": shading, "min_relative_contrast": relative,
-            "min_relative_contrast_distinct": relative_distinct, "color_saturation": saturation,
+    return {**dict(zip((name for name, _ in SETTING_FIELDS), setting, strict=True)),
             "scenario": scenario, "num_targets": targets, "num_objects": objects,
             "palette": palette, "group": splits.palette_group(palette), "seed": seed,
             "termination": summary["termination_reason"], "actions": summary["actions"],
@@ -120,13 +121,9 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
 
 def setting_of(row: dict) -> tuple:
     """(min_cluster_height, min_color_contrast, distinct_color_contrast, color_shading,
-    min_relative_contrast, min_relative_contrast_distinct, color_saturation) of an episode (files from
-    before a field was recorded: how they ran, 0 for the colour floor and the distinct-colour path,
-    LEGACY_RULE for the rest)."""
-    return (row["height"], row.get("colour_floor", 0.0), row.get("distinct_color_contrast", 0.0),
-            row.get("color_shading", LEGACY_RULE[0]), row.get("min_relative_contrast", LEGACY_RULE[1]),
-            row.get("min_relative_contrast_distinct", LEGACY_RULE[2]),
-            row.get("color_saturation", LEGACY_RULE[3]))
+    min_relative_contrast, min_relative_contrast_distinct, color_saturation) of an episode; a field
+    missing from an older file reads as what it ran with (SETTING_FIELDS)."""
+    return tuple(row[name] if old is None else row.get(name, old) for name, old in SETTING_FIELDS)
 
 
 def key_of(row: dict) -> tuple:
