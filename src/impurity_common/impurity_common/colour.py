@@ -112,8 +112,7 @@ def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
     """ProductReference.contrast of a region's mean colour against the other object cells of the same
     view (objects outside the region): how far the region stands apart from the rest. color (H, W, 3)
     uint8, region and objects (H, W) bool (region not empty), min_spread, shading and saturation as in
-    from_colors. None when
-    no other object cell is in view (nothing to compare with)."""
+    from_colors. None when no other object cell is in view (nothing to compare with)."""
     region = np.asarray(region, dtype=bool)
     others = np.asarray(objects, dtype=bool) & ~region
     if not others.any():
