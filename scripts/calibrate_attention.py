@@ -339,35 +339,44 @@ def collect_palettes(split: str, scale: int = 1) -> list:
 
 
 def palette_rates(records, params: AttentionParams) -> dict:
-    """Per palette: visible scenes with the impurity found, scenes without impurity given TARGET."""
+    """Per palette: visible scenes with the impurity found, scenes without impurity given TARGET, invisible
+    scenes with the hidden target in the chosen cluster, and visible scenes whose impurity is
+    colour-separable (evaluation.colour_separable, read from the truth: what "found" is read against)."""
     rates = {}
     for record in records:
         verdict = evaluation.judge(record, attend(record.color, record.height, params))
-        entry = rates.setdefault(record.palette, {"visible": [], "no_impurity": [], "invisible": []})
+        entry = rates.setdefault(record.palette, {"visible": [], "no_impurity": [], "invisible": [],
+                                                  "separable": []})
         if verdict.category in entry:
             entry[verdict.category].append(bool(verdict.success))
+        if verdict.category == "visible":
+            entry["separable"].append(bool(evaluation.colour_separable(record)))
     return rates
 
 
 def print_palette_rates(rates: dict, per_palette: bool = True) -> dict:
     """Print a line per palette (unless per_palette is False) and the totals; return the totals."""
-    totals = {"visible": [], "no_impurity": [], "invisible": []}
+    totals = {"visible": [], "no_impurity": [], "invisible": [], "separable": []}
     for palette, entry in rates.items():
         for key in totals:
-            totals[key] += entry[key]
+            totals[key] += entry.get(key, [])
         if per_palette:
             print(f"  {palette:22s} impurity found {sum(entry['visible']):3d}/{len(entry['visible']):3d}  "
                   f"false TARGET {len(entry['no_impurity']) - sum(entry['no_impurity']):2d}/"
                   f"{len(entry['no_impurity']):2d}  hidden target in chosen cluster "
-                  f"{sum(entry['invisible'])}/{len(entry['invisible'])}")
+                  f"{sum(entry['invisible'])}/{len(entry['invisible'])}  colour-separable "
+                  f"{sum(entry.get('separable', []))}/{len(entry.get('separable', []))}")
     found = float(np.mean(totals["visible"])) if totals["visible"] else float("nan")
     false = 1.0 - float(np.mean(totals["no_impurity"])) if totals["no_impurity"] else float("nan")
     hidden = float(np.mean(totals["invisible"])) if totals["invisible"] else float("nan")
+    separable = float(np.mean(totals["separable"])) if totals["separable"] else float("nan")
     print(f"  ALL: impurity found {100 * found:.1f} % of {len(totals['visible'])} (aim >= 95 %), "
           f"false TARGET {100 * false:.1f} % of {len(totals['no_impurity'])} (aim <= 5 %), hidden target in "
-          f"chosen cluster {100 * hidden:.1f} % of {len(totals['invisible'])}")
+          f"chosen cluster {100 * hidden:.1f} % of {len(totals['invisible'])}, colour-separable "
+          f"{100 * separable:.1f} % (evaluation.colour_separable: a per-cell oracle tells it by colour)")
     return {"found": found, "false_target": false, "hidden_in_cluster": hidden,
-            "visible_scenes": len(totals["visible"]), "clean_scenes": len(totals["no_impurity"])}
+            "colour_separable": separable, "visible_scenes": len(totals["visible"]),
+            "clean_scenes": len(totals["no_impurity"])}
 
 
 SHADINGS = (0.0, 0.1, 0.15, 0.2, 0.3)  # colour-test shading allowances rule-sweep tries

@@ -12,6 +12,9 @@ Verdicts, per scene category:
 - no_impurity: no target in the scene; a false alarm = mode TARGET.
 - invisible: no target cell visible; success = mode OCCLUDED_REGION and the chosen cluster contains a
   hidden target's centre cell (a TARGET that lands on a target also finds it, counted apart).
+
+colour_separable tells, for a visible scene, whether its impurity can be told from the product by colour
+at all (an oracle built from the scene's truth): what a palette's detection rate should be read against.
 """
 
 from __future__ import annotations
@@ -29,6 +32,14 @@ from .heightmap import rgbd_to_heightmaps
 MIN_VISIBLE_CELLS = 20  # 80 mm^2: a target showing less than this is "hidden"
 CATEGORIES = ("visible", "no_impurity", "invisible")
 MODE_NAMES = ("TARGET", "OCCLUDED_REGION", "NONE")
+# colour_separable: the product's colours as a histogram of SEPARABLE_BINS per RGB channel, smoothed over
+# each bin's 26 neighbours; a colour is off the product where that density is below the density of the
+# product's own SEPARABLE_QUANTILE least likely cells (1 %: a detector allowed one product cell in a
+# hundred as a false alarm); the impurity is separable when at least SEPARABLE_MIN_CELLS of its visible
+# cells are (attention's least region, AttentionParams.min_region_area, 30 px = 1.2 cm^2).
+SEPARABLE_BINS = 16
+SEPARABLE_QUANTILE = 0.01
+SEPARABLE_MIN_CELLS = 30
 
 
 @dataclass
@@ -116,6 +127,32 @@ def judge(record: SceneRecord, output: AttentionOutput) -> Verdict:
                           / max(1, np.count_nonzero(output.target_mask)))
     return Verdict(record.scenario, record.seed, category, mode.name, float(output.score), bool(success),
                    detail, precision)
+
+
+def colour_separable(record: SceneRecord, min_object_height: float = 0.01) -> bool | None:
+    """Whether a visible scene's impurity can be told from the product by colour alone, with the truth's
+    help: a one-class model of the product's colours from the scene's own labelled product cells (object
+    cells, height > min_object_height m, that are not a target's), judged on the visible target cells
+    (SEPARABLE_* above). An oracle - it sees which cells are product - and a per-cell one: it reads no
+    shape, so an impurity whose colours all occur on the product (a darker impurity of the product's hue
+    beside the product's shaded faces; a light product and a lighter impurity both at the camera's
+    ceiling) is not separable, whatever a detector does. None for scenes not in the "visible" category."""
+    if record.category() != "visible":
+        return None
+    objects = record.height > min_object_height
+    product = objects & ~np.isin(record.labels, list(record.target_ids))
+    target = objects & record.visible_target_cells
+    if not product.any():
+        return True  # nothing to be confused with
+    bins = SEPARABLE_BINS
+    index = (record.color.astype(np.int64) * bins) // 256
+    counts = np.zeros((bins + 2,) * 3)
+    np.add.at(counts, tuple(index[product].T + 1), 1.0)
+    smooth = sum(counts[1 + dr:bins + 1 + dr, 1 + dg:bins + 1 + dg, 1 + db:bins + 1 + db]
+                 for dr in (-1, 0, 1) for dg in (-1, 0, 1) for db in (-1, 0, 1))
+    density = smooth[index[..., 0], index[..., 1], index[..., 2]]
+    threshold = np.quantile(density[product], SEPARABLE_QUANTILE)
+    return bool(np.count_nonzero((density < threshold) & target) >= SEPARABLE_MIN_CELLS)
 
 
 def summarize(verdicts) -> dict:
