@@ -24,8 +24,8 @@ Episodes run in this process (--jobs 1), in a local process pool (--jobs N, defa
 CPU of the cluster; ray_eval.py). All three call run_task, so the records are the same. Each record is
 appended to a journal (--journal, default the --json path with .partial.jsonl) as its episode ends; a
 run interrupted part-way and started again with the same arguments runs only the episodes missing
-from it (the same row, checkpoint bytes, scenario, seed, group, palette and device); the journal is
-removed once the results are written. --no-resume starts afresh.
+from it (the same row, checkpoint bytes, decision settings, scenario, seed, group, palette and device);
+the journal is removed once the results are written. --no-resume starts afresh.
 
     python -m impurity_learning.eval_cli --ray --jobs 2 --episodes 20
     python -m impurity_learning.eval_cli --ray-address 10.0.0.5:6379 --jobs 0 --episodes 20
@@ -34,6 +34,8 @@ removed once the results are written. --no-resume starts afresh.
 from __future__ import annotations
 
 import argparse
+import dataclasses
+import functools
 import hashlib
 import json
 import math
@@ -258,11 +260,27 @@ def close_worker() -> None:
     _WORKER.pop("agents", None)
 
 
+@functools.cache
+def settings_digest() -> str:
+    """12 hex digits of sha256 over the decision settings an episode runs with besides the checkpoint: the
+    attention's, the rules' and the episode limits' defaults (AttentionParams, RuleParams, EpisodeLimits).
+    A journal written before a threshold changed then no longer resumes into a run after it."""
+    from impurity_attention.core.attention import AttentionParams
+    from impurity_policy.core.picking import EpisodeLimits
+    from impurity_policy.core.rules import RuleParams
+
+    settings = {type(params).__name__: dataclasses.asdict(params)
+                for params in (AttentionParams(), RuleParams(), EpisodeLimits())}
+    return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()[:12]
+
+
 def task_key(task: tuple, digests: dict) -> str:
-    """What makes an episode's record: row, the checkpoint's bytes (digests: path -> sha256), scenario,
-    seed, device, group and palette (not the torch threads, not where the checkpoint lies)."""
+    """What makes an episode's record: row, the checkpoint's bytes (digests: path -> sha256), the decision
+    settings (settings_digest), scenario, seed, device, group and palette (not the torch threads, not
+    where the checkpoint lies)."""
     row, checkpoint, scenario, seed, _threads, device, group, palette = task
-    return json.dumps([row, digests.get(checkpoint, ""), scenario, seed, device, group, palette])
+    return json.dumps([row, digests.get(checkpoint, ""), settings_digest(), scenario, seed, device, group,
+                       palette])
 
 
 def read_journal(path: pathlib.Path) -> dict:

@@ -65,3 +65,27 @@ def test_a_line_cut_short_by_a_killed_run_is_skipped_and_spoils_no_other(tmp_pat
     assert eval_cli.read_journal(journal) == {key: {"seed": SEEDS[0]}}
     eval_cli.run_episodes(tasks(), {}, journal, ARGS)
     assert episodes.ran == SEEDS[1:] and len(eval_cli.read_journal(journal)) == 4
+
+
+def test_records_are_reused_under_the_same_decision_settings_only(tmp_path, episodes, monkeypatch):
+    journal = tmp_path / "results.partial.jsonl"
+    eval_cli.run_episodes(tasks(), {}, journal, ARGS)
+    episodes.ran.clear()
+    monkeypatch.setattr(eval_cli, "settings_digest", lambda: "another-rule")
+    eval_cli.run_episodes(tasks(), {}, journal, ARGS)
+    assert episodes.ran == SEEDS  # an attention threshold changed: every episode again
+
+
+def test_the_decision_settings_digest_follows_the_attention_defaults(monkeypatch):
+    import dataclasses
+
+    from impurity_attention.core import attention
+
+    shipped = eval_cli.settings_digest()
+    eval_cli.settings_digest.cache_clear()
+    changed = dataclasses.replace(attention.AttentionParams(), min_relative_contrast=9.0)
+    monkeypatch.setattr(attention, "AttentionParams", lambda: changed)
+    try:
+        assert eval_cli.settings_digest() != shipped
+    finally:
+        eval_cli.settings_digest.cache_clear()
