@@ -1,0 +1,44 @@
+"""Seventh session, tuning data only: a per-cell colour feature for the best salient region, the share of its
+cells whose colour is rare among the other object cells (histogram density below their own 1 % quantile,
+as evaluation.colour_separable but without the truth). Writes the rows (score, on target, Mahalanobis
+colour contrast, rare share) of rule-sweep's scenes to runs/s7_rare_rows.pkl; rare_grid.py reads them.
+
+    python docs/experiments_s7/rare.py && python docs/experiments_s7/rare_grid.py
+"""
+import sys, pickle
+sys.path.insert(0, "scripts")
+import numpy as np
+import calibrate_attention as ca
+from impurity_attention.core.attention import AttentionParams, salient_regions, scene_saliency, region_color_contrast
+BINS = 16
+def rare_share(color, region, objects, q=0.01):
+    others = objects & ~region
+    if not others.any(): return 1.0
+    idx = (color.astype(np.int64) * BINS) // 256
+    counts = np.zeros((BINS + 2,) * 3)
+    np.add.at(counts, tuple(idx[others].T + 1), 1.0)
+    sm = sum(counts[1+a:BINS+1+a, 1+b:BINS+1+b, 1+c:BINS+1+c] for a in (-1,0,1) for b in (-1,0,1) for c in (-1,0,1))
+    d = sm[idx[..., 0], idx[..., 1], idx[..., 2]]
+    tau = np.quantile(d[others], q)
+    return float(np.mean(d[region] < tau))
+params = AttentionParams()
+records = ca.collect_palettes("tuning")
+have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
+records += [r for r in ca.collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
+default = [r for r in records if r.palette in ("blocks", "")]
+records = records + [r.exposed(e) for r in default for e in ca.EXPOSURES if e != 1.0]
+vis, clean = [], []
+for r in records:
+    cat = r.category()
+    if cat not in ("visible", "no_impurity", "invisible"): continue
+    obj = r.height > params.density.occupied_height
+    regs = salient_regions(scene_saliency(r.color, obj, params), obj, params)
+    b = regs[0] if regs else None
+    if b is None:
+        row = (0, False, 0, 0)
+    else:
+        row = (b.score, bool(np.any(b.mask & r.visible_target_cells)), region_color_contrast(r.color, obj, b, params), rare_share(r.color, b.mask, obj))
+    (vis if cat == "visible" else clean).append(row)
+vis, clean = np.array(vis, float), np.array(clean, float)
+pickle.dump((vis, clean), open("runs/s7_rare_rows.pkl", "wb"))
+print(len(vis), len(clean))
