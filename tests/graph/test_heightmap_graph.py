@@ -202,3 +202,15 @@ def test_a_camera_coarser_than_the_cells_is_warned_once_and_its_gaps_filled(ros_
     colour = image_to_numpy(received[-1].color, ("rgb8",))
     unseen = ~colour.any(axis=2)
     assert unseen.mean() < 0.05  # a third without the gap filling
+
+
+def test_an_overexposed_camera_is_warned_with_the_exposure_to_lower(ros_node, heightmap_graph):
+    """A light product at the camera's ceiling (heightmap.exposure_problem): warned, not dropped."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    _, frame = scene()
+    frame.color[frame.labels > 0] = (255, 250, 235)  # every box clipped in R and G
+    camera(frame, now_ns(ros_node)).start((process,))
+    logged(ros_node, process, "colour badly exposed: the colour image is clipped")
+    assert "rgb_camera.exposure" in process.output()
+    heightmaps.wait_for(1, WAIT, processes=(process,))

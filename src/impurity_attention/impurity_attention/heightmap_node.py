@@ -28,6 +28,7 @@ from impurity_attention.core.heightmap import (
     ProjectorCache,
     depth_problem,
     depth_to_meters,
+    exposure_problem,
     pose_matrix,
 )
 from impurity_attention.core.sync import StampPairer, UnpairedFrame
@@ -233,6 +234,10 @@ class HeightmapNode(Node):
         problem = depth_problem(projector.check_depth(depth), depth_msg.encoding, self.params.depth_scale)
         if problem is not None:
             self.get_logger().warning(f"depth does not fit the table: {problem}",
+                                      throttle_duration_sec=self.params.log_throttle)
+        exposure = exposure_problem(maps.color, maps.height)
+        if exposure is not None:
+            self.get_logger().warning(f"colour badly exposed: {exposure}",
                                       throttle_duration_sec=self.params.log_throttle)
         color_map = maps.color
         if self.params.colour_adaptation:

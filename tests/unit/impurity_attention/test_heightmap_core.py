@@ -140,3 +140,41 @@ def test_projector_cache_rebuilds_only_on_change():
     moved = frame.camera_pose.copy()
     moved[0, 3] += 0.01
     assert cache.get(frame.intrinsics, moved, frame.depth.shape, GRID) is not first
+
+
+def exposure_scene(product_rgb, objects_share=0.5):
+    """A 40 x 40 colour heightmap: the left objects_share of the columns are objects of product_rgb, the
+    rest table (grey, height 0)."""
+    color = np.full((40, 40, 3), 120, np.uint8)
+    height = np.zeros((40, 40), np.float32)
+    width = int(40 * objects_share)
+    color[:, :width] = product_rgb
+    height[:, :width] = 0.03
+    return color, height
+
+
+def test_a_well_exposed_product_raises_no_exposure_problem():
+    assert hm.exposure_problem(*exposure_scene((200, 180, 150))) is None
+
+
+def test_a_channel_clipped_on_most_objects_is_named_with_the_exposure_to_lower():
+    problem = hm.exposure_problem(*exposure_scene((255, 230, 200)))
+    assert problem is not None and "clipped" in problem and " R " in problem
+    assert "rgb_camera.exposure" in problem
+
+
+def test_nearly_black_objects_ask_for_more_exposure():
+    problem = hm.exposure_problem(*exposure_scene((3, 2, 4)))
+    assert problem is not None and "nearly black" in problem and "Raise" in problem
+
+
+def test_a_clipped_table_alone_is_not_an_exposure_problem():
+    color, height = exposure_scene((200, 180, 150))
+    color[:, 20:] = 255  # a white table at the ceiling: nothing to compare there
+    assert hm.exposure_problem(color, height) is None
+
+
+def test_exposure_is_judged_on_the_same_objects_as_attention():
+    from impurity_attention.core.density import OCCUPIED_HEIGHT
+
+    assert hm.exposure_problem.__defaults__[0] == OCCUPIED_HEIGHT

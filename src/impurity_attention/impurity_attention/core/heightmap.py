@@ -20,6 +20,9 @@ table at all (`depth_problem` words the likely cause): integer depth in other un
 `depth_scale` says (a D405 publishes 0.1 mm), or a wrong camera pose, puts most points far from the
 table plane.
 
+`exposure_problem` tells whether the colour heightmap's objects are lit and exposed so that colours can be
+compared at all: a channel at the camera's ceiling on most object cells, or objects nearly black.
+
 Pure numpy; no rclpy. One projection of a 640x480 frame takes a few milliseconds because the rays of
 a fixed camera are computed once and a cell's maximum uses `np.maximum.at` instead of a sort.
 """
@@ -178,6 +181,43 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
             f"table plane ({check.below:.0%} more than {FAR_BELOW_TABLE * 100:.0f} cm below table_z, "
             f"{check.above:.0%} higher than max_height), at {ratio:.4g} times the table's distance along "
             f"their rays. Likely cause: {causes}")
+
+
+# exposure_problem: an 8-bit channel at CLIPPED_LEVEL or more reads the same whatever the light (the
+# camera's ceiling); objects at DARK_LEVEL or less in every channel are nearly black. A colour heightmap is
+# badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark. Half:
+# colour.SATURATED_SHARE's notion of a clipped product. On the tuning palettes' first views (101 palettes;
+# docs/experiments_s7/exposure_flags.py) it flags most scenes of 10 palettes; they include 2 of the 4 where
+# attention finds fewer than half of the impurities (random-33, -40: 1 of 10 each), and 5 where it finds
+# them all: a warning worth reading, not a verdict.
+CLIPPED_LEVEL = 250
+DARK_LEVEL = 5
+EXPOSURE_SHARE = 0.5
+CHANNEL_NAMES = "RGB"
+
+
+def exposure_problem(color: np.ndarray, height: np.ndarray, min_object_height: float = 0.008) -> str | None:
+    """None when the objects of a colour heightmap (H, W, 3) uint8 RGB, height (H, W) m (cells above
+    min_object_height m are objects: density.OCCUPIED_HEIGHT, not imported here to keep scikit-learn out
+    of the heightmap node) are exposed well enough to compare colours; else one line saying what
+    is wrong, what it costs and which camera parameters to change (module constants above)."""
+    objects = np.asarray(height) > min_object_height
+    if not objects.any():
+        return None
+    colours = np.asarray(color)[objects]
+    clipped = np.mean(colours >= CLIPPED_LEVEL, axis=0)
+    channel = int(np.argmax(clipped))
+    if clipped[channel] >= EXPOSURE_SHARE:
+        return (f"the colour image is clipped ({CLIPPED_LEVEL}+ of 255) in {CHANNEL_NAMES[channel]} on "
+                f"{clipped[channel]:.0%} of the object cells: colour differences in that channel are lost, "
+                "and an impurity lighter than a light product cannot be seen. Lower the camera's exposure "
+                "(realsense-ros: rgb_camera.enable_auto_exposure false, rgb_camera.exposure) or the light")
+    dark = float(np.mean(colours.max(axis=1) <= DARK_LEVEL))
+    if dark >= EXPOSURE_SHARE:
+        return (f"{dark:.0%} of the object cells are nearly black (every channel {DARK_LEVEL} or less of "
+                "255): colours cannot be compared there. Raise the camera's exposure or gain (realsense-ros: "
+                "rgb_camera.exposure, rgb_camera.gain) or the light")
+    return None
 
 
 # Along a row and along a column. Not the diagonals: between two objects that meet at a right angle an
