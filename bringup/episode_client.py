@@ -68,6 +68,11 @@ def kind_label(kind: int) -> str:
 
 
 def format_result(result) -> str:
+    """The episode's end and metrics, one per line; an episode that failed before its first action (a
+    request the cell refused, e.g. an unknown palette, a lost node) prints its reason alone: no metrics."""
+    if result.actions == 0 and is_failure(result.termination_reason):
+        return (f"episode {result.episode_id or '(none)'}: {result.termination_reason}\n"
+                "  no action was taken")
     perception = result.counted_by == "perception"
     lines = [
         f"episode {result.episode_id}: {result.termination_reason}",

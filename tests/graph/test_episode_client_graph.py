@@ -92,3 +92,17 @@ def test_ctrl_c_on_the_client_cancels_the_running_episode(scripted_episode_node,
     assert scripted_episode_node.cancel_requested.is_set(), output
     assert code == 130, output
     assert "canceling the episode" in output and f"episode scripted: {TERMINATION_CANCELED}" in output
+
+
+def test_an_episode_refused_before_its_first_action_prints_its_reason_and_no_metrics():
+    sys.path.insert(0, str(ROOT / "bringup"))
+    from episode_client import format_result
+
+    refused = RunEpisode.Result(episode_id="", termination_reason="error: scene reset failed: unknown "
+                                "palette 'teal'; known: blocks, coal_slate, ...", targets_total=-1)
+    text = format_result(refused)
+    assert "unknown palette 'teal'" in text and "no action was taken" in text
+    assert "grasp success" not in text and "targets picked" not in text
+    ran = RunEpisode.Result(episode_id="e1", termination_reason="error: driver rejected the primitive",
+                            actions=3, grasp_attempts=1, targets_total=2)
+    assert "grasp success" in format_result(ran)  # after an action, the metrics are the record
