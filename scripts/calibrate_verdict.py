@@ -34,6 +34,7 @@ exposure.jsonl.gz): `sweep` and `measure` read them as they are.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import gzip
 import itertools
 import json
@@ -54,6 +55,7 @@ from impurity_policy.core.verdict import (
     MIN_COLOR_SPREAD,
     ProductReference,
     VerdictParams,
+    decide_picked,
     product_color_distance,
     product_reference,
     region_color,
@@ -184,15 +186,14 @@ def with_contrast(rows: list, min_spread: float, shading: float = 0.0) -> list:
 
 def verdict(grasp: dict, min_score: float, min_contrast: float,
             params: VerdictParams = VerdictParams()) -> bool:
-    """judge_grasp's decision from the recorded features (same tests, same order)."""
+    """judge_grasp's decision (verdict.decide_picked) on a recorded grasp's features, at the thresholds
+    min_score (min_target_score) and min_contrast (min_color_contrast); a grasp without an attended
+    target is never a pick."""
     if not grasp["target"]:
         return False
-    if grasp["gone_fraction"] < params.min_gone_fraction or not grasp["holding"]:
-        return False
-    if grasp["target_score"] < min_score:
-        return False
-    contrast = grasp["color_contrast"]
-    return not (min_contrast > 0 and contrast is not None and contrast < min_contrast)
+    tried = dataclasses.replace(params, min_target_score=min_score, min_color_contrast=min_contrast)
+    return decide_picked(grasp["gone_fraction"], grasp["holding"], grasp["target_score"],
+                         grasp["color_contrast"], tried)[0]
 
 
 def agreement(rows: list, min_score: float, min_contrast: float) -> dict:

@@ -212,3 +212,16 @@ def test_a_shaded_face_of_the_product_is_not_taken_for_an_impurity():
     assert without_shading.contrast(shaded) > DEFAULT_MIN_COLOR_CONTRAST  # it would have counted
     red = scene([(10, 20, 10, 20, 0.03, RED)] + products)
     assert judge_grasp(*red, MASK, *scene(products), HOLDS, reference=reference).impurity_picked
+
+
+def test_the_decision_needs_the_target_gone_a_hold_a_contrast_and_a_colour_apart():
+    from impurity_policy.core.verdict import decide_picked
+
+    params = VerdictParams(min_target_score=3.0, min_color_contrast=0.75)
+    gone = params.min_gone_fraction
+    assert decide_picked(gone, True, 5.0, 2.0, params)[0]
+    assert decide_picked(gone, True, 5.0, None, params)[0]  # nothing to compare the colour with
+    assert "contrast 2.0 < 3.0" in decide_picked(gone, True, 2.0, 2.0, params)[1]
+    assert "Mahalanobis" in decide_picked(gone, True, 5.0, 0.5, params)[1]
+    assert "nothing held" in decide_picked(gone, False, 5.0, 2.0, params)[1]
+    assert "only" in decide_picked(gone / 2, True, 5.0, 2.0, params)[1]

@@ -233,31 +233,40 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
     if any(m is None for m in (before_height, before_color, after_height, after_color)):
         return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
     gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
-    is_gone = gone >= params.min_gone_fraction
-    if is_gone and holding and target_score < params.min_target_score:
-        return GraspVerdict(False, gone, holding, f"not counted: the attended region's contrast "
-                                                  f"{target_score:.1f} < {params.min_target_score:.1f} "
-                                                  f"(a product taken for a target?)")
-    if is_gone and holding and params.min_color_contrast > 0:
+    contrast = None
+    if gone >= params.min_gone_fraction and holding and params.min_color_contrast > 0:
         if reference is not None:
             contrast = reference.contrast(region_color(before_color, target_mask))
         else:
             contrast = product_color_contrast(before_color, before_height, target_mask,
                                               params.min_object_height)
-        if contrast is not None and contrast < params.min_color_contrast:
-            return GraspVerdict(False, gone, holding, f"not counted: the attended region's colour lies "
-                                                      f"{contrast:.1f} from the product's (Mahalanobis, < "
-                                                      f"{params.min_color_contrast:.1f}: a product taken "
-                                                      "for a target?)")
+    picked, reason = decide_picked(gone, holding, target_score, contrast, params)
+    return GraspVerdict(picked, gone, holding, reason)
+
+
+def decide_picked(gone: float, holding: bool, target_score: float, contrast: float | None,
+                  params: VerdictParams = VerdictParams()) -> tuple[bool, str]:
+    """judge_grasp's decision from its measured features, and why: gone (target_gone_fraction, 0..1),
+    holding (gripper_holds), target_score (the attended region's contrast), contrast (the region's colour
+    contrast from the product, ProductReference.contrast; None when not measured or nothing to compare
+    with). Picked = gone >= min_gone_fraction, holding, target_score >= min_target_score and, with
+    min_color_contrast > 0, a measured contrast >= min_color_contrast. scripts/calibrate_verdict.py
+    replays recorded grasps through it."""
+    is_gone = gone >= params.min_gone_fraction
+    if is_gone and holding and target_score < params.min_target_score:
+        return False, (f"not counted: the attended region's contrast {target_score:.1f} < "
+                       f"{params.min_target_score:.1f} (a product taken for a target?)")
+    if is_gone and holding and params.min_color_contrast > 0 and contrast is not None \
+            and contrast < params.min_color_contrast:
+        return False, (f"not counted: the attended region's colour lies {contrast:.1f} from the product's "
+                       f"(Mahalanobis, < {params.min_color_contrast:.1f}: a product taken for a target?)")
     if is_gone and holding:
-        reason = f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"
-    elif holding:
-        reason = f"not the impurity: only {gone:.0%} of the target's cells changed"
-    elif is_gone:
-        reason = f"nothing held ({gone:.0%} of the target's cells changed: moved, not lifted)"
-    else:
-        reason = f"nothing held and the target stays ({gone:.0%} of its cells changed)"
-    return GraspVerdict(is_gone and holding, gone, holding, reason)
+        return True, f"impurity picked: {gone:.0%} of the target's cells changed and the gripper holds"
+    if holding:
+        return False, f"not the impurity: only {gone:.0%} of the target's cells changed"
+    if is_gone:
+        return False, f"nothing held ({gone:.0%} of the target's cells changed: moved, not lifted)"
+    return False, f"nothing held and the target stays ({gone:.0%} of its cells changed)"
 
 
 def full_mask(crop_mask: np.ndarray, crop_origin: tuple[int, int], shape: tuple[int, int]) -> np.ndarray:
