@@ -133,6 +133,13 @@ class AttentionParams:
     # (docs/attention_palette_sweep.txt).
     distinct_color_contrast: float = 4.0
     min_relative_contrast_distinct: float = 2.7
+    # relative: a last look before NONE, 0 = off. When the best region is no target and no heap could hide
+    # one, the episode would end there, with any impurity the thresholds above missed left behind. A best
+    # region of at least last_look_contrast relative saliency and last_look_color_contrast colour contrast
+    # is then attended as a TARGET instead: one grasp at the most suspicious object before calling the
+    # scene clean (the grasp verdict still judges what was lifted).
+    last_look_contrast: float = 0.0
+    last_look_color_contrast: float = 0.0
     # absolute: mean saliency of m_t below this: no visible target. Tuning scenes (seeds 0-99, default
     # palette only, saliency ABSOLUTE_SALIENCY = (2, 6)): targets >= 0.054, scenes without impurity
     # <= 0.021; 0.034 is their geometric mean. Use it with saliency=ABSOLUTE_SALIENCY.
@@ -165,6 +172,9 @@ class AttentionParams:
         if not self.distinct_color_contrast >= 0.0:
             raise ValueError("distinct_color_contrast must be >= 0 (0 = off), got "
                              f"{self.distinct_color_contrast}")
+        if not (self.last_look_contrast >= 0.0 and self.last_look_color_contrast >= 0.0):
+            raise ValueError("last_look_contrast and last_look_color_contrast must be >= 0 (0 = off), got "
+                             f"{self.last_look_contrast}, {self.last_look_color_contrast}")
         if not self.min_relative_contrast_distinct >= 0.0:
             raise ValueError("min_relative_contrast_distinct must be >= 0, got "
                              f"{self.min_relative_contrast_distinct}")
@@ -344,6 +354,17 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                               f"contrast {colour:.2f}")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
+    if chosen is None and best is not None and last_look(best.score, colour, params):
+        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
+                                        reach=params.crop_size // 2)
+        rows, cols = np.nonzero(target_cells)
+        return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
+                       params, grid, regions=regions, clusters=clusters, target_region=best,
+                       mask_cells=target_cells,
+                       reason=f"last look (no heap could hide an impurity): salient region of "
+                              f"{best.area} px, contrast {best.score:.4f} >= "
+                              f"{params.last_look_contrast:.2f}, colour contrast {colour:.2f} >= "
+                              f"{params.last_look_color_contrast:.2f}")
     if best is None:
         no_target = "no salient region"
     elif best.score < threshold:
@@ -384,6 +405,14 @@ def is_target(score, colour, params: AttentionParams):
             (colour >= params.distinct_color_contrast) & (score >= params.min_relative_contrast_distinct)
         decided = salient | distinct
     return bool(decided) if decided.ndim == 0 else decided
+
+
+def last_look(score, colour, params: AttentionParams) -> bool:
+    """Whether a best region that is no target is grasped anyway when nothing else is left (no heap):
+    relative contrast only, last_look_contrast > 0, score >= last_look_contrast and colour (as in
+    is_target; inf when nothing to compare with) >= last_look_color_contrast."""
+    return (params.contrast == "relative" and params.last_look_contrast > 0
+            and score >= params.last_look_contrast and colour >= params.last_look_color_contrast)
 
 
 def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: SalientRegion,
