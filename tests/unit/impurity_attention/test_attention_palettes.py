@@ -207,3 +207,26 @@ def test_is_target_decides_arrays_of_regions_as_it_decides_each_one():
     assert decided.dtype == bool and decided.shape == scores.shape
     assert list(decided) == [att.is_target(s, c, params) for s, c in zip(scores, colours, strict=True)]
     assert list(decided) == [True, True, False, False, False]
+
+
+MISSES_ALL = dict(min_relative_contrast=100.0, distinct_color_contrast=0.0)  # no target by either path
+
+
+@pytest.mark.parametrize("palette", ["blue_red", "coal_slate", "cream_grey"])
+def test_with_no_heap_left_a_last_look_grasps_the_region_the_thresholds_missed(palette):
+    color, height, impurity = scene(palette, 0)
+    missed = att.attend(color, height, att.AttentionParams(**MISSES_ALL))
+    assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
+    looked = att.attend(color, height, att.AttentionParams(**MISSES_ALL, last_look_contrast=1.0,
+                                                           last_look_color_contrast=3.0))
+    assert looked.mode == att.AttentionMode.TARGET and looked.reason.startswith("last look")
+    assert np.any(looked.target_mask & impurity)
+
+
+def test_a_last_look_leaves_a_clean_scene_clean_and_is_refused_below_zero():
+    color, height, _ = scene("blue_red", 0, with_impurity=False)
+    looked = att.attend(color, height, att.AttentionParams(**MISSES_ALL, last_look_contrast=1.0,
+                                                           last_look_color_contrast=3.0))
+    assert looked.mode == att.AttentionMode.NONE  # the best region is coloured like the product
+    with pytest.raises(ValueError, match="last_look_contrast"):
+        att.AttentionParams(last_look_contrast=-1.0)
