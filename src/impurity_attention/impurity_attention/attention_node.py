@@ -105,6 +105,12 @@ class AttentionNodeParameters:
     min_relative_contrast_distinct: float = param(DEFAULTS.min_relative_contrast_distinct, "relative: mean "
                                                   "relative saliency a region distinct in colour needs",
                                                   low=0.0)
+    last_look_contrast: float = param(DEFAULTS.last_look_contrast, "relative: with no target and no heap "
+                                      "left, a best region of at least this relative saliency (and "
+                                      "last_look_color_contrast) is grasped before the scene is called "
+                                      "clean; 0: no last look", low=0.0)
+    last_look_color_contrast: float = param(DEFAULTS.last_look_color_contrast, "relative: the colour "
+                                            "contrast the last look needs", low=0.0)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -127,6 +133,8 @@ class AttentionNodeParameters:
             color_saturation=self.color_saturation,
             distinct_color_contrast=self.distinct_color_contrast,
             min_relative_contrast_distinct=self.min_relative_contrast_distinct,
+            last_look_contrast=self.last_look_contrast,
+            last_look_color_contrast=self.last_look_color_contrast,
             mask_chroma_tolerance=self.mask_chroma_tolerance,
             crop_size=self.crop_size)
 
