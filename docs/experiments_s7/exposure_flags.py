@@ -1,4 +1,5 @@
-"""Seventh session, tuning data only: which tuning palettes' first views heightmap.exposure_problem flags,
+"""Seventh session, tuning data only: which tuning palettes' first views heightmap.exposure_problem flags (and the
+default palette's tuning scenes at exposure x1 and x2),
 beside how many of their visible impurities the shipped attention rule finds.
 
     python docs/experiments_s7/exposure_flags.py
@@ -26,3 +27,8 @@ print(f"{len(flagged_palettes)} of {len(scenes)} palettes flagged in most of the
       f"fewer than half the impurities are found: {len(hard)}, flagged among them: {len(hard & flagged_palettes)}")
 for p in sorted(flagged_palettes | hard, key=lambda p: found[p] / max(visible[p], 1)):
     print(f"  {p:16s} flagged {flagged[p]:2d}/{scenes[p]:2d}  found {found[p]:2d}/{visible[p]:2d}")
+default = ca.collect("tuning")  # the default palette's tuning scenes
+for exposure in (1.0, 2.0):
+    shown = [r if exposure == 1.0 else r.exposed(exposure) for r in default]
+    flagged_default = sum(exposure_problem(r.color, r.height) is not None for r in shown)
+    print(f"default palette x{exposure:g}: flagged in {flagged_default} of {len(shown)} tuning scenes")
