@@ -344,27 +344,25 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     best = regions[0] if regions else None
     threshold = params.min_relative_contrast if params.contrast == "relative" else params.min_target_contrast
     colour = region_color_contrast(color, objects, best, params) if best is not None else float("inf")
-    if best is not None and is_target(best.score, colour, params):
-        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
-                                        reach=params.crop_size // 2)
-        rows, cols = np.nonzero(target_cells)
-        return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
-                       params, grid, regions=regions, target_region=best, mask_cells=target_cells,
-                       reason=f"salient region of {best.area} px, contrast {best.score:.4f}, colour "
-                              f"contrast {colour:.2f}")
-    clusters = find_clusters(height, grid.resolution, params.density)
-    chosen = select_occluded_region(clusters)
-    if chosen is None and best is not None and last_look(best.score, colour, params):
+
+    def target(reason: str, clusters=()) -> AttentionOutput:
+        """TARGET on `best`, its mask grown to the whole object."""
         target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
         return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
                        params, grid, regions=regions, clusters=clusters, target_region=best,
-                       mask_cells=target_cells,
-                       reason=f"last look (no heap could hide an impurity): salient region of "
-                              f"{best.area} px, contrast {best.score:.4f} >= "
-                              f"{params.last_look_contrast:.2f}, colour contrast {colour:.2f} >= "
-                              f"{params.last_look_color_contrast:.2f}")
+                       mask_cells=target_cells, reason=reason)
+
+    if best is not None and is_target(best.score, colour, params):
+        return target(f"salient region of {best.area} px, contrast {best.score:.4f}, colour contrast "
+                      f"{colour:.2f}")
+    clusters = find_clusters(height, grid.resolution, params.density)
+    chosen = select_occluded_region(clusters)
+    if chosen is None and best is not None and last_look(best.score, colour, params):
+        return target(f"last look (no heap could hide an impurity): salient region of {best.area} px, "
+                      f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
+                      f"{colour:.2f} >= {params.last_look_color_contrast:.2f}", clusters)
     if best is None:
         no_target = "no salient region"
     elif best.score < threshold:
