@@ -429,6 +429,20 @@ def sweep_grid(visible: np.ndarray, clean: np.ndarray, params: AttentionParams) 
     return np.array(grid)
 
 
+def rule_sweep_records(exposed: bool = True) -> tuple:
+    """rule-sweep's scenes: (records, the default palette's records at exposure x1). The tuning palettes'
+    scenes and the default palette's own tuning scenes (seeds 0-99: the first calibration's; the palette
+    the cell ships with, and more of its heaps, where product blocks in shadow must not read as targets),
+    with exposed the default's also at the other EXPOSURES (x0.5, x2)."""
+    records = collect_palettes("tuning")
+    have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
+    records += [r for r in collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
+    default = [r for r in records if r.palette in ("blocks", "")]
+    if exposed:
+        records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
+    return records, default
+
+
 def rule_sweep(params: AttentionParams) -> AttentionParams:
     """The whole decision rule at once (is_target), on tuning palettes and the default palette's tuning
     scenes (also at exposure x0.5 and x2) only: (color_shading, color_saturation) x
@@ -440,13 +454,7 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
     thresholds (c1, then c2: the widest colour margins, which late-episode product blocks need), then the
     middle of the tied s1 and s2.
     Returns the chosen parameters, checked through attend() on the same scenes."""
-    records = collect_palettes("tuning")
-    # the default palette's own tuning scenes (seeds 0-99: the first calibration's) as well: the palette
-    # the cell ships with, and more of its heaps, where product blocks in shadow must not read as targets
-    have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
-    records += [r for r in collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
-    default = [r for r in records if r.palette in ("blocks", "")]
-    records = records + [r.exposed(e) for r in default for e in EXPOSURES if e != 1.0]
+    records, default = rule_sweep_records()
     print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes, the default palette's "
           f"{len(default)} tuning scenes also at x0.5 and x2)")
     visible, clean = rule_rows(records, params)

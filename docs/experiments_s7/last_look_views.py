@@ -13,9 +13,7 @@ import calibrate_attention as ca  # noqa: E402
 from impurity_attention.core.attention import AttentionMode, AttentionParams, attend, region_color_contrast  # noqa: E402
 
 params = AttentionParams()
-records = ca.collect_palettes("tuning")
-have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
-records += [r for r in ca.collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
+records, _ = ca.rule_sweep_records(exposed=False)
 modes = collections.Counter()
 rows = []
 for r in records:

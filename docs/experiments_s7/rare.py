@@ -22,11 +22,7 @@ def rare_share(color, region, objects, q=0.01):
     tau = np.quantile(d[others], q)
     return float(np.mean(d[region] < tau))
 params = AttentionParams()
-records = ca.collect_palettes("tuning")
-have = {(r.scenario, r.seed, r.num_targets) for r in records if r.palette == "blocks"}
-records += [r for r in ca.collect("tuning") if (r.scenario, r.seed, r.num_targets) not in have]
-default = [r for r in records if r.palette in ("blocks", "")]
-records = records + [r.exposed(e) for r in default for e in ca.EXPOSURES if e != 1.0]
+records, _ = ca.rule_sweep_records()
 vis, clean = [], []
 for r in records:
     cat = r.category()
