@@ -9,18 +9,12 @@ import sys, pickle
 sys.path.insert(0, "scripts")
 import numpy as np
 import calibrate_attention as ca
+from impurity_attention.core.evaluation import off_colours
 from impurity_attention.core.attention import AttentionParams, salient_regions, scene_saliency, region_color_contrast
-BINS = 16
-def rare_share(color, region, objects, q=0.01):
+def rare_share(color, region, objects):
     others = objects & ~region
     if not others.any(): return 1.0
-    idx = (color.astype(np.int64) * BINS) // 256
-    counts = np.zeros((BINS + 2,) * 3)
-    np.add.at(counts, tuple(idx[others].T + 1), 1.0)
-    sm = sum(counts[1+a:BINS+1+a, 1+b:BINS+1+b, 1+c:BINS+1+c] for a in (-1,0,1) for b in (-1,0,1) for c in (-1,0,1))
-    d = sm[idx[..., 0], idx[..., 1], idx[..., 2]]
-    tau = np.quantile(d[others], q)
-    return float(np.mean(d[region] < tau))
+    return float(np.mean(off_colours(color, others)[region]))
 params = AttentionParams()
 records, _ = ca.rule_sweep_records()
 vis, clean = [], []

@@ -144,15 +144,22 @@ def colour_separable(record: SceneRecord, min_object_height: float = 0.01) -> bo
     target = objects & record.visible_target_cells
     if not product.any():
         return True  # nothing to be confused with
+    return bool(np.count_nonzero(off_colours(record.color, product) & target) >= SEPARABLE_MIN_CELLS)
+
+
+def off_colours(color: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the cells of a colour image (H, W, 3) uint8 whose colour lies off the colours of the
+    `reference` cells ((H, W) bool, not empty): a histogram of SEPARABLE_BINS per channel of the reference's
+    colours, smoothed over each bin's 26 neighbours, below the density of the reference's own
+    SEPARABLE_QUANTILE least likely cells."""
     bins = SEPARABLE_BINS
-    index = (record.color.astype(np.int64) * bins) // 256
+    index = (np.asarray(color).astype(np.int64) * bins) // 256
     counts = np.zeros((bins + 2,) * 3)
-    np.add.at(counts, tuple(index[product].T + 1), 1.0)
+    np.add.at(counts, tuple(index[reference].T + 1), 1.0)
     smooth = sum(counts[1 + dr:bins + 1 + dr, 1 + dg:bins + 1 + dg, 1 + db:bins + 1 + db]
                  for dr in (-1, 0, 1) for dg in (-1, 0, 1) for db in (-1, 0, 1))
     density = smooth[index[..., 0], index[..., 1], index[..., 2]]
-    threshold = np.quantile(density[product], SEPARABLE_QUANTILE)
-    return bool(np.count_nonzero((density < threshold) & target) >= SEPARABLE_MIN_CELLS)
+    return density < np.quantile(density[reference], SEPARABLE_QUANTILE)
 
 
 def summarize(verdicts) -> dict:
