@@ -33,10 +33,10 @@ from dataclasses import dataclass
 import numpy as np
 from sklearn.cluster import DBSCAN
 
+from impurity_common import cell
+
 CLUSTER_SCORES = ("area", "volume")
-# m above the table that makes a heightmap cell part of an object, for DBSCAN and for saliency alike:
-# well above depth noise (2 mm std leaves the acceptance figures unchanged), below the thinnest block.
-OCCUPIED_HEIGHT = 0.008
+OCCUPIED_HEIGHT = cell.OCCUPIED_HEIGHT  # m: what counts as an object, for DBSCAN and for saliency alike
 
 
 @dataclass(frozen=True)

@@ -196,11 +196,12 @@ EXPOSURE_SHARE = 0.5
 CHANNEL_NAMES = "RGB"
 
 
-def exposure_problem(color: np.ndarray, height: np.ndarray, min_object_height: float = 0.008) -> str | None:
+def exposure_problem(color: np.ndarray, height: np.ndarray,
+                     min_object_height: float = cell.OCCUPIED_HEIGHT) -> str | None:
     """None when the objects of a colour heightmap (H, W, 3) uint8 RGB, height (H, W) m (cells above
-    min_object_height m are objects: density.OCCUPIED_HEIGHT, not imported here to keep scikit-learn out
-    of the heightmap node) are exposed well enough to compare colours; else one line saying what
-    is wrong, what it costs and which camera parameters to change (module constants above)."""
+    min_object_height m are objects, as for attention) are exposed well enough to compare colours; else
+    one line saying what is wrong, what it costs and which camera parameters to change (module constants
+    above)."""
     objects = np.asarray(height) > min_object_height
     if not objects.any():
         return None
