@@ -9,6 +9,7 @@
     python scripts/calibrate_attention.py rule-sweep                  # the whole decision rule (tuning)
     python scripts/calibrate_attention.py palette-evaluate            # held-out palettes + exposure x0.5, x2
     python scripts/calibrate_attention.py palette-gallery             # docs/images/palettes.png
+    python scripts/calibrate_attention.py verifier-fit                # the region verifier (tuning)
 
 Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Palettes (issue 17) follow the split
 of impurity_learning/splits.py: the relative threshold is chosen on tuning palettes with tuning seeds
@@ -508,6 +509,142 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
     return chosen
 
 
+VERIFIER_FOLDS = 5  # verifier-fit: palette-grouped cross-validation folds
+VERIFIER_FALSE_TARGET = 0.01  # verifier-fit: the threshold allows this share of false TARGETs (tuning scenes)
+VERIFIER_MODEL = ROOT / "src" / "impurity_attention" / "impurity_attention" / "core" / "verifier_model.py"
+
+
+def verifier_rows(records, params: AttentionParams) -> tuple:
+    """The region verifier's training rows: per scene without a visible impurity or with one (category
+    visible, no_impurity, invisible), its TOP_REGIONS best salient regions' features
+    (verifier.region_features). Returns (features (N, F), on target (N,) bool, scene index (N,), group
+    (N,): the palette, visible per scene (S,) bool); a scene without a salient region has no row."""
+    from impurity_attention.core.attention import scene_maps
+    from impurity_attention.core.verifier import TOP_REGIONS, region_features
+    rows, on, scene, group, visible = [], [], [], [], []
+    for record in records:
+        category = record.category()
+        if category not in ("visible", "no_impurity", "invisible"):
+            continue
+        index = len(visible)
+        visible.append(category == "visible")
+        objects = record.height > params.density.occupied_height
+        saliency, conspicuity = scene_maps(record.color, objects, params)
+        for region in salient_regions(saliency, objects, params)[:TOP_REGIONS]:
+            rows.append(region_features(record.color, record.height, objects, conspicuity, region.mask))
+            on.append(category == "visible" and bool(np.any(region.mask & record.visible_target_cells)))
+            scene.append(index)
+            group.append(record.palette or "blocks")
+    return (np.array(rows), np.array(on, bool), np.array(scene), np.array(group), np.array(visible, bool))
+
+
+def scene_decisions(probability, on, scene, count) -> tuple:
+    """Per scene (count scenes): the highest region probability (-1 without a region) and whether that
+    region lies on the impurity: what attend() with decision "verifier" decides from."""
+    best = np.full(count, -1.0)
+    hit = np.zeros(count, bool)
+    for p, o, s in zip(probability, on, scene, strict=True):
+        if p > best[s]:
+            best[s], hit[s] = p, o
+    return best, hit
+
+
+def threshold_at(best, visible, cap: float) -> float:
+    """The least threshold (just above a clean scene's probability) that lets at most `cap` of the scenes
+    without a visible impurity through."""
+    clean = np.sort(best[~visible])[::-1]
+    allowed = int(np.floor(cap * len(clean)))
+    return float(np.nextafter(clean[allowed], 1.0)) if allowed < len(clean) else 0.0
+
+
+def verifier_fit(params: AttentionParams, write: bool) -> None:
+    """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
+    logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
+    on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
+    (VERIFIER_FOLDS folds; each fold's palettes unseen by its model, as held-out palettes are), with the
+    threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
+    unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
+    VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
+    --write-model, and checked through attend()."""
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.model_selection import GroupKFold
+    from sklearn.preprocessing import StandardScaler
+
+    from impurity_attention.core.verifier import FEATURES, RegionVerifier
+    records, default = rule_sweep_records()
+    features, on, scene, group, visible = verifier_rows(records, params)
+    count = len(visible)
+    print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
+          f"{len(set(group))} palettes; features: {', '.join(FEATURES)}")
+
+    def fit(rows, labels):
+        scaler = StandardScaler().fit(rows)
+        model = LogisticRegression(C=1.0, max_iter=5000).fit(scaler.transform(rows), labels)
+        return scaler, model
+
+    def predict(fitted, rows):
+        scaler, model = fitted
+        return model.predict_proba(scaler.transform(rows))[:, 1]
+
+    caps = (0.01, 0.02, 0.05)
+    out_of_fold = np.zeros(len(features))
+    nested = np.zeros((len(caps), 4))  # found, visible, false, clean
+    for train, test in GroupKFold(n_splits=VERIFIER_FOLDS).split(features, on, group):
+        fitted = fit(features[train], on[train])
+        out_of_fold[test] = predict(fitted, features[test])
+        own_best, _ = scene_decisions(predict(fitted, features[train]), on[train], scene[train], count)
+        seen = np.zeros(count, bool)
+        seen[scene[train]] = True
+        test_best, test_hit = scene_decisions(out_of_fold[test], on[test], scene[test], count)
+        unseen = np.zeros(count, bool)
+        unseen[scene[test]] = True
+        for k, cap in enumerate(caps):
+            least = threshold_at(own_best[seen], visible[seen], cap)
+            decided = (test_best >= least) & unseen
+            nested[k] += (np.sum(decided & test_hit & visible), np.sum(unseen & visible),
+                          np.sum(decided & ~visible), np.sum(unseen & ~visible))
+    best, hit = scene_decisions(out_of_fold, on, scene, count)
+    print("palette-grouped cross-validation, found (false TARGET) within a false-TARGET cap:")
+    for k, cap in enumerate(caps):
+        least = threshold_at(best, visible, cap)
+        found, false = np.mean((best >= least)[visible] & hit[visible]), np.mean((best >= least)[~visible])
+        print(f"  <= {100 * cap:.0f} %: out-of-fold threshold {100 * found:5.1f} % ({100 * false:.1f} %);"
+              f" thresholds from the training folds {100 * nested[k, 0] / nested[k, 1]:5.1f} % "
+              f"({100 * nested[k, 2] / nested[k, 3]:.1f} %)")
+    fitted = fit(features, on)
+    best, hit = scene_decisions(predict(fitted, features), on, scene, count)
+    least = threshold_at(best, visible, VERIFIER_FALSE_TARGET)
+    scaler, model = fitted
+    verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
+                              scale=tuple(round(float(v), 6) for v in scaler.scale_),
+                              coef=tuple(round(float(v), 6) for v in model.coef_[0]),
+                              intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6))
+    found, false = np.mean((best >= least)[visible] & hit[visible]), np.mean((best >= least)[~visible])
+    provenance = (f"scripts/calibrate_attention.py verifier-fit: {count} tuning scenes, {len(set(group))} "
+                  f"palettes; on them {100 * found:.1f} % found, {100 * false:.1f} % false TARGET")
+    verifier = dataclasses.replace(verifier, provenance=provenance)
+    print(f"fitted on all: {provenance}")
+    print(f"  {verifier}")
+    if write:
+        import textwrap
+        lines = [f"    {name}={getattr(verifier, name)!r}," for name in
+                 ("mean", "scale", "coef", "intercept", "threshold")]
+        chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
+        lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
+        VERIFIER_MODEL.write_text(
+            '"""The shipped region verifier (verifier.py), written by\n'
+            '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
+            '(tuning palettes and seeds only). Features in the order of '
+            'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
+            "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
+        print(f"wrote {VERIFIER_MODEL}")
+    print("checked through attend() on the same scenes (shipped rule, then the verifier):")
+    for name, tried in (("rule", params), ("verifier", dataclasses.replace(params, decision="verifier",
+                                                                           verifier=verifier))):
+        print(f" {name}:")
+        print_palette_rates(palette_rates(records, tried), per_palette=False)
+
+
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
     """Held-out palettes (acceptance seeds), the retired held-out sets (for comparison) and the
     default palette at exposure x0.5, x1, x2 (acceptance seeds): only measured."""
@@ -562,13 +699,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference",
                                            "rule-sweep", "palette-evaluate",
-                                           "palette-gallery"))
+                                           "palette-gallery", "verifier-fit"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
     parser.add_argument("--verbose", action="store_true", help="list every miss")
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
+    parser.add_argument("--write-model", action="store_true",
+                        help="verifier-fit: write the fitted model to impurity_attention/core/"
+                             "verifier_model.py")
     parser.add_argument("--patch-prism-winding", action="store_true",
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
@@ -590,6 +730,9 @@ def main() -> None:
         return
     if args.action == "palette-gallery":
         palette_gallery(params)
+        return
+    if args.action == "verifier-fit":
+        verifier_fit(params, args.write_model)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

@@ -29,6 +29,11 @@ REFERENCE_CELLS = 4096  # most product cells a ProductReference keeps (an even s
 # `saturation` leaves such channels out of the comparison: those in which at least SATURATED_SHARE of the
 # product's colours reach the level. When every channel is saturated all three are kept (no colour is left).
 SATURATED_SHARE = 0.5
+# off_colours: a reference's colours as a histogram of OFF_COLOUR_BINS per RGB channel, smoothed over each
+# bin's 26 neighbours; a colour is off the reference where that density is below the density of the
+# reference's own OFF_COLOUR_QUANTILE least likely cells (1 %: one reference cell in a hundred is "off").
+OFF_COLOUR_BINS = 16
+OFF_COLOUR_QUANTILE = 0.01
 
 
 @dataclass(frozen=True)
@@ -120,3 +125,19 @@ def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
     rgb = np.asarray(color)
     reference = ProductReference.from_colors(rgb[others], min_spread, shading, saturation)
     return reference.contrast(rgb[region].astype(np.float64).mean(axis=0))
+
+
+def off_colours(color: np.ndarray, reference: np.ndarray) -> np.ndarray:
+    """(H, W) bool: the cells of a colour image (H, W, 3) uint8 whose colour lies off the colours of the
+    `reference` cells ((H, W) bool, not empty): a histogram of OFF_COLOUR_BINS per channel of the
+    reference's colours, smoothed over each bin's 26 neighbours, below the density of the reference's own
+    OFF_COLOUR_QUANTILE least likely cells. A per-cell test with no shape: used by the region verifier
+    (the share of a region's cells off the other objects' colours) and by evaluation.colour_separable."""
+    bins = OFF_COLOUR_BINS
+    index = (np.asarray(color).astype(np.int64) * bins) // 256
+    counts = np.zeros((bins + 2,) * 3)
+    np.add.at(counts, tuple(index[reference].T + 1), 1.0)
+    smooth = sum(counts[1 + dr:bins + 1 + dr, 1 + dg:bins + 1 + dg, 1 + db:bins + 1 + db]
+                 for dr in (-1, 0, 1) for dg in (-1, 0, 1) for db in (-1, 0, 1))
+    density = smooth[index[..., 0], index[..., 1], index[..., 2]]
+    return density < np.quantile(density[reference], OFF_COLOUR_QUANTILE)

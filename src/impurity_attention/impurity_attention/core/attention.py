@@ -61,9 +61,11 @@ from .saliency import (
     opponent_colour,
     vocus2,
 )
+from .verifier import TOP_REGIONS, RegionVerifier, default_verifier, region_features
 
 BACKGROUNDS = ("objects", "table")
 CONTRASTS = ("relative", "absolute")
+DECISIONS = ("rule", "verifier")
 MIN_CHANNEL_LEVEL = 1e-4  # opponent-colour units: a channel flatter than this over the objects is noise
 CANDIDATE_FRACTION = 0.5  # relative_saliency: the peak's region, cells above this x the peak
 CANDIDATE_GROWTH = 4  # px (8 mm) around the peak's region also left out of the product level
@@ -147,6 +149,13 @@ class AttentionParams:
     # The target mask: object cells connected to m_t whose shading-free chroma (RG, BY divided by
     # intensity) lies within this distance of m_t's. 0 = the salient region itself.
     mask_chroma_tolerance: float = 0.5
+    # relative: how a target is decided (DECISIONS). "rule": the thresholds above, on the best region
+    # (is_target). "verifier": the learned region verifier (verifier.py) scores the best TOP_REGIONS regions
+    # and the most probable one is a target when its probability reaches verifier_threshold (0 = the
+    # model's own); the thresholds above are then unused (the last look still reads them).
+    decision: str = "rule"
+    verifier_threshold: float = 0.0
+    verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 
     def __post_init__(self):
         if self.crop_size < 2 or self.crop_size % 2:
@@ -155,6 +164,13 @@ class AttentionParams:
             raise ValueError(f"background '{self.background}' not one of {BACKGROUNDS}")
         if self.contrast not in CONTRASTS:
             raise ValueError(f"contrast '{self.contrast}' not one of {CONTRASTS}")
+        if self.decision not in DECISIONS:
+            raise ValueError(f"decision '{self.decision}' not one of {DECISIONS}")
+        if self.decision == "verifier" and self.contrast != "relative":
+            raise ValueError("decision 'verifier' needs contrast 'relative' (its features are relative)")
+        if not 0.0 <= self.verifier_threshold < 1.0:
+            raise ValueError(f"verifier_threshold must be a probability in [0, 1) (0 = the model's own), got "
+                             f"{self.verifier_threshold}")
         if not 0.0 < self.lightness_weight <= 1.0:
             raise ValueError(f"lightness_weight must be in (0, 1], got {self.lightness_weight}")
         if not 0.0 < self.region_fraction < 1.0:
@@ -265,11 +281,17 @@ def _relative(conspicuity: dict, reference: np.ndarray, weights: dict) -> np.nda
 def scene_saliency(color: np.ndarray, objects: np.ndarray, params: AttentionParams) -> np.ndarray:
     """The saliency map the decision reads: relative (dimensionless) or absolute (opponent-colour
     units), per params.contrast."""
+    return scene_maps(color, objects, params)[0]
+
+
+def scene_maps(color: np.ndarray, objects: np.ndarray, params: AttentionParams) -> tuple:
+    """(saliency as scene_saliency, conspicuity): relative contrast also gives VOCUS2's chromaticity-space
+    conspicuity maps by channel name (the verifier's features), absolute an empty dict."""
     image = saliency_input(color, objects, params.background)
     if params.contrast == "absolute":
-        return vocus2(image, params.saliency).saliency
+        return vocus2(image, params.saliency).saliency, {}
     maps = vocus2(image, params.saliency, keep_features=True, colour_space="chromaticity")
-    return relative_saliency(maps.conspicuity, objects, params.lightness_weight)
+    return relative_saliency(maps.conspicuity, objects, params.lightness_weight), maps.conspicuity
 
 
 def salient_regions(saliency: np.ndarray, objects: np.ndarray, params: AttentionParams) -> list:
@@ -339,31 +361,40 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
     color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
-    saliency = scene_saliency(color, objects, params)
+    saliency, conspicuity = scene_maps(color, objects, params)
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
     threshold = params.min_relative_contrast if params.contrast == "relative" else params.min_target_contrast
     colour = region_color_contrast(color, objects, best, params) if best is not None else float("inf")
 
-    def target(reason: str, clusters=()) -> AttentionOutput:
-        """TARGET on `best`, its mask grown to the whole object."""
-        target_cells = grow_target_mask(color, objects, best, params.mask_chroma_tolerance,
+    def target(region: SalientRegion, reason: str, clusters=()) -> AttentionOutput:
+        """TARGET on `region`, its mask grown to the whole object."""
+        target_cells = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
-        return _output(AttentionMode.TARGET, best.score, (rows.mean(), cols.mean()), color, height, saliency,
-                       params, grid, regions=regions, clusters=clusters, target_region=best,
+        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
+                       saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
                        mask_cells=target_cells, reason=reason)
 
-    if best is not None and is_target(best.score, colour, params):
-        return target(f"salient region of {best.area} px, contrast {best.score:.4f}, colour contrast "
-                      f"{colour:.2f}")
-    clusters = find_clusters(height, grid.resolution, params.density)
-    chosen = select_occluded_region(clusters)
-    if chosen is None and best is not None and last_look(best.score, colour, params):
-        return target(f"last look (no heap could hide an impurity): salient region of {best.area} px, "
-                      f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
-                      f"{colour:.2f} >= {params.last_look_color_contrast:.2f}", clusters)
-    if best is None:
+    if params.decision == "verifier":
+        no_target = "no salient region"
+        if regions:
+            model = params.verifier or default_verifier()
+            least = params.verifier_threshold or model.threshold
+            candidates = regions[:TOP_REGIONS]
+            probability = model.probability(np.array([
+                region_features(color, height, objects, conspicuity, region.mask) for region in candidates]))
+            k = int(np.argmax(probability))
+            if probability[k] >= least:
+                return target(candidates[k], f"salient region {k + 1} of {len(regions)} "
+                                             f"({candidates[k].area} px): impurity probability "
+                                             f"{probability[k]:.2f} >= {least:.2f}")
+            no_target = (f"no salient region is an impurity: the likeliest, region {k + 1} of "
+                         f"{len(regions)}, {probability[k]:.2f} < {least:.2f}")
+    elif best is not None and is_target(best.score, colour, params):
+        return target(best, f"salient region of {best.area} px, contrast {best.score:.4f}, colour contrast "
+                            f"{colour:.2f}")
+    elif best is None:
         no_target = "no salient region"
     elif best.score < threshold:
         no_target = f"best region {params.contrast} contrast {best.score:.4f} < {threshold:.4f}"
@@ -374,6 +405,12 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     else:
         no_target = (f"best region's colour contrast {colour:.2f} < {params.min_color_contrast:.2f} "
                      "(coloured like the other objects)")
+    clusters = find_clusters(height, grid.resolution, params.density)
+    chosen = select_occluded_region(clusters)
+    if chosen is None and best is not None and last_look(best.score, colour, params):
+        return target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
+                            f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
+                            f"{colour:.2f} >= {params.last_look_color_contrast:.2f}", clusters)
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,

@@ -24,6 +24,7 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
+from impurity_common.colour import off_colours  # noqa: F401 (also re-exported)
 from impurity_common.grid import HeightmapGrid
 
 from .attention import AttentionMode, AttentionOutput
@@ -32,13 +33,10 @@ from .heightmap import rgbd_to_heightmaps
 MIN_VISIBLE_CELLS = 20  # 80 mm^2: a target showing less than this is "hidden"
 CATEGORIES = ("visible", "no_impurity", "invisible")
 MODE_NAMES = ("TARGET", "OCCLUDED_REGION", "NONE")
-# colour_separable: the product's colours as a histogram of SEPARABLE_BINS per RGB channel, smoothed over
-# each bin's 26 neighbours; a colour is off the product where that density is below the density of the
-# product's own SEPARABLE_QUANTILE least likely cells (1 %: a detector allowed one product cell in a
-# hundred as a false alarm); the impurity is separable when at least SEPARABLE_MIN_CELLS of its visible
-# cells are (attention's least region, AttentionParams.min_region_area, 30 px = 1.2 cm^2).
-SEPARABLE_BINS = 16
-SEPARABLE_QUANTILE = 0.01
+# colour_separable: a colour is off the product by impurity_common.colour.off_colours (a smoothed
+# histogram of the product's colours, below its own 1 % least likely cells: a detector allowed one product
+# cell in a hundred as a false alarm); the impurity is separable when at least SEPARABLE_MIN_CELLS of its
+# visible cells are (attention's least region, AttentionParams.min_region_area, 30 px = 1.2 cm^2).
 SEPARABLE_MIN_CELLS = 30
 
 
@@ -145,21 +143,6 @@ def colour_separable(record: SceneRecord, min_object_height: float = 0.01) -> bo
     if not product.any():
         return True  # nothing to be confused with
     return bool(np.count_nonzero(off_colours(record.color, product) & target) >= SEPARABLE_MIN_CELLS)
-
-
-def off_colours(color: np.ndarray, reference: np.ndarray) -> np.ndarray:
-    """(H, W) bool: the cells of a colour image (H, W, 3) uint8 whose colour lies off the colours of the
-    `reference` cells ((H, W) bool, not empty): a histogram of SEPARABLE_BINS per channel of the reference's
-    colours, smoothed over each bin's 26 neighbours, below the density of the reference's own
-    SEPARABLE_QUANTILE least likely cells."""
-    bins = SEPARABLE_BINS
-    index = (np.asarray(color).astype(np.int64) * bins) // 256
-    counts = np.zeros((bins + 2,) * 3)
-    np.add.at(counts, tuple(index[reference].T + 1), 1.0)
-    smooth = sum(counts[1 + dr:bins + 1 + dr, 1 + dg:bins + 1 + dg, 1 + db:bins + 1 + db]
-                 for dr in (-1, 0, 1) for dg in (-1, 0, 1) for db in (-1, 0, 1))
-    density = smooth[index[..., 0], index[..., 1], index[..., 2]]
-    return density < np.quantile(density[reference], SEPARABLE_QUANTILE)
 
 
 def summarize(verdicts) -> dict:
