@@ -10,7 +10,14 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
-from impurity_attention.core.attention import BACKGROUNDS, CONTRASTS, AttentionParams, attend, debug_image
+from impurity_attention.core.attention import (
+    BACKGROUNDS,
+    CONTRASTS,
+    DECISIONS,
+    AttentionParams,
+    attend,
+    debug_image,
+)
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_common import cell, names
@@ -111,6 +118,12 @@ class AttentionNodeParameters:
                                       "clean; 0: no last look", low=0.0)
     last_look_color_contrast: float = param(DEFAULTS.last_look_color_contrast, "relative: the colour "
                                             "contrast the last look needs", low=0.0)
+    decision: str = param(DEFAULTS.decision, "relative: rule: the thresholds above on the best region; "
+                          "verifier: the learned region verifier (core/verifier.py) on the best three",
+                          choices=DECISIONS)
+    verifier_threshold: float = param(DEFAULTS.verifier_threshold, "verifier: least impurity probability of "
+                                      "a target; 0: the shipped model's own (core/verifier_model.py)",
+                                      low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -135,6 +148,7 @@ class AttentionNodeParameters:
             min_relative_contrast_distinct=self.min_relative_contrast_distinct,
             last_look_contrast=self.last_look_contrast,
             last_look_color_contrast=self.last_look_color_contrast,
+            decision=self.decision, verifier_threshold=self.verifier_threshold,
             mask_chroma_tolerance=self.mask_chroma_tolerance,
             crop_size=self.crop_size)
 

@@ -1,5 +1,6 @@
 """Attention decides relative to the scene (issue 17): an impurity of any appearance is found, the clean
-version of the same scene stays quiet, and the decision does not move with the image's brightness.
+version of the same scene stays quiet, and the decision does not move with the image's brightness - by the
+thresholds rule and by the learned region verifier alike.
 
 Synthetic scenes (no simulator): product boxes of several shades of one palette, jittered per box,
 and one impurity box of the palette's impurity colour; the clean version recolours the impurity as a
@@ -24,6 +25,7 @@ PALETTES = {
 }
 PRODUCT_JITTER = 5  # +- per channel, 0..255
 IMPURITY_LABEL = 99
+DECISIONS = {"rule": att.AttentionParams(), "verifier": att.AttentionParams(decision="verifier")}
 
 
 def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0) -> tuple:
@@ -50,29 +52,32 @@ def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float
     return color, maps.height, maps.labels == IMPURITY_LABEL
 
 
+@pytest.mark.parametrize("decision", sorted(DECISIONS))
 @pytest.mark.parametrize("palette", sorted(PALETTES))
 @pytest.mark.parametrize("seed", [0, 1])
-def test_an_impurity_of_any_palette_is_found(palette, seed):
+def test_an_impurity_of_any_palette_is_found(palette, seed, decision):
     color, height, impurity = scene(palette, seed)
-    output = att.attend(color, height)
+    output = att.attend(color, height, DECISIONS[decision])
     assert output.mode == att.AttentionMode.TARGET, output.reason
     assert np.count_nonzero(output.target_mask & impurity) > 0.5 * np.count_nonzero(output.target_mask)
 
 
+@pytest.mark.parametrize("decision", sorted(DECISIONS))
 @pytest.mark.parametrize("palette", sorted(PALETTES))
 @pytest.mark.parametrize("seed", [0, 1])
-def test_the_clean_version_of_the_scene_has_no_target(palette, seed):
+def test_the_clean_version_of_the_scene_has_no_target(palette, seed, decision):
     color, height, _ = scene(palette, seed, with_impurity=False)
-    output = att.attend(color, height)
+    output = att.attend(color, height, DECISIONS[decision])
     assert output.mode != att.AttentionMode.TARGET, output.reason
 
 
+@pytest.mark.parametrize("decision", sorted(DECISIONS))
 @pytest.mark.parametrize("palette", ["blue_red", "cream_grey", "coal_slate"])
 @pytest.mark.parametrize("brightness", [0.5, 2.0])
-def test_brightness_leaves_the_decision_unchanged(palette, brightness):
+def test_brightness_leaves_the_decision_unchanged(palette, brightness, decision):
     for with_impurity in (True, False):
-        reference = att.attend(*scene(palette, 3, with_impurity)[:2])
-        scaled = att.attend(*scene(palette, 3, with_impurity, brightness)[:2])
+        reference = att.attend(*scene(palette, 3, with_impurity)[:2], DECISIONS[decision])
+        scaled = att.attend(*scene(palette, 3, with_impurity, brightness)[:2], DECISIONS[decision])
         assert scaled.mode == reference.mode
         if reference.mode == att.AttentionMode.TARGET:
             assert scaled.center == pytest.approx(reference.center, abs=2)

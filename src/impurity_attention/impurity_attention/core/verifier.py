@@ -10,7 +10,9 @@ attention takes the most probable region when its probability reaches the model'
 Features of a region m among the object cells O (FEATURES, in this order):
 - colour_contrast: log(1 + d), d the Mahalanobis distance of m's mean colour from the colours of O \\ m
   (impurity_common.colour.region_contrast with least spread MIN_SPREAD RGB, shading allowance SHADING and
-  channels clipped at SATURATION on half of the product left out), d capped at COLOUR_CAP;
+  channels clipped at SATURATION on half of the product left out), d capped at COLOUR_CAP. Its least
+  spread is in RGB, so unlike the other features it shrinks in a much darker image (the model was fitted
+  with the default palette at exposure x0.5 and x2 among its scenes);
 - relative_rg, relative_by: log of m's mean VOCUS2 conspicuity in RG / I and in BY / I over that map's
   mean on the product P = O minus m grown by PRODUCT_MARGIN px (floor saliency.MIN_LEVEL): how much more
   contrasted in hue than the product usually is, per chromatic channel;

@@ -1,0 +1,132 @@
+"""The learned region verifier (impurity_attention.core.verifier): what its features measure, how the model
+is checked, and how attention decides with it."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from impurity_attention.core import attention as att
+from impurity_attention.core import verifier as ver
+
+
+def two_colour_view(impurity=(200, 60, 40), product=(40, 120, 200), size=60, block=12):
+    """A flat view: a grid of product blocks of slightly varied shade, one block (the first of the third
+    row) in `impurity`'s colour. Returns (color, height, objects, impurity cells, a product block)."""
+    rng = np.random.default_rng(0)
+    color = np.zeros((size, size, 3), np.uint8)
+    height = np.zeros((size, size), np.float32)
+    impurity_cells = np.zeros((size, size), bool)
+    product_block = np.zeros((size, size), bool)
+    for row in range(0, size, block):
+        for col in range(0, size, block):
+            cells = (slice(row + 1, row + block - 1), slice(col + 1, col + block - 1))
+            shade = np.clip(np.array(product) * rng.uniform(0.9, 1.1), 0, 255)
+            if (row, col) == (2 * block, 0):
+                shade = impurity
+                impurity_cells[cells] = True
+            elif (row, col) == (0, 0):
+                product_block[cells] = True
+            color[cells] = shade
+            height[cells] = 0.03
+    objects = height > 0.008
+    return color, height, objects, impurity_cells, product_block
+
+
+def conspicuity_of(color, objects):
+    return att.scene_maps(color, objects, att.AttentionParams())[1]
+
+
+def test_an_impurity_of_another_hue_stands_apart_in_colour_and_a_product_block_does_not():
+    color, height, objects, impurity, product = two_colour_view()
+    maps = conspicuity_of(color, objects)
+    odd = dict(zip(ver.FEATURES, ver.region_features(color, height, objects, maps, impurity), strict=True))
+    same = dict(zip(ver.FEATURES, ver.region_features(color, height, objects, maps, product), strict=True))
+    assert odd["colour_contrast"] > same["colour_contrast"] + 1.0
+    assert odd["off_colour_share"] > 0.9 > 0.1 > same["off_colour_share"]
+    assert odd["relative_rg"] > same["relative_rg"]
+
+
+def test_a_flat_face_has_no_height_spread_and_a_step_has():
+    color, height, objects, impurity, _ = two_colour_view()
+    maps = conspicuity_of(color, objects)
+    flat = ver.region_features(color, height, objects, maps, impurity)
+    stepped = height.copy()
+    stepped[impurity & (np.arange(height.shape[1])[None, :] < 6)] = 0.05
+    step = ver.region_features(color, stepped, objects, maps, impurity)
+    index = ver.FEATURES.index("height_spread")
+    assert flat[index] == pytest.approx(0.0, abs=1e-6)
+    assert step[index] == pytest.approx(0.01, abs=0.002)
+
+
+def test_hue_rarity_and_shape_features_do_not_move_with_exposure():
+    # colour_contrast does: its least spread is in RGB (module docstring); the decision's invariance is
+    # test_attention_palettes.test_brightness_leaves_the_decision_unchanged
+    color, height, objects, impurity, _ = two_colour_view()
+    darker = (color.astype(np.float32) * 0.5 + 0.5).astype(np.uint8)
+    reference = ver.region_features(color, height, objects, conspicuity_of(color, objects), impurity)
+    scaled = ver.region_features(darker, height, objects, conspicuity_of(darker, objects), impurity)
+    assert scaled[1:] == pytest.approx(reference[1:], rel=0.1, abs=0.05)
+
+
+def test_the_shipped_model_rates_a_colour_distinct_region_above_a_product_coloured_one():
+    color, height, objects, impurity, product = two_colour_view()
+    maps = conspicuity_of(color, objects)
+    rows = [ver.region_features(color, height, objects, maps, cells) for cells in (impurity, product)]
+    model = ver.default_verifier()
+    odd, same = model.probability(np.array(rows))
+    assert odd >= model.threshold > same
+
+
+def test_the_shipped_model_says_where_it_comes_from():
+    model = ver.default_verifier()
+    assert "verifier-fit" in model.provenance and "tuning" in model.provenance
+    assert 0.0 < model.threshold < 1.0
+
+
+@pytest.mark.parametrize("field, value, named", [
+    ("coef", (1.0, 2.0), "coef"),
+    ("mean", (0.0,) * 6, "mean"),
+    ("scale", (1.0, 1.0, 0.0, 1.0, 1.0), "scale"),
+    ("threshold", 1.0, "threshold"),
+])
+def test_a_malformed_model_is_refused_by_name(field, value, named):
+    with pytest.raises(ValueError, match=named):
+        dataclasses.replace(ver.default_verifier(), **{field: value})
+
+
+@pytest.mark.parametrize("changes, named", [
+    ({"decision": "oracle"}, "decision"),
+    ({"decision": "verifier", "contrast": "absolute"}, "decision"),
+    ({"verifier_threshold": 1.5}, "verifier_threshold"),
+])
+def test_bad_decision_settings_are_refused_by_name(changes, named):
+    with pytest.raises(ValueError, match=named):
+        att.AttentionParams(**changes)
+
+
+def test_attention_takes_the_likeliest_region_and_says_why():
+    color, height, _, impurity, _ = two_colour_view()
+    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    assert output.mode == att.AttentionMode.TARGET, output.reason
+    assert "impurity probability" in output.reason
+    assert np.count_nonzero(output.target_mask & impurity) > 0.5 * np.count_nonzero(output.target_mask)
+
+
+def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability():
+    color, height, *_ = two_colour_view(impurity=(40, 120, 200))
+    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    assert output.mode != att.AttentionMode.TARGET
+    assert "no salient region is an impurity: the likeliest, region" in output.reason
+
+
+def test_a_threshold_set_on_the_node_overrides_the_models():
+    # a model that rates every region 0.5, with its own threshold 0.6
+    coin = ver.RegionVerifier(mean=(0.0,) * 5, scale=(1.0,) * 5, coef=(0.0,) * 5, intercept=0.0,
+                              threshold=0.6)
+    color, height, *_ = two_colour_view()
+    own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin))
+    assert own.mode != att.AttentionMode.TARGET and "0.50 < 0.60" in own.reason
+    lowered = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
+                                                            verifier_threshold=0.4))
+    assert lowered.mode == att.AttentionMode.TARGET and "0.50 >= 0.40" in lowered.reason
