@@ -9,6 +9,7 @@ check and, for cameras coarser than the cells, the cost of filling the gaps. Aim
 """
 
 import argparse
+import dataclasses
 import os
 
 import numpy as np
@@ -19,12 +20,14 @@ from impurity_attention.core.heightmap import HeightmapProjector, depth_to_meter
 from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
 
 
-def report(name: str, times: tuple, aim_ms: float) -> None:
+def report(name: str, times: tuple, aim_ms: float) -> float:
+    """Print one line; returns the wall-clock p50 (ms)."""
     wall, cpu = times
     p50, p95 = np.percentile(wall, [50, 95])
     verdict = "within aim" if p50 <= aim_ms else "OVER aim"
     print(f"{name:<48s} p50 {p50:6.1f} ms  p95 {p95:6.1f} ms  cpu p50 {np.percentile(cpu, 50):6.1f} ms  "
           f"(n={len(wall)}, aim p50 <= {aim_ms:.0f} ms: {verdict})")
+    return float(p50)
 
 
 def main() -> None:
@@ -60,11 +63,17 @@ def main() -> None:
             project = lambda p=coarse_projector, c=coarse, f=fill: p.project(c.color, c.depth, fill_gaps=f)  # noqa: E731
             report(f"heightmap {label}{', gaps filled' if fill else ''}", timed(project, args.repeats), 20)
     params = AttentionParams()
+    decisions = {"rule": dataclasses.replace(params, decision="rule"),
+                 "verifier": dataclasses.replace(params, decision="verifier")}
     for name, scene in scenes.items():
         maps = projector.project(scene.color, scene.depth)
-        mode = attend(maps.color, maps.height, params).mode.name
-        report(f"attention 224x224, {name} [{mode[:8]}]",
-               timed(lambda m=maps: attend(m.color, m.height, params), args.repeats), 30)
+        p50 = {}
+        for decision, tried in decisions.items():
+            mode = attend(maps.color, maps.height, tried).mode.name
+            run = lambda m=maps, t=tried: attend(m.color, m.height, t)  # noqa: E731
+            p50[decision] = report(f"attention 224x224, {name}, {decision} [{mode[:8]}]",
+                                   timed(run, args.repeats), 30)
+        print(f"{'':48s} verifier / rule: {p50['verifier'] / p50['rule']:.2f}x")
 
     if args.sim:
         from ur5_driver_sim.core.world import CellWorld
