@@ -32,6 +32,7 @@ import numpy as np
 
 from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
+    DECISIONS,
     AttentionParams,
     attend,
     is_target,
@@ -639,8 +640,8 @@ def verifier_fit(params: AttentionParams, write: bool) -> None:
             "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
         print(f"wrote {VERIFIER_MODEL}")
     print("checked through attend() on the same scenes (shipped rule, then the verifier):")
-    for name, tried in (("rule", params), ("verifier", dataclasses.replace(params, decision="verifier",
-                                                                           verifier=verifier))):
+    for name, tried in (("rule", dataclasses.replace(params, decision="rule")),
+                        ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier))):
         print(f" {name}:")
         print_palette_rates(palette_rates(records, tried), per_palette=False)
 
@@ -706,6 +707,9 @@ def main() -> None:
     parser.add_argument("--verbose", action="store_true", help="list every miss")
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
+    parser.add_argument("--decision", choices=DECISIONS, default=None,
+                        help="attention's decision for evaluate / palette-evaluate / the galleries (default: "
+                             "the shipped AttentionParams')")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -713,6 +717,8 @@ def main() -> None:
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
     params = AttentionParams()
+    if args.decision is not None:
+        params = dataclasses.replace(params, decision=args.decision)
     suffix = ""
     if args.patch_prism_winding:
         patched = patch_prism_winding()
