@@ -532,7 +532,10 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
         objects = record.height > params.density.occupied_height
         saliency, conspicuity = scene_maps(record.color, objects, params)
         for region in salient_regions(saliency, objects, params)[:TOP_REGIONS]:
-            rows.append(region_features(record.color, record.height, objects, conspicuity, region.mask))
+            row = region_features(record.color, record.height, objects, conspicuity, region.mask)
+            if row is None:  # every object in view: attention lets saliency decide (no features)
+                continue
+            rows.append(row)
             on.append(category == "visible" and bool(np.any(region.mask & record.visible_target_cells)))
             scene.append(index)
             group.append(record.palette or "blocks")

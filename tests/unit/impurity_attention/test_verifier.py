@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from impurity_attention.core import attention as att
+from impurity_attention.core import saliency
 from impurity_attention.core import verifier as ver
 
 
@@ -97,7 +98,6 @@ def test_a_malformed_model_is_refused_by_name(field, value, named):
 
 @pytest.mark.parametrize("changes, named", [
     ({"decision": "oracle"}, "decision"),
-    ({"decision": "verifier", "contrast": "absolute"}, "decision"),
     ({"verifier_threshold": 1.5}, "verifier_threshold"),
 ])
 def test_bad_decision_settings_are_refused_by_name(changes, named):
@@ -130,3 +130,11 @@ def test_a_threshold_set_on_the_node_overrides_the_models():
     lowered = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
                                                             verifier_threshold=0.4))
     assert lowered.mode == att.AttentionMode.TARGET and "0.50 >= 0.40" in lowered.reason
+
+
+def test_the_absolute_contrast_keeps_its_own_threshold_whatever_the_decision():
+    color, height, *_ = two_colour_view()
+    absolute = att.AttentionParams(contrast="absolute", saliency=saliency.ABSOLUTE_SALIENCY)
+    output = att.attend(color, height, absolute)
+    assert "impurity probability" not in output.reason
+    assert output.mode == att.attend(color, height, dataclasses.replace(absolute, decision="rule")).mode

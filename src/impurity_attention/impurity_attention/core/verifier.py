@@ -8,6 +8,8 @@ FEATURES, all relative to the scene (so neither the product's colour nor the exp
 attention takes the most probable region when its probability reaches the model's threshold.
 
 Features of a region m among the object cells O (FEATURES, in this order):
+A region with no other object cell in view has no features (nothing to compare with).
+
 - colour_contrast: log(1 + d), d the Mahalanobis distance of m's mean colour from the colours of O \\ m
   (impurity_common.colour.region_contrast with least spread MIN_SPREAD RGB, shading allowance SHADING and
   channels clipped at SATURATION on half of the product left out), d capped at COLOUR_CAP. Its least
@@ -79,14 +81,17 @@ class RegionVerifier:
 
 
 def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
-                    region: np.ndarray) -> np.ndarray:
+                    region: np.ndarray) -> np.ndarray | None:
     """(len(FEATURES),) float64 of one region (module docstring). color (H, W, 3) uint8, height (H, W)
     float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity: VOCUS2's
-    chromaticity-space maps by channel name ("RG", "BY"), each (H, W) float32."""
+    chromaticity-space maps by channel name ("RG", "BY"), each (H, W) float32. None when no other object
+    cell is in view: there is no product to compare with (attention then lets saliency decide alone, as
+    the rule does)."""
     region = np.asarray(region, dtype=bool)
     others = objects & ~region
-    contrast = region_contrast(color, region, objects, MIN_SPREAD, SHADING, SATURATION)
-    contrast = COLOUR_CAP if contrast is None else min(contrast, COLOUR_CAP)
+    if not others.any():
+        return None
+    contrast = min(region_contrast(color, region, objects, MIN_SPREAD, SHADING, SATURATION), COLOUR_CAP)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * PRODUCT_MARGIN + 1,) * 2)
     product = objects & ~(cv2.dilate(region.astype(np.uint8), kernel) > 0)
     if not product.any():
@@ -94,9 +99,9 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     ratios = []
     for name in ("RG", "BY"):
         plane = conspicuity[name]
-        level = max(float(plane[product].mean()), MIN_LEVEL) if product.any() else MIN_LEVEL
+        level = max(float(plane[product].mean()), MIN_LEVEL)
         ratios.append(math.log(max(float(plane[region].mean()) / level, MIN_RATIO)))
-    off_share = float(np.mean(off_colours(color, others)[region])) if others.any() else 1.0
+    off_share = float(np.mean(off_colours(color, others)[region]))
     return np.array([math.log1p(contrast), *ratios, off_share, float(np.std(height[region]))])
 
 
