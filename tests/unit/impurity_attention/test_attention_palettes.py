@@ -7,6 +7,8 @@ and one impurity box of the palette's impurity colour; the clean version recolou
 product box. Palettes follow the named jobs of the simulator (sRGB 0..255).
 """
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -25,7 +27,8 @@ PALETTES = {
 }
 PRODUCT_JITTER = 5  # +- per channel, 0..255
 IMPURITY_LABEL = 99
-DECISIONS = {"rule": att.AttentionParams(), "verifier": att.AttentionParams(decision="verifier")}
+RULE = functools.partial(att.AttentionParams, decision="rule")  # the thresholds rule's own specifications
+DECISIONS = {"rule": RULE(), "verifier": att.AttentionParams(decision="verifier")}
 
 
 def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0) -> tuple:
@@ -87,7 +90,7 @@ def test_the_absolute_rule_misses_a_dark_palette_that_the_relative_rule_finds():
     """Why the decision is relative: the red-among-blue threshold in opponent-colour units never fires
     on near-black coal with slightly lighter slate."""
     color, height, _ = scene("coal_slate", 0)
-    absolute = att.attend(color, height, att.AttentionParams(contrast="absolute",
+    absolute = att.attend(color, height, RULE(contrast="absolute",
                                                              saliency=saliency.ABSOLUTE_SALIENCY))
     assert absolute.mode != att.AttentionMode.TARGET
     assert att.attend(color, height).mode == att.AttentionMode.TARGET
@@ -95,19 +98,19 @@ def test_the_absolute_rule_misses_a_dark_palette_that_the_relative_rule_finds():
 
 def test_relative_saliency_is_dimensionless():
     color, height, _ = scene("blue_red", 0)
-    objects = height > att.AttentionParams().density.occupied_height
-    one = att.scene_saliency(color, objects, att.AttentionParams())
-    darker = att.scene_saliency((color // 2).astype(np.uint8), objects, att.AttentionParams())
+    objects = height > RULE().density.occupied_height
+    one = att.scene_saliency(color, objects, RULE())
+    darker = att.scene_saliency((color // 2).astype(np.uint8), objects, RULE())
     assert one.dtype == np.float32
     assert float(one[objects].max()) == pytest.approx(float(darker[objects].max()), rel=0.15)
 
 
 def test_unknown_contrast_rule_is_refused():
     with pytest.raises(ValueError, match="contrast"):
-        att.AttentionParams(contrast="vivid")
+        RULE(contrast="vivid")
 
 
-WITH_COLOUR_TEST = att.AttentionParams(min_relative_contrast=2.7, min_color_contrast=3.0,
+WITH_COLOUR_TEST = RULE(min_relative_contrast=2.7, min_color_contrast=3.0,
                                        color_min_spread=4.0)  # palette-sweep's best on tuning scenes
 
 
@@ -125,20 +128,20 @@ def test_the_colour_test_refuses_a_salient_region_coloured_like_the_other_object
     # the clean blue scene: with a low saliency threshold its best region would be a TARGET; its colour
     # lies within the other blue boxes' spread, so the colour test says no
     color, height, _ = scene("blue_red", 0, with_impurity=False)
-    low = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=0.0)
+    low = RULE(min_relative_contrast=0.0, min_color_contrast=0.0)
     assert att.attend(color, height, low).mode == att.AttentionMode.TARGET
-    with_colour = att.AttentionParams(min_relative_contrast=0.0, min_color_contrast=3.0)
+    with_colour = RULE(min_relative_contrast=0.0, min_color_contrast=3.0)
     refused = att.attend(color, height, with_colour)
     assert refused.mode != att.AttentionMode.TARGET
     assert "coloured like the other objects" in refused.reason
     # the default rule's colour path, whatever the saliency: not distinct enough in colour
-    any_saliency = att.AttentionParams(min_relative_contrast_distinct=0.0)
+    any_saliency = RULE(min_relative_contrast_distinct=0.0)
     refused = att.attend(color, height, any_saliency)
     assert refused.mode != att.AttentionMode.TARGET
     assert "distinct in colour" in refused.reason
 
 
-ONLY_DISTINCT = att.AttentionParams(min_relative_contrast=100.0)  # the first rule never fires
+ONLY_DISTINCT = RULE(min_relative_contrast=100.0)  # the first rule never fires
 
 
 @pytest.mark.parametrize("palette", ["blue_red", "coal_slate", "cream_grey"])
@@ -149,13 +152,13 @@ def test_a_region_distinct_in_colour_is_a_target_at_a_lower_saliency_contrast(pa
     assert np.count_nonzero(found.target_mask & impurity) > 0.5 * np.count_nonzero(found.target_mask)
     clean = att.attend(*scene(palette, 0, with_impurity=False)[:2], ONLY_DISTINCT)
     assert clean.mode != att.AttentionMode.TARGET, clean.reason
-    off_params = att.AttentionParams(min_relative_contrast=100.0, distinct_color_contrast=0.0)
+    off_params = RULE(min_relative_contrast=100.0, distinct_color_contrast=0.0)
     off = att.attend(color, height, off_params)
     assert off.mode != att.AttentionMode.TARGET and "distinct" not in off.reason
 
 
 def test_the_distinct_colour_path_needs_its_own_saliency_contrast_and_a_colour_comparison():
-    params = att.AttentionParams()
+    params = RULE()
     below = params.min_relative_contrast - 0.1
     assert att.is_target(params.min_relative_contrast, params.min_color_contrast, params)
     assert not att.is_target(below, params.distinct_color_contrast - 0.01, params)
@@ -168,9 +171,9 @@ def test_the_distinct_colour_path_needs_its_own_saliency_contrast_and_a_colour_c
 
 def test_bad_distinct_colour_parameters_are_refused_by_name():
     with pytest.raises(ValueError, match="distinct_color_contrast"):
-        att.AttentionParams(distinct_color_contrast=-1.0)
+        RULE(distinct_color_contrast=-1.0)
     with pytest.raises(ValueError, match="min_relative_contrast_distinct"):
-        att.AttentionParams(min_relative_contrast_distinct=-0.5)
+        RULE(min_relative_contrast_distinct=-0.5)
 
 
 def test_the_colour_test_grants_product_shading_along_the_products_colour_only():
@@ -183,8 +186,8 @@ def test_the_colour_test_grants_product_shading_along_the_products_colour_only()
     shaded[region] = (28, 84, 140)  # the product's colour at 70 % light: a face turned from the light
     other_hue = color.copy()
     other_hue[region] = (120, 90, 170)  # as far from the product in RGB, another hue
-    without = att.AttentionParams(color_shading=0.0)
-    with_shading = att.AttentionParams(color_shading=0.15)
+    without = RULE(color_shading=0.0)
+    with_shading = RULE(color_shading=0.15)
     blob = att.SalientRegion(mask=region, area=64, score=1.0, peak=1.0, centroid=(3.5, 3.5))
 
     def contrast(image, params):
@@ -194,17 +197,17 @@ def test_the_colour_test_grants_product_shading_along_the_products_colour_only()
     assert contrast(other_hue, with_shading) > 0.9 * contrast(other_hue, without)
     assert contrast(other_hue, with_shading) > 3 * contrast(shaded, with_shading)
     with pytest.raises(ValueError, match="color_shading"):
-        att.AttentionParams(color_shading=-0.1)
+        RULE(color_shading=-0.1)
 
 
 def test_a_bad_colour_saturation_level_is_refused_by_name():
     with pytest.raises(ValueError, match="color_saturation"):
-        att.AttentionParams(color_saturation=300.0)
-    assert att.AttentionParams(color_saturation=0.0).color_saturation == 0.0  # 0: every channel compared
+        RULE(color_saturation=300.0)
+    assert RULE(color_saturation=0.0).color_saturation == 0.0  # 0: every channel compared
 
 
 def test_is_target_decides_arrays_of_regions_as_it_decides_each_one():
-    params = att.AttentionParams()
+    params = RULE()
     scores = np.array([params.min_relative_contrast, params.min_relative_contrast - 0.1,
                        params.min_relative_contrast - 0.1, params.min_relative_contrast_distinct - 0.01, 9.0])
     colours = np.array([params.min_color_contrast, params.distinct_color_contrast, np.inf, 10.0, 0.0])
@@ -220,9 +223,9 @@ MISSES_ALL = dict(min_relative_contrast=100.0, distinct_color_contrast=0.0)  # n
 @pytest.mark.parametrize("palette", ["blue_red", "coal_slate", "cream_grey"])
 def test_with_no_heap_left_a_last_look_grasps_the_region_the_thresholds_missed(palette):
     color, height, impurity = scene(palette, 0)
-    missed = att.attend(color, height, att.AttentionParams(**MISSES_ALL))
+    missed = att.attend(color, height, RULE(**MISSES_ALL))
     assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
-    looked = att.attend(color, height, att.AttentionParams(**MISSES_ALL, last_look_contrast=1.0,
+    looked = att.attend(color, height, RULE(**MISSES_ALL, last_look_contrast=1.0,
                                                            last_look_color_contrast=3.0))
     assert looked.mode == att.AttentionMode.TARGET and looked.reason.startswith("last look")
     assert np.any(looked.target_mask & impurity)
@@ -230,8 +233,8 @@ def test_with_no_heap_left_a_last_look_grasps_the_region_the_thresholds_missed(p
 
 def test_a_last_look_leaves_a_clean_scene_clean_and_is_refused_below_zero():
     color, height, _ = scene("blue_red", 0, with_impurity=False)
-    looked = att.attend(color, height, att.AttentionParams(**MISSES_ALL, last_look_contrast=1.0,
+    looked = att.attend(color, height, RULE(**MISSES_ALL, last_look_contrast=1.0,
                                                            last_look_color_contrast=3.0))
     assert looked.mode == att.AttentionMode.NONE  # the best region is coloured like the product
     with pytest.raises(ValueError, match="last_look_contrast"):
-        att.AttentionParams(last_look_contrast=-1.0)
+        RULE(last_look_contrast=-1.0)
