@@ -1,5 +1,7 @@
 """Saliency (VOCUS2), DBSCAN clusters and Algorithm 1 on synthetic heightmaps (no ROS, no simulator)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -177,6 +179,18 @@ def test_decisions_are_deterministic():
     first, second = att.attend(maps.color, maps.height), att.attend(maps.color, maps.height)
     assert first.mode == second.mode and first.center == second.center
     assert np.array_equal(first.mask, second.mask)
+
+
+def test_debug_image_writes_why_at_the_bottom():
+    maps = heightmaps(random_boxes(1, num_product=20, num_impurities=1))
+    out = att.attend(maps.color, maps.height)
+    silent = dataclasses.replace(out, reason="")
+    bottom, bare = att.debug_image(maps.color, out)[-12:], att.debug_image(maps.color, silent)[-12:]
+    assert not np.array_equal(bottom, bare)
+    assert att.reason_summary("region 1 of 3: impurity probability 0.91 >= 0.76; cluster") == \
+        "region 1 of 3: impurity probability 0.91 >= 0.76"
+    long = att.reason_summary("salient region 2 of 15 (412 px): impurity probability 0.91 >= 0.76")
+    assert len(long) == att.REASON_CHARS and long.endswith("0.91 >= 0.76")
 
 
 def test_debug_image_marks_the_crop():

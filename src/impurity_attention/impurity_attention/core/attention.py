@@ -515,7 +515,23 @@ def debug_image(color: np.ndarray, output: AttentionOutput, alpha: float = 0.5) 
         size = output.mask.shape[0]
         cv2.rectangle(picture, (col0, row0), (col0 + size - 1, row0 + size - 1), color_box, 2)
     cv2.putText(picture, output.mode.name, (3, 12), cv2.FONT_HERSHEY_SIMPLEX, 0.4, color_box, 1, cv2.LINE_AA)
+    why = reason_summary(output.reason)
+    if why:
+        cv2.putText(picture, why, (3, picture.shape[0] - 4), cv2.FONT_HERSHEY_SIMPLEX, 0.3, (255, 255, 255),
+                    1, cv2.LINE_AA)
     return picture
+
+
+REASON_CHARS = 48  # debug_image: the reason's first clause, cut to what fits a 224 px picture
+
+
+def reason_summary(reason: str) -> str:
+    """The first clause of an AttentionOutput.reason (up to ';'), cut to REASON_CHARS, for the overlay:
+    e.g. "salient region 2 of 5 (412 px): impurity probability 0.91 >= 0.76" keeps its probability."""
+    first = reason.split(";")[0].strip()
+    if len(first) <= REASON_CHARS:
+        return first
+    return "..." + first[-(REASON_CHARS - 3):]  # the end holds the figures that decided
 
 
 def target_opponent_colour(color: np.ndarray, region: SalientRegion) -> np.ndarray:
