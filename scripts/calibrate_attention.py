@@ -304,17 +304,28 @@ def palette_names(split: str) -> list:
     return splits.held_out_palettes(PALETTE_RANDOM_COUNT["acceptance"])
 
 
-def collect_palettes(split: str, scale: int = 1) -> list:
+OWN_LAYOUT_SEED_BASE = 20_000  # collect_palettes(own_layouts=True): tuning seeds of no other use (splits.py)
+
+
+def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> list:
     """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz); the same
     scene seeds under every palette, tuning seeds for tuning palettes, acceptance seeds otherwise (the
-    retired held-out palettes share the acceptance cache: records are keyed by palette)."""
+    retired held-out palettes share the acceptance cache: records are keyed by palette).
+    own_layouts (tuning only): every palette gets scenes of its own, seeds OWN_LAYOUT_SEED_BASE + 1000 x
+    the plan's row + the palette's index x the row's count + i, so that a choice made over palettes is not
+    made on ten layouts only (cached in palettes_tuning_own.npz)."""
     palettes = palette_names(split)
     split = "acceptance" if split == "retired" else split
-    path = CACHE / f"palettes_{split}{'' if scale == 1 else f'_x{scale}'}.npz"
+    if own_layouts and split != "tuning":
+        raise ValueError("own_layouts is for tuning palettes (held-out ones are only measured)")
+    path = CACHE / f"palettes_{split}{'' if scale == 1 else f'_x{scale}'}{'_own' if own_layouts else ''}.npz"
     wanted = []
-    for palette in palettes:
+    for number, palette in enumerate(palettes):
         for index, (scenario, targets, count) in enumerate(PALETTE_PLAN):
-            base = SEED_BASE[split] + 100 * index
+            if own_layouts:
+                base = OWN_LAYOUT_SEED_BASE + 1000 * index + number * count * scale
+            else:
+                base = SEED_BASE[split] + 100 * index
             wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
     cached = {}
     if path.exists():
@@ -561,7 +572,7 @@ def threshold_at(best, visible, cap: float) -> float:
     return float(np.nextafter(clean[allowed], 1.0)) if allowed < len(clean) else 0.0
 
 
-def verifier_fit(params: AttentionParams, write: bool) -> None:
+def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False) -> None:
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -569,13 +580,18 @@ def verifier_fit(params: AttentionParams, write: bool) -> None:
     threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
     VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
-    --write-model, and checked through attend()."""
+    --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
+    (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
 
     from impurity_attention.core.verifier import FEATURES, RegionVerifier
     records, default = rule_sweep_records()
+    halves = {"shared layouts": records}
+    if own_layouts:
+        halves["own layouts"] = collect_palettes("tuning", own_layouts=True)
+        records = records + halves["own layouts"]
     features, on, scene, group, visible = verifier_rows(records, params)
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
@@ -645,8 +661,9 @@ def verifier_fit(params: AttentionParams, write: bool) -> None:
     print("checked through attend() on the same scenes (shipped rule, then the verifier):")
     for name, tried in (("rule", dataclasses.replace(params, decision="rule")),
                         ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier))):
-        print(f" {name}:")
-        print_palette_rates(palette_rates(records, tried), per_palette=False)
+        for half, scenes in halves.items():
+            print(f" {name}, {half}:")
+            print_palette_rates(palette_rates(scenes, tried), per_palette=False)
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
@@ -713,6 +730,8 @@ def main() -> None:
     parser.add_argument("--decision", choices=DECISIONS, default=None,
                         help="attention's decision for evaluate / palette-evaluate / the galleries (default: "
                              "the shipped AttentionParams')")
+    parser.add_argument("--own-layouts", action="store_true",
+                        help="verifier-fit: also the tuning palettes' own-layout scenes (collect_palettes)")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -741,7 +760,7 @@ def main() -> None:
         palette_gallery(params)
         return
     if args.action == "verifier-fit":
-        verifier_fit(params, args.write_model)
+        verifier_fit(params, args.write_model, args.own_layouts)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"
