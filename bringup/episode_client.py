@@ -14,9 +14,11 @@ import signal
 import subprocess
 import sys
 import time
+import uuid
 
 import rclpy
 from rclpy.signals import SignalHandlerOptions
+from unique_identifier_msgs.msg import UUID
 
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
@@ -27,6 +29,9 @@ from impurity_policy.core.episode import TERMINATION_CANCELED, is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 CANCEL_TIMEOUT = 30.0  # s for the episode node to confirm a cancel (the arm stops and leaves upwards)
+# s to wait for a goal response once the server has reported on the goal (feedback, status); after that
+# the goal is followed without it (impurity_common.clients: rmw_fastrtps can drop the response)
+LOST_RESPONSE_GRACE = 2.0
 
 
 @contextlib.contextmanager
@@ -137,16 +142,28 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
             if pressed():
                 raise KeyboardInterrupt
             raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
-        future = client.send_goal_async(goal,
+        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
+        future = client.send_goal_async(goal, goal_uuid=goal_id,
                                         feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
+
+        def answered() -> bool:  # the goal response, or the server's feedback / status about the goal
+            return future.done() or client.heard_of(goal_id)
+
         try:
-            _spin_until(node, future.done, 30.0, ctrl_c, presses=2)
+            _spin_until(node, answered, 30.0, ctrl_c, presses=2)
         except KeyboardInterrupt:
             interrupted = True  # wait for the answer: an accepted goal is canceled below
-            _spin_until(node, future.done, 30.0, None)
+            _spin_until(node, answered, 30.0, None)
         if pressed(2):
             raise KeyboardInterrupt
+        if not future.done() and client.heard_of(goal_id):
+            # give the goal response a moment; the server runs the goal, so follow it without it
+            _spin_until(node, future.done, LOST_RESPONSE_GRACE, None)
         handle = future.result() if future.done() else None
+        if handle is None and client.heard_of(goal_id):
+            printer(f"episode_client: the goal's acceptance was lost on the way (rmw: 'failed to send "
+                    f"response'), but {RUN_EPISODE_ACTION} reports on the goal: following it")
+            handle = client.adopt_accepted_goal(goal_id)
         if handle is None:
             if pressed():
                 raise KeyboardInterrupt

@@ -9,6 +9,15 @@ clients close the gap themselves: `RaceFreeActionClient` holds a lock from sendi
 the executor's `execute` waits for that lock before it looks the response up. With an rclpy that has
 the upstream fix, the extra lock costs nothing.
 
+A second way to lose a goal's answer is below rclpy: rmw_fastrtps sends a service response only once the
+client's response reader is matched, waits briefly for that, and otherwise drops it ("failed to send
+response (timeout): client will not receive response"). A client created just before its first goal can
+meet it on a loaded machine: the server accepts and runs the goal, its feedback and status arrive, and
+the goal response never does. `RaceFreeActionClient` remembers which goals the server has been heard
+about (feedback or status), and `adopt_accepted_goal` gives a goal handle for such a goal, registered as
+rclpy registers its own, so that its result can still be asked for (the result request goes out later,
+when discovery is done) - no goal is ever sent twice.
+
 Service clients need no wrapper in Jazzy: `rclpy.client.Client.call_async` already registers under
 its own lock (checked in tests/unit/impurity_common/test_clients.py, which also reproduces the action
 race with a delayed registration).
@@ -20,8 +29,10 @@ race with a delayed registration).
 from __future__ import annotations
 
 import threading
+import weakref
 
 from rclpy.action import ActionClient
+from rclpy.action.client import ClientGoalHandle
 
 # The request methods whose send-then-register window the lock closes (names in rclpy 7.1.x).
 GUARDED_METHODS = ("send_goal_async", "_cancel_goal_async", "_get_result_async")
@@ -32,6 +43,7 @@ class RaceFreeActionClient(ActionClient):
 
     def __init__(self, *args, **kwargs):
         self._registration_lock = threading.RLock()
+        self._heard = set()  # goal ids (bytes) the server published feedback or status about
         super().__init__(*args, **kwargs)
 
     def send_goal_async(self, *args, **kwargs):
@@ -49,7 +61,33 @@ class RaceFreeActionClient(ActionClient):
     async def execute(self, taken_data):
         """Responses taken from the wait set are matched only once no request is half-registered: a
         response can only exist after its request was sent, and the sender held the lock until it
-        had registered it."""
+        had registered it. Feedback and status messages record which goals the server knows."""
         with self._registration_lock:
             pass
+        if "feedback" in taken_data:
+            self._heard.add(bytes(taken_data["feedback"].goal_id.uuid))
+        if "status" in taken_data:
+            self._heard.update(bytes(status.goal_info.goal_id.uuid)
+                               for status in taken_data["status"].status_list)
         return await super().execute(taken_data)
+
+    def heard_of(self, goal_uuid) -> bool:
+        """Whether the server has published feedback or status about this goal (a unique_identifier_msgs
+        UUID): it accepted the goal, whether or not its goal response arrived."""
+        return bytes(goal_uuid.uuid) in self._heard
+
+    def adopt_accepted_goal(self, goal_uuid) -> ClientGoalHandle:
+        """A ClientGoalHandle for a goal the server accepted (heard_of) whose goal response was lost,
+        registered like the handles rclpy makes from a response (status updates reach it;
+        get_result_async works).
+        Raises ValueError for a goal the server has not been heard about: without that evidence it may
+        not run, and sending it again could run it twice."""
+        key = bytes(goal_uuid.uuid)
+        if key not in self._heard:
+            raise ValueError("the server has published nothing about this goal: it may not have accepted it")
+        response = self._action_type.Impl.SendGoalService.Response()
+        response.accepted = True
+        handle = ClientGoalHandle(self, goal_uuid, response)
+        with self._registration_lock:
+            self._goal_handles.setdefault(key, weakref.ref(handle))
+        return handle

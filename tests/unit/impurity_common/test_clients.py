@@ -6,12 +6,15 @@ descheduled at that instant), while an executor thread is ready to take the serv
 """
 
 import threading
+import time
+import uuid
 import warnings
 
 import pytest
 import rclpy
 from rclpy.action import ActionClient, ActionServer
 from rclpy.executors import MultiThreadedExecutor
+from unique_identifier_msgs.msg import UUID
 
 from impurity_common.clients import GUARDED_METHODS, RaceFreeActionClient
 from impurity_interfaces.action import ExecutePrimitive
@@ -109,3 +112,62 @@ def test_service_client_registers_its_request_under_its_own_lock(spinning):
     answered = threading.Event()
     client.call_async(GetGroundTruth.Request()).add_done_callback(lambda _: answered.set())
     assert answered.wait(ANSWER_TIMEOUT), "rclpy's service client lost a response: wrap it too"
+
+
+class DroppedGoalResponses:
+    """Proxy of an action server's handle that never sends a goal response, as rmw_fastrtps drops one when
+    the client's response reader is not matched yet ("failed to send response (timeout)")."""
+
+    def __init__(self, handle):
+        self._handle = handle
+
+    def __getattr__(self, name):
+        if name == "send_goal_response":
+            return lambda *args, **kwargs: None
+        return getattr(self._handle, name)
+
+    def __enter__(self):
+        return self._handle.__enter__()
+
+    def __exit__(self, *exc):
+        return self._handle.__exit__(*exc)
+
+
+def test_a_goal_whose_response_was_lost_is_followed_by_its_feedback_and_its_result_arrives(spinning):
+    add, thread = spinning
+    server_node, client_node = add("lost_response_server"), add("lost_response_client")
+    action = "/test_clients/lost_response"
+    go_on = threading.Event()
+
+    def execute(goal_handle):
+        goal_handle.publish_feedback(ExecutePrimitive.Feedback())
+        go_on.wait(ANSWER_TIMEOUT)
+        goal_handle.succeed()
+        return ExecutePrimitive.Result(success=True, message="done once")
+
+    server = ActionServer(server_node, ExecutePrimitive, action, execute)
+    server._handle = DroppedGoalResponses(server._handle)
+    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
+    thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    goal_id = UUID(uuid=list(uuid.uuid4().bytes))
+    future = client.send_goal_async(ExecutePrimitive.Goal(), goal_uuid=goal_id)
+    deadline = time.monotonic() + ANSWER_TIMEOUT
+    while not client.heard_of(goal_id) and time.monotonic() < deadline:
+        threading.Event().wait(0.05)  # polled: the executor thread records what the server publishes
+    assert client.heard_of(goal_id), "neither feedback nor status about the goal arrived"
+    assert not future.done()  # the goal response was dropped
+    handle = client.adopt_accepted_goal(goal_id)
+    result = handle.get_result_async()
+    go_on.set()
+    done = threading.Event()
+    result.add_done_callback(lambda _: done.set())
+    assert done.wait(ANSWER_TIMEOUT), "the result of the adopted goal never came"
+    assert result.result().result.message == "done once"
+
+
+def test_a_goal_the_server_never_mentioned_is_not_adopted(spinning):
+    add, _thread = spinning
+    client = RaceFreeActionClient(add("unheard_client"), ExecutePrimitive, "/test_clients/nobody")
+    with pytest.raises(ValueError, match="may not have accepted"):
+        client.adopt_accepted_goal(UUID(uuid=list(uuid.uuid4().bytes)))
