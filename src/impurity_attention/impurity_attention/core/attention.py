@@ -59,6 +59,7 @@ from .saliency import (
     CELL_SALIENCY,
     CHANNELS,
     CHROMA_MIN_INTENSITY,
+    MIN_CHANNEL_LEVEL,
     SaliencyParams,
     normalised,
     opponent_chromaticity,
@@ -70,7 +71,6 @@ from .verifier import TOP_REGIONS, RegionVerifier, default_verifier, region_feat
 BACKGROUNDS = ("objects", "table")
 CONTRASTS = ("relative", "absolute")
 DECISIONS = ("rule", "verifier")
-MIN_CHANNEL_LEVEL = 1e-4  # opponent-colour units: a channel flatter than this over the objects is noise
 CANDIDATE_FRACTION = 0.5  # relative_saliency: the peak's region, cells above this x the peak
 CANDIDATE_GROWTH = 4  # px (8 mm) around the peak's region also left out of the product level
 MIN_PRODUCT_SHARE = 0.25  # fewer object cells than this share left for the level: keep the first pass

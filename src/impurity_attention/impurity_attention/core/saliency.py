@@ -32,6 +32,7 @@ import cv2
 import numpy as np
 
 CHANNELS = ("I", "RG", "BY")
+MIN_CHANNEL_LEVEL = 1e-4  # a conspicuity map flatter than this over the objects is noise (a level's floor)
 HALF_RES_SIGMA = 5.0  # px; surround blurs at least this wide are computed at half resolution
 
 

@@ -16,8 +16,8 @@ A region with no other object cell in view has no features (nothing to compare w
   spread is in RGB, so unlike the other features it shrinks in a much darker image (the model was fitted
   with the default palette at exposure x0.5 and x2 among its scenes);
 - relative_rg, relative_by: log of m's mean VOCUS2 conspicuity in RG / I and in BY / I over that map's
-  mean on the product P = O minus m grown by PRODUCT_MARGIN px (floor saliency.MIN_LEVEL): how much more
-  contrasted in hue than the product usually is, per chromatic channel;
+  mean on the product P = O minus m grown by PRODUCT_MARGIN px (floor saliency.MIN_CHANNEL_LEVEL): how much
+  more contrasted in hue than the product usually is, per chromatic channel;
 - off_colour_share: the share of m's cells whose colour is off the colours of O \\ m
   (impurity_common.colour.off_colours: rare among the other objects);
 - height_spread: the standard deviation of the heights over m (m). A block's visible face is flat; the
@@ -38,6 +38,8 @@ import numpy as np
 
 from impurity_common.colour import off_colours, region_contrast
 
+from .saliency import MIN_CHANNEL_LEVEL
+
 TOP_REGIONS = 3  # salient regions scored, best first
 FEATURES = ("colour_contrast", "relative_rg", "relative_by", "off_colour_share", "height_spread")
 MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
@@ -45,7 +47,6 @@ SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
 SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out
 COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no other object" as well)
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
-MIN_LEVEL = 1e-4  # a conspicuity level below this is noise (attention.MIN_CHANNEL_LEVEL)
 MIN_RATIO = 1e-3  # relative_rg / relative_by: ratios below this count as this (log)
 
 
@@ -99,7 +100,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     ratios = []
     for name in ("RG", "BY"):
         plane = conspicuity[name]
-        level = max(float(plane[product].mean()), MIN_LEVEL)
+        level = max(float(plane[product].mean()), MIN_CHANNEL_LEVEL)
         ratios.append(math.log(max(float(plane[region].mean()) / level, MIN_RATIO)))
     off_share = float(np.mean(off_colours(color, others)[region]))
     return np.array([math.log1p(contrast), *ratios, off_share, float(np.std(height[region]))])
