@@ -528,11 +528,11 @@ VERIFIER_MODEL = ROOT / "src" / "impurity_attention" / "impurity_attention" / "c
 
 def verifier_rows(records, params: AttentionParams) -> tuple:
     """The region verifier's training rows: per scene without a visible impurity or with one (category
-    visible, no_impurity, invisible), its TOP_REGIONS best salient regions' features
-    (verifier.region_features). Returns (features (N, F), on target (N,) bool, scene index (N,), group
+    visible, no_impurity, invisible), its best salient regions' features as attention scores them
+    (verifier.candidate_features). Returns (features (N, F), on target (N,) bool, scene index (N,), group
     (N,): the palette, visible per scene (S,) bool); a scene without a salient region has no row."""
     from impurity_attention.core.attention import scene_maps
-    from impurity_attention.core.verifier import TOP_REGIONS, region_features
+    from impurity_attention.core.verifier import candidate_features
     rows, on, scene, group, visible = [], [], [], [], []
     for record in records:
         category = record.category()
@@ -542,8 +542,8 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
         visible.append(category == "visible")
         objects = record.height > params.density.occupied_height
         saliency, conspicuity = scene_maps(record.color, objects, params)
-        for region in salient_regions(saliency, objects, params)[:TOP_REGIONS]:
-            row = region_features(record.color, record.height, objects, conspicuity, region.mask)
+        regions = salient_regions(saliency, objects, params)
+        for region, row in candidate_features(record.color, record.height, objects, conspicuity, regions):
             if row is None:  # every object in view: attention lets saliency decide (no features)
                 continue
             rows.append(row)

@@ -66,7 +66,7 @@ from .saliency import (
     opponent_colour,
     vocus2,
 )
-from .verifier import TOP_REGIONS, RegionVerifier, default_verifier, region_features
+from .verifier import RegionVerifier, candidate_features, default_verifier
 
 BACKGROUNDS = ("objects", "table")
 CONTRASTS = ("relative", "absolute")
@@ -389,9 +389,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         if regions:
             model = params.verifier or default_verifier()
             least = params.verifier_threshold or model.threshold
-            candidates = regions[:TOP_REGIONS]
-            features = [region_features(color, height, objects, conspicuity, region.mask)
-                        for region in candidates]
+            candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions),
+                                       strict=True)
             if features[0] is None:  # one region, every object in view: nothing to compare with, so
                 # saliency decides alone, as the rule does (a colour contrast of inf)
                 probability = np.array([1.0 if is_target(best.score, float("inf"), params) else 0.0])

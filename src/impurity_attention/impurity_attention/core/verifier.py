@@ -106,6 +106,14 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     return np.array([math.log1p(contrast), *ratios, off_share, float(np.std(height[region]))])
 
 
+def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
+                       regions: list) -> list:
+    """[(region, features or None)] for the TOP_REGIONS best of `regions` (salient regions, best first):
+    what attention scores and verifier-fit learns from. Arguments as region_features."""
+    return [(region, region_features(color, height, objects, conspicuity, region.mask))
+            for region in regions[:TOP_REGIONS]]
+
+
 def default_verifier() -> RegionVerifier:
     """The shipped model (verifier_model.py)."""
     from .verifier_model import MODEL
