@@ -43,6 +43,7 @@ more expensive half.
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
 import cv2
@@ -373,7 +374,12 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
     threshold = params.min_relative_contrast if params.contrast == "relative" else params.min_target_contrast
-    colour = region_color_contrast(color, objects, best, params) if best is not None else float("inf")
+
+    @functools.cache
+    def colour() -> float:
+        """The best region's colour contrast (region_color_contrast; inf without a best region), computed
+        once and only when a decision reads it (the verifier does not)."""
+        return region_color_contrast(color, objects, best, params) if best is not None else float("inf")
 
     def target(region: SalientRegion, reason: str, clusters=()) -> AttentionOutput:
         """TARGET on `region`, its mask grown to the whole object."""
@@ -403,26 +409,26 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                                              f"{probability[k]:.2f} >= {least:.2f}")
             no_target = (f"no salient region is an impurity: the likeliest, region {k + 1} of "
                          f"{len(regions)}, {probability[k]:.2f} < {least:.2f}")
-    elif best is not None and is_target(best.score, colour, params):
+    elif best is not None and is_target(best.score, colour(), params):
         return target(best, f"salient region of {best.area} px, contrast {best.score:.4f}, colour contrast "
-                            f"{colour:.2f}")
+                            f"{colour():.2f}")
     elif best is None:
         no_target = "no salient region"
     elif best.score < threshold:
         no_target = f"best region {params.contrast} contrast {best.score:.4f} < {threshold:.4f}"
         if params.contrast == "relative" and params.distinct_color_contrast > 0:
-            no_target += (f" (colour contrast {colour:.2f}; a region distinct in colour, >= "
+            no_target += (f" (colour contrast {colour():.2f}; a region distinct in colour, >= "
                           f"{params.distinct_color_contrast:.2f}, needs "
                           f"{params.min_relative_contrast_distinct:.2f})")
     else:
-        no_target = (f"best region's colour contrast {colour:.2f} < {params.min_color_contrast:.2f} "
+        no_target = (f"best region's colour contrast {colour():.2f} < {params.min_color_contrast:.2f} "
                      "(coloured like the other objects)")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
-    if chosen is None and best is not None and last_look(best.score, colour, params):
+    if chosen is None and best is not None and last_look(best.score, colour(), params):
         return target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
                             f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
-                            f"{colour:.2f} >= {params.last_look_color_contrast:.2f}", clusters)
+                            f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,
