@@ -24,7 +24,7 @@ def test_the_held_out_set_is_held_out_and_every_earlier_set_is_retired():
     assert {splits.palette_group(p) for p in splits.held_out_palettes()} == {"held_out"}
     assert {splits.palette_group(p) for p in splits.retired_palettes()} == {"retired"}
     assert len(splits.retired_palettes(random_count=2)) == sum(len(n) + 2 for n, _ in splits.RETIRED_SETS)
-    assert splits.palette_group("tea_stems@x2") == "held_out"  # exposure suffix ignored
+    assert splits.palette_group(f"{splits.HELD_OUT_NAMED[1]}@x2") == "held_out"  # exposure suffix ignored
 
 
 def test_a_palette_outside_the_split_is_refused():

@@ -190,6 +190,19 @@ PALETTES = {p.name: p for p in (
              light_direction=(-0.5, 0.1, 1.0), ambient=0.65, diffuse=0.4),
     _palette("pvc_in_pet", [(200, 214, 220), (188, 204, 214)], [(236, 234, 226)],
              "clear PET flakes with opaque white PVC flakes", product_jitter=0.02, exposure=0.9),
+    # Added 2026-12-01 (ninth session) as the fourth held-out set, fixed before any of them was rendered.
+    _palette("hazelnuts_shells", [(180, 134, 88), (168, 122, 78)], [(92, 62, 44)],
+             "blanched hazelnut kernels with dark shell fragments", product_jitter=0.02,
+             light_direction=(0.3, -0.3, 1.0)),
+    _palette("maize_stones", [(230, 184, 60), (218, 170, 50), (238, 196, 76)], [(132, 124, 112)],
+             "yellow maize kernels of several shades with grey stones", product_jitter=0.02,
+             ambient=0.55, diffuse=0.5),
+    _palette("blueberries_stems", [(52, 56, 92), (44, 48, 80), (60, 62, 104)], [(112, 104, 62)],
+             "dark blueberries of several shades with olive stems and leaves", product_jitter=0.015,
+             light_direction=(-0.2, 0.5, 1.0), exposure=1.15),
+    _palette("raisins_stems", [(70, 40, 40), (82, 48, 44)], [(150, 140, 80), (118, 92, 60)],
+             "dark raisins with yellow-green and brown stems", product_jitter=0.02,
+             ambient=0.6, diffuse=0.45),
 )}
 
 
