@@ -572,6 +572,24 @@ def threshold_at(best, visible, cap: float) -> float:
     return float(np.nextafter(clean[allowed], 1.0)) if allowed < len(clean) else 0.0
 
 
+def model_source(verifier) -> str:
+    """verifier_model.py's text for a RegionVerifier: its fields, tuples wrapped to the line length."""
+    import textwrap
+
+    lines = []
+    for name in ("mean", "scale", "coef", "low", "high"):
+        values = ", ".join(repr(v) for v in getattr(verifier, name))
+        lines += [f"    {name}=("] + [f"        {chunk}" for chunk in textwrap.wrap(values, 96)] + ["    ),"]
+    lines += [f"    intercept={verifier.intercept!r},", f"    threshold={verifier.threshold!r},"]
+    chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
+    lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
+    return ('"""The shipped region verifier (verifier.py), written by\n'
+            '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
+            '(tuning palettes and seeds only). Features in the order of '
+            'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
+            "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
+
+
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False) -> None:
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
@@ -638,7 +656,9 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
                               coef=tuple(round(float(v), 6) for v in model.coef_[0]),
-                              intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6))
+                              intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
+                              low=tuple(round(float(v), 6) for v in features.min(axis=0)),
+                              high=tuple(round(float(v), 6) for v in features.max(axis=0)))
     found, false = np.mean((best >= least)[visible] & hit[visible]), np.mean((best >= least)[~visible])
     provenance = (f"scripts/calibrate_attention.py verifier-fit: {count} tuning scenes, {len(set(group))} "
                   f"palettes; on them {100 * found:.1f} % found, {100 * false:.1f} % false TARGET")
@@ -646,17 +666,7 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     print(f"fitted on all: {provenance}")
     print(f"  {verifier}")
     if write:
-        import textwrap
-        lines = [f"    {name}={getattr(verifier, name)!r}," for name in
-                 ("mean", "scale", "coef", "intercept", "threshold")]
-        chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
-        lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
-        VERIFIER_MODEL.write_text(
-            '"""The shipped region verifier (verifier.py), written by\n'
-            '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
-            '(tuning palettes and seeds only). Features in the order of '
-            'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
-            "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
+        VERIFIER_MODEL.write_text(model_source(verifier))
         print(f"wrote {VERIFIER_MODEL}")
     print("checked through attend() on the same scenes (shipped rule, then the verifier):")
     for name, tried in (("rule", dataclasses.replace(params, decision="rule")),

@@ -24,7 +24,7 @@ from . import splits
 
 GROUPS = ("default", "tuning", "held_out")
 GROUP_LABELS = {"default": "default (blocks)", "tuning": "tuning palettes", "held_out": "held-out palettes"}
-RANDOM_PALETTES_PER_GROUP = 4  # random palettes beside the named ones in the tuning / held-out groups
+RANDOM_PALETTES_PER_GROUP = 4  # random palettes beside the named ones in the tuning group (held-out: all)
 
 
 def group_palettes(group: str) -> list:
@@ -34,9 +34,8 @@ def group_palettes(group: str) -> list:
     if group == "tuning":
         return list(splits.TUNING_NAMED) + [f"random-{s}" for s in
                                             splits.TUNING_RANDOM_SEEDS[:RANDOM_PALETTES_PER_GROUP]]
-    if group == "held_out":
-        return list(splits.HELD_OUT_NAMED) + [f"random-{s}" for s in
-                                              splits.HELD_OUT_RANDOM_SEEDS[:RANDOM_PALETTES_PER_GROUP]]
+    if group == "held_out":  # the whole held-out set (splits.held_out_palettes)
+        return splits.held_out_palettes()
     raise ValueError(f"unknown palette group {group!r} (expected one of {', '.join(GROUPS)})")
 
 

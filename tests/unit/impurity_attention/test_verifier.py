@@ -41,11 +41,51 @@ def conspicuity_of(color, objects):
 def test_an_impurity_of_another_hue_stands_apart_in_colour_and_a_product_block_does_not():
     color, height, objects, impurity, product = two_colour_view()
     maps = conspicuity_of(color, objects)
-    odd = dict(zip(ver.FEATURES, ver.region_features(color, height, objects, maps, impurity), strict=True))
-    same = dict(zip(ver.FEATURES, ver.region_features(color, height, objects, maps, product), strict=True))
+    odd = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects, maps, impurity),
+                   strict=True))
+    same = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects, maps, product),
+                    strict=True))
     assert odd["colour_contrast"] > same["colour_contrast"] + 1.0
     assert odd["off_colour_share"] > 0.9 > 0.1 > same["off_colour_share"]
     assert odd["relative_rg"] > same["relative_rg"]
+
+
+def test_a_darker_impurity_is_darker_than_the_products_own_spread():
+    color, height, objects, impurity, product = two_colour_view(impurity=(16, 48, 80))
+    maps = conspicuity_of(color, objects)
+    odd = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects, maps, impurity),
+                   strict=True))
+    same = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects, maps, product),
+                    strict=True))
+    assert odd["lightness_offset"] < -3.0 < same["lightness_offset"]
+    assert odd["dark_share"] == pytest.approx(1.0) and same["dark_share"] < 0.5
+
+
+def region(cells, score):
+    rows, cols = np.nonzero(cells)
+    return att.SalientRegion(mask=cells, area=int(cells.sum()), score=score, peak=score,
+                             centroid=(float(rows.mean()), float(cols.mean())))
+
+
+def test_context_features_place_a_region_among_the_others():
+    _, _, objects, impurity, product = two_colour_view()
+    regions = [region(impurity, 4.0), region(product, 1.0)]
+    first = dict(zip(ver.CONTEXT_FEATURES, ver.context_features(objects, regions, 0), strict=True))
+    second = dict(zip(ver.CONTEXT_FEATURES, ver.context_features(objects, regions, 1), strict=True))
+    assert (first["rank"], second["rank"]) == (0.0, 1.0)
+    assert first["log_regions"] == pytest.approx(np.log(2))
+    assert first["best_over_next"] == second["best_over_next"] == pytest.approx(np.log(4))
+    assert first["log_object_share"] == pytest.approx(np.log(objects.mean()))
+    alone = dict(zip(ver.CONTEXT_FEATURES, ver.context_features(objects, regions[:1], 0), strict=True))
+    assert alone["best_over_next"] == pytest.approx(np.log(2))  # one region: as if the next were half
+
+
+def test_a_feature_beyond_the_fitted_range_counts_as_its_end():
+    model = ver.default_verifier()
+    inside = np.array(model.high, dtype=float)
+    beyond = inside.copy()
+    beyond[ver.FEATURES.index("log_object_share")] = 0.0  # a view full of objects
+    assert model.probability(beyond) == pytest.approx(model.probability(inside))
 
 
 def test_a_flat_face_has_no_height_spread_and_a_step_has():
@@ -68,14 +108,16 @@ def test_hue_rarity_and_shape_features_do_not_move_with_exposure():
     reference = ver.region_features(color, height, objects, conspicuity_of(color, objects), impurity)
     scaled = ver.region_features(darker, height, objects, conspicuity_of(darker, objects), impurity)
     assert scaled[1:] == pytest.approx(reference[1:], rel=0.1, abs=0.05)
+    assert len(reference) == len(ver.REGION_FEATURES)
 
 
 def test_the_shipped_model_rates_a_colour_distinct_region_above_a_product_coloured_one():
     color, height, objects, impurity, product = two_colour_view()
     maps = conspicuity_of(color, objects)
-    rows = [ver.region_features(color, height, objects, maps, cells) for cells in (impurity, product)]
+    candidates = ver.candidate_features(color, height, objects, maps,
+                                        [region(impurity, 2.0), region(product, 2.0)])
     model = ver.default_verifier()
-    odd, same = model.probability(np.array(rows))
+    odd, same = model.probability(np.array([features for _, features in candidates]))
     assert odd >= model.threshold > same
 
 
@@ -88,7 +130,8 @@ def test_the_shipped_model_says_where_it_comes_from():
 @pytest.mark.parametrize("field, value, named", [
     ("coef", (1.0, 2.0), "coef"),
     ("mean", (0.0,) * 6, "mean"),
-    ("scale", (1.0, 1.0, 0.0, 1.0, 1.0), "scale"),
+    ("scale", (1.0, 1.0, 0.0) + (1.0,) * (len(ver.FEATURES) - 3), "scale"),
+    ("low", (1e9,) * len(ver.FEATURES), "low"),
     ("threshold", 1.0, "threshold"),
 ])
 def test_a_malformed_model_is_refused_by_name(field, value, named):
@@ -122,8 +165,9 @@ def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability()
 
 def test_a_threshold_set_on_the_node_overrides_the_models():
     # a model that rates every region 0.5, with its own threshold 0.6
-    coin = ver.RegionVerifier(mean=(0.0,) * 5, scale=(1.0,) * 5, coef=(0.0,) * 5, intercept=0.0,
-                              threshold=0.6)
+    n = len(ver.FEATURES)
+    coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
+                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
     color, height, *_ = two_colour_view()
     own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin))
     assert own.mode != att.AttentionMode.TARGET and "0.50 < 0.60" in own.reason

@@ -1,4 +1,5 @@
-"""Which salient regions are impurities: a learned region verifier (issue 17, eighth session).
+"""Which salient regions are impurities: a learned region verifier (issue 17; eighth session, twelve
+features and the own-layout scenes from the ninth).
 
 The thresholds rule (attention.is_target) judges the best salient region alone, by its relative saliency and
 its colour contrast. On tuning palettes it misses impurities whose region is the best one but whose
@@ -7,21 +8,35 @@ first is a shadow. The verifier scores each of the TOP_REGIONS best regions with
 FEATURES, all relative to the scene (so neither the product's colour nor the exposure sets them), and
 attention takes the most probable region when its probability reaches the model's threshold.
 
-Features of a region m among the object cells O (FEATURES, in this order):
-A region with no other object cell in view has no features (nothing to compare with).
+Features of a region m among the object cells O (FEATURES, in this order). P is the product: O minus m
+grown by PRODUCT_MARGIN px (O minus m when that leaves nothing). A region with no other object cell in view
+has no features (nothing to compare with).
 
+Of the region (REGION_FEATURES, region_features):
 - colour_contrast: log(1 + d), d the Mahalanobis distance of m's mean colour from the colours of O \\ m
   (impurity_common.colour.region_contrast with least spread MIN_SPREAD RGB, shading allowance SHADING and
   channels clipped at SATURATION on half of the product left out), d capped at COLOUR_CAP. Its least
   spread is in RGB, so unlike the other features it shrinks in a much darker image (the model was fitted
   with the default palette at exposure x0.5 and x2 among its scenes);
-- relative_rg, relative_by: log of m's mean VOCUS2 conspicuity in RG / I and in BY / I over that map's
-  mean on the product P = O minus m grown by PRODUCT_MARGIN px (floor saliency.MIN_CHANNEL_LEVEL): how much
-  more contrasted in hue than the product usually is, per chromatic channel;
+- relative_rg, relative_by, relative_i: log of m's mean VOCUS2 conspicuity in RG / I, in BY / I and in I
+  over that map's mean on P (floor saliency.MIN_CHANNEL_LEVEL; ratios below MIN_RATIO count as MIN_RATIO):
+  how much more contrasted than the product usually is, per channel;
 - off_colour_share: the share of m's cells whose colour is off the colours of O \\ m
   (impurity_common.colour.off_colours: rare among the other objects);
 - height_spread: the standard deviation of the heights over m (m). A block's visible face is flat; the
-  salient parts of a product heap that are not impurities are mostly its shadowed gaps and edges.
+  salient parts of a product heap that are not impurities are mostly its shadowed gaps and edges;
+- lightness_offset: (median of L over m - median of L over P) / (standard deviation of L over P + 1e-3), L
+  the log of the opponent intensity I (saliency.opponent_colour, floor saliency.CHROMA_MIN_INTENSITY): how
+  much lighter or darker than the product, in the product's own spread (exposure scales I, so it cancels);
+- dark_share: the share of m's cells darker (L) than the product's darkest DARK_QUANTILE.
+  Both read cells with no channel clipped (>= SATURATION) only, and are 0 when m or P has none.
+Of the region among the others (CONTEXT_FEATURES, context_features):
+- rank: 0 for the most salient region, 1, 2;
+- log_regions: log of the number of salient regions in view;
+- best_over_next: log of the best region's mean saliency over the second's (log 2 with one region);
+- log_object_share: log of the share of the view's cells that hold objects. The model knows it only over
+  the range its tuning scenes span (12-28 % of a 448 mm view): like every feature it is clipped to the
+  fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
 palettes and tuning seeds only; that script's docstring and the model file give its figures. Pure numpy: no
@@ -38,44 +53,55 @@ import numpy as np
 
 from impurity_common.colour import off_colours, region_contrast
 
-from .saliency import MIN_CHANNEL_LEVEL
+from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_colour
 
 TOP_REGIONS = 3  # salient regions scored, best first
-FEATURES = ("colour_contrast", "relative_rg", "relative_by", "off_colour_share", "height_spread")
+REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
+                   "height_spread", "lightness_offset", "dark_share")
+CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
+FEATURES = REGION_FEATURES + CONTEXT_FEATURES
 MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
-SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out
+SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
+# lightness_offset, dark_share: cells with a channel at this level are not read
 COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no other object" as well)
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
-MIN_RATIO = 1e-3  # relative_rg / relative_by: ratios below this count as this (log)
+MIN_RATIO = 1e-3  # relative_*: ratios below this count as this (log)
+DARK_QUANTILE = 0.01  # dark_share: darker than this quantile of the product's log intensity
 
 
 @dataclass(frozen=True)
 class RegionVerifier:
-    """A logistic model over FEATURES: p = 1 / (1 + exp(-(coef . (x - mean) / scale + intercept))).
-    mean, scale, coef: one value per feature; threshold: the least probability that makes a target."""
+    """A logistic model over FEATURES: p = 1 / (1 + exp(-(coef . (clip(x, low, high) - mean) / scale +
+    intercept))). mean, scale, coef, low, high: one value per feature (low / high: the range the fitting
+    rows spanned; a feature outside it counts as its nearest end, so a view unlike any the model was fitted
+    on cannot drive the linear score anywhere); threshold: the least probability that makes a target."""
 
     mean: tuple
     scale: tuple
     coef: tuple
     intercept: float
     threshold: float
+    low: tuple
+    high: tuple
     provenance: str = ""
 
     def __post_init__(self):
-        for name in ("mean", "scale", "coef"):
+        for name in ("mean", "scale", "coef", "low", "high"):
             if len(getattr(self, name)) != len(FEATURES):
                 raise ValueError(f"RegionVerifier.{name} needs {len(FEATURES)} values "
                                  f"({', '.join(FEATURES)}), got {len(getattr(self, name))}")
         if not all(s > 0 for s in self.scale):
             raise ValueError(f"RegionVerifier.scale must be > 0, got {self.scale}")
+        if not all(lo <= hi for lo, hi in zip(self.low, self.high, strict=True)):
+            raise ValueError(f"RegionVerifier.low must not exceed high, got {self.low} / {self.high}")
         if not 0.0 < self.threshold < 1.0:
             raise ValueError(f"RegionVerifier.threshold must be a probability in (0, 1), got "
                              f"{self.threshold}")
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity."""
-        features = np.atleast_2d(np.asarray(features, dtype=np.float64))
+        features = np.clip(np.atleast_2d(np.asarray(features, dtype=np.float64)), self.low, self.high)
         z = (features - np.asarray(self.mean)) / np.asarray(self.scale)
         logit = z @ np.asarray(self.coef) + self.intercept
         return 1.0 / (1.0 + np.exp(-logit))
@@ -83,11 +109,11 @@ class RegionVerifier:
 
 def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
                     region: np.ndarray) -> np.ndarray | None:
-    """(len(FEATURES),) float64 of one region (module docstring). color (H, W, 3) uint8, height (H, W)
-    float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity: VOCUS2's
-    chromaticity-space maps by channel name ("RG", "BY"), each (H, W) float32. None when no other object
-    cell is in view: there is no product to compare with (attention then lets saliency decide alone, as
-    the rule does)."""
+    """(len(REGION_FEATURES),) float64 of one region (module docstring). color (H, W, 3) uint8, height
+    (H, W) float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity:
+    VOCUS2's chromaticity-space maps by channel name ("I", "RG", "BY"), each (H, W) float32. None when no
+    other object cell is in view: there is no product to compare with (attention then lets saliency
+    decide alone, as the rule does)."""
     region = np.asarray(region, dtype=bool)
     others = objects & ~region
     if not others.any():
@@ -97,21 +123,51 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     product = objects & ~(cv2.dilate(region.astype(np.uint8), kernel) > 0)
     if not product.any():
         product = others
-    ratios = []
-    for name in ("RG", "BY"):
+    ratios = {}
+    for name in ("RG", "BY", "I"):
         plane = conspicuity[name]
         level = max(float(plane[product].mean()), MIN_CHANNEL_LEVEL)
-        ratios.append(math.log(max(float(plane[region].mean()) / level, MIN_RATIO)))
+        ratios[name] = math.log(max(float(plane[region].mean()) / level, MIN_RATIO))
     off_share = float(np.mean(off_colours(color, others)[region]))
-    return np.array([math.log1p(contrast), *ratios, off_share, float(np.std(height[region]))])
+    offset, dark = lightness_features(color, region, product)
+    return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
+                     float(np.std(height[region])), offset, dark])
+
+
+def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) -> tuple:
+    """(lightness_offset, dark_share) of `region` against `product` (module docstring), both (H, W) bool,
+    read on cells with no channel at or above SATURATION only: a clipped cell's lightness is unknown (a
+    light product at a long exposure is all 255). (0.0, 0.0) when either has no such cell."""
+    unclipped = np.all(color < SATURATION, axis=-1)
+    own, reference = region & unclipped, product & unclipped
+    if not own.any() or not reference.any():
+        return 0.0, 0.0
+    lightness = np.log(np.maximum(opponent_colour(color)[..., 0], CHROMA_MIN_INTENSITY))
+    own, reference = lightness[own], lightness[reference]
+    offset = float((np.median(own) - np.median(reference)) / (np.std(reference) + 1e-3))
+    return offset, float(np.mean(own < np.quantile(reference, DARK_QUANTILE)))
+
+
+def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarray:
+    """(len(CONTEXT_FEATURES),) float64: region `rank` (0-based) among `regions` (salient regions, best
+    first, not empty) in a view whose object cells are `objects` (module docstring)."""
+    following = regions[1].score if len(regions) > 1 else regions[0].score / 2.0
+    return np.array([float(rank), math.log(len(regions)),
+                     math.log(regions[0].score / max(following, 1e-6)),
+                     math.log(max(float(np.mean(objects)), 1e-6))])
 
 
 def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
                        regions: list) -> list:
-    """[(region, features or None)] for the TOP_REGIONS best of `regions` (salient regions, best first):
-    what attention scores and verifier-fit learns from. Arguments as region_features."""
-    return [(region, region_features(color, height, objects, conspicuity, region.mask))
-            for region in regions[:TOP_REGIONS]]
+    """[(region, (len(FEATURES),) features or None)] for the TOP_REGIONS best of `regions` (salient
+    regions, best first): what attention scores and verifier-fit learns from. Arguments as
+    region_features."""
+    candidates = []
+    for rank, region in enumerate(regions[:TOP_REGIONS]):
+        own = region_features(color, height, objects, conspicuity, region.mask)
+        candidates.append((region, None if own is None else
+                           np.concatenate([own, context_features(objects, regions, rank)])))
+    return candidates
 
 
 def default_verifier() -> RegionVerifier:
