@@ -1,5 +1,6 @@
 """Offline regression: the committed episode bag's camera frames, replayed through the real heightmap,
-attention and policy executables, give exactly the decisions recorded on /policy/primitive.
+attention and policy executables, give the decisions recorded on /policy/primitive (the same primitive,
+pixel, rotation and pose; the Q value to Q_TOLERANCE).
 
 The bag (tests/data/episode_bag) is made by scripts/record_test_bag.py (`make test-bag`); its
 custom_data says which weights decided. When the checkpoint changes, regenerate it with that one command.
@@ -59,6 +60,20 @@ def recorded_decisions(reader: BagReader) -> dict[int, bytes]:
     return decisions
 
 
+# The network's Q value is float32 arithmetic whose summation order follows the CPU's vector width, so two
+# machines may differ in its last bits (seen: 1.062415719 recorded, 1.062415838 replayed elsewhere); the
+# decision itself (primitive, pixel, rotation, pose) must be identical.
+Q_TOLERANCE = 1e-5  # relative
+
+
+def same_decision(recorded: bytes, replayed: bytes) -> bool:
+    a, b = (deserialize_message(data, Primitive) for data in (recorded, replayed))
+    identical = ((a.kind, a.pixel_row, a.pixel_col, a.rotation_index, a.yaw, a.position.x, a.position.y,
+                  a.position.z) == (b.kind, b.pixel_row, b.pixel_col, b.rotation_index, b.yaw, b.position.x,
+                                    b.position.y, b.position.z))
+    return identical and abs(a.q_value - b.q_value) <= Q_TOLERANCE * max(1.0, abs(a.q_value))
+
+
 def describe(data: bytes) -> str:
     p = deserialize_message(data, Primitive)
     return (f"kind={p.kind} x={p.position.x:.6f} y={p.position.y:.6f} z={p.position.z:.6f} yaw={p.yaw:.6f} "
@@ -104,5 +119,5 @@ def test_replayed_frames_give_the_recorded_decisions(ros_node, launch):
 
     differences = [f"frame {stamp}: recorded {describe(expected[stamp])}\n{'':>{len(str(stamp)) + 8}}"
                    f"replayed {describe(replayed[stamp])}"
-                   for stamp in sorted(expected) if replayed[stamp] != expected[stamp]]
+                   for stamp in sorted(expected) if not same_decision(expected[stamp], replayed[stamp])]
     assert not differences, "decisions differ from the recording:\n" + "\n".join(differences)
