@@ -129,10 +129,11 @@ def test_depth_stamped_20ms_after_colour_pairs_with_the_defaults(ros_node, heigh
     start, camera = heightmap_graph
     process, heightmaps = start()
     _, frame = scene(width=320, height=240)
-    stream = camera(frame, now_ns(ros_node), frames=30, depth_offset_ns=20_000_000, depth_units=0.001)
+    # Streamed until 25 heightmaps came back (at most 300 frames): the best-effort camera topics lose the
+    # frames sent before the node's subscriptions have discovered this publisher, and on a loaded machine
+    # that took more than 5 of a fixed 30 (CI, 2026-12-01). Every heightmap must come from a sent pair.
+    stream = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=20_000_000, depth_units=0.001)
     stream.start((process,))
-    spin_until(ros_node, lambda: len(stream.sent) == 30, WAIT, "30 frames sent", (process,))
-    # best-effort camera topics may lose a frame on a loaded machine; pairing loses none
     received = heightmaps.wait_for(25, WAIT, processes=(process,))
     assert {time_to_ns(m.header.stamp) for m in received} <= set(stream.sent)
     assert "beyond the pairing tolerance" not in process.output()
