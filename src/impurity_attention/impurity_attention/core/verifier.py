@@ -138,12 +138,14 @@ def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarra
     """(lightness_offset, dark_share) of `region` against `product` (module docstring), both (H, W) bool,
     read on cells with no channel at or above SATURATION only: a clipped cell's lightness is unknown (a
     light product at a long exposure is all 255). (0.0, 0.0) when either has no such cell."""
-    unclipped = np.all(color < SATURATION, axis=-1)
-    own, reference = region & unclipped, product & unclipped
-    if not own.any() or not reference.any():
+    def lightness(cells: np.ndarray) -> np.ndarray:  # L of the unclipped ones among `cells`, (N,)
+        colours = color[cells]
+        colours = colours[np.all(colours < SATURATION, axis=-1)]
+        return np.log(np.maximum(opponent_colour(colours[None])[0, :, 0], CHROMA_MIN_INTENSITY))
+
+    own, reference = lightness(region), lightness(product)
+    if not own.size or not reference.size:
         return 0.0, 0.0
-    lightness = np.log(np.maximum(opponent_colour(color)[..., 0], CHROMA_MIN_INTENSITY))
-    own, reference = lightness[own], lightness[reference]
     offset = float((np.median(own) - np.median(reference)) / (np.std(reference) + 1e-3))
     return offset, float(np.mean(own < np.quantile(reference, DARK_QUANTILE)))
 
