@@ -32,9 +32,9 @@ Cell-specific choices on top of the paper, all parameters (see AttentionParams):
   `contrast = "absolute"` is the earlier rule (mean saliency >= `min_target_contrast`, opponent-colour
   units, calibrated for red among blue only).
 - `decision = "verifier"` (the default since the eighth session): instead of those thresholds on the best
-  region, a learned region verifier (verifier.py, a logistic model of five scene-relative features, fitted
-  on tuning palettes only) scores the best three regions and the most probable one is the target when it
-  reaches the model's threshold; `decision = "rule"` keeps the thresholds.
+  region, a learned region verifier (verifier.py, a logistic model of twelve scene-relative features,
+  fitted on tuning palettes only) scores the best three regions and the most probable one is the target
+  when it reaches the model's threshold; `decision = "rule"` keeps the thresholds.
 The thresholds and the verifier are calibrated on rendered tuning scenes by scripts/calibrate_attention.py.
 
 DBSCAN only runs when no target is visible: Algorithm 1 uses its result only then, and it is the
