@@ -289,7 +289,7 @@ def gallery(params: AttentionParams) -> None:
 # Scenes per palette (scenario, targets, count): a fifth of PLAN's tuning counts, same seed layout.
 PALETTE_PLAN = [("random", 2, 6), ("challenging", 2, 4), ("random", 0, 3), ("challenging", 0, 2),
                 ("invisible", 0, 1), ("invisible", 2, 2), ("invisible", 1, 1)]
-PALETTE_RANDOM_COUNT = {"tuning": 96, "retired": 8}  # random palettes per split (held-out: splits.py's)
+PALETTE_RANDOM_COUNT = {"tuning": 96}  # random tuning palettes (held-out and retired: splits.py's counts)
 EXPOSURES = (0.5, 1.0, 2.0)
 TARGET_FOUND_AIM, FALSE_TARGET_AIM = 0.95, 0.05
 
@@ -300,7 +300,7 @@ def palette_names(split: str) -> list:
     if split == "tuning":
         return splits.tuning_palettes(PALETTE_RANDOM_COUNT["tuning"])
     if split == "retired":  # the earlier held-out sets (splits.RETIRED_SETS), measured for comparison
-        return splits.retired_palettes(PALETTE_RANDOM_COUNT["retired"])
+        return splits.retired_palettes()
     return splits.held_out_palettes()
 
 
