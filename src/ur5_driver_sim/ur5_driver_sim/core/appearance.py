@@ -203,6 +203,18 @@ PALETTES = {p.name: p for p in (
     _palette("raisins_stems", [(70, 40, 40), (82, 48, 44)], [(150, 140, 80), (118, 92, 60)],
              "dark raisins with yellow-green and brown stems", product_jitter=0.02,
              ambient=0.6, diffuse=0.45),
+    # Added 2026-12-01 (tenth session) as the fifth held-out set, fixed before any of them was rendered.
+    _palette("chickpeas_stones", [(212, 176, 120), (200, 164, 108), (222, 188, 132)], [(120, 110, 98)],
+             "beige chickpeas of several shades with grey-brown stones", product_jitter=0.02,
+             light_direction=(0.4, 0.2, 1.0)),
+    _palette("pumpkin_seeds_husks", [(84, 110, 62), (74, 100, 56)], [(206, 190, 140)],
+             "green pumpkin seeds with pale husks", product_jitter=0.02, ambient=0.55, diffuse=0.5),
+    _palette("black_beans_husks", [(36, 32, 36), (44, 38, 42)], [(112, 86, 62)],
+             "black beans with brown husk pieces", product_jitter=0.015,
+             light_direction=(-0.3, 0.3, 1.0), exposure=1.2),
+    _palette("pp_flakes_rubber", [(170, 172, 176), (182, 184, 188)], [(44, 42, 42), (150, 60, 52)],
+             "light grey polypropylene flakes with black rubber and red foreign flakes", product_jitter=0.02,
+             ambient=0.6, diffuse=0.45, exposure=0.9),
 )}
 
 
