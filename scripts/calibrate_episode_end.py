@@ -64,7 +64,8 @@ DISTINCT = (0.0,)
 SETTING_FIELDS = (("height", None), ("colour_floor", 0.0), ("distinct_color_contrast", 0.0),
                   ("color_shading", 0.0), ("min_relative_contrast", 4.4),
                   ("min_relative_contrast_distinct", 2.7), ("color_saturation", 0.0),
-                  ("last_look_contrast", 0.0), ("last_look_color_contrast", 0.0), ("decision", "rule"))
+                  ("last_look_contrast", 0.0), ("last_look_color_contrast", 0.0), ("decision", "rule"),
+                  ("verifier_last_look", 0.0))
 LEGACY_RULE = tuple(old for _, old in SETTING_FIELDS[3:])  # the rule of the days before --rule
 # (scenario, num_targets, num_objects, max_actions): the real-cell-mode graph test's invisible scenes, the
 # paper-sized invisible ones (two heaps, 20 products), random clutter (tilted blocks make low clusters), and
@@ -81,7 +82,7 @@ def default_rule() -> tuple:
     params = AttentionParams()
     return (params.color_shading, params.min_relative_contrast, params.min_relative_contrast_distinct,
             params.color_saturation, params.last_look_contrast, params.last_look_color_contrast,
-            params.decision)
+            params.decision, params.verifier_last_look)
 
 
 def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR_FLOORS,
@@ -99,9 +100,9 @@ def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR
 def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int) -> dict:
     """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast,
     distinct_color_contrast, color_shading, min_relative_contrast, min_relative_contrast_distinct,
-    color_saturation, last_look_contrast, last_look_color_contrast, decision) = setting."""
+    color_saturation, last_look_contrast, last_look_color_contrast, decision, verifier_last_look) = setting."""
     (height, floor, distinct, shading, relative, relative_distinct, saturation, look, look_colour,
-     decision) = setting
+     decision, verifier_look) = setting
     scenario, targets, objects, max_actions = scene
     base = AttentionParams()
     params = dataclasses.replace(base, density=dataclasses.replace(base.density, min_cluster_height=height),
@@ -110,7 +111,7 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
                                  min_relative_contrast=relative,
                                  min_relative_contrast_distinct=relative_distinct,
                                  last_look_contrast=look, last_look_color_contrast=look_colour,
-                                 decision=decision)
+                                 decision=decision, verifier_last_look=verifier_look)
     cell = PerceptionSimCell(world, agent, attention_params=params)
     request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
                              max_actions=max_actions, palette=palette)
@@ -128,7 +129,7 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
 def setting_of(row: dict) -> tuple:
     """(min_cluster_height, min_color_contrast, distinct_color_contrast, color_shading,
     min_relative_contrast, min_relative_contrast_distinct, color_saturation, last_look_contrast,
-    last_look_color_contrast, decision) of an episode; a field
+    last_look_color_contrast, decision, verifier_last_look) of an episode; a field
     missing from an older file reads as what it ran with (SETTING_FIELDS)."""
     return tuple(row[name] if old is None else row.get(name, old) for name, old in SETTING_FIELDS)
 
@@ -145,7 +146,8 @@ def collect(args) -> int:
 
     torch.set_num_threads(args.threads)
     shipped = default_rule()
-    rule = (*(args.rule or shipped[:4]), *(args.last_look or shipped[4:6]), args.decision or shipped[6])
+    rule = (*(args.rule or shipped[:4]), *(args.last_look or shipped[4:6]), args.decision or shipped[6],
+            shipped[7] if args.verifier_last_look is None else args.verifier_last_look)
     jobs = jobs_of(args.split, args.heights, args.seeds, args.random_palettes,
                    args.colour_floors, args.distinct, rule)[args.shard::args.shards]
     out = pathlib.Path(args.out)
@@ -215,7 +217,7 @@ def line(setting: tuple, name: str, rows: list) -> str:
     f = figures(rows)
     return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {setting[2]:8.2f}  {setting[3]:7.2f}  "
             f"{setting[4]:4.1f}  {setting[5]:4.1f}  {setting[6]:3.0f}  {setting[7]:4.1f}  {setting[8]:4.1f}  "
-            f"{setting[9]:8s}  "
+            f"{setting[9]:8s}  {setting[10]:4.2f}  "
             f"{name:22s} {f['episodes']:8d}  "
             f"{f['clean_end']:9.1%}  {f['ended_by_none']:13.1%}"
             f"  {f['left_behind']:11d}  {f['completion']:10.1%}  "
@@ -230,7 +232,7 @@ def report(args) -> int:
     tuning = [r for r in rows
               if r["group"] in ("default", "tuning") and r["seed"] in splits.TUNING_SEED_RANGE]
     chosen = choose(tuning) if tuning else None
-    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  ll_s  ll_c  decision  "
+    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  ll_s  ll_c  decision  ll_p  "
           "scenes                "
           "episodes  clean_end  "
           "ended_by_NONE  left_behind  completion  actions  count_match  verdicts")
@@ -254,7 +256,7 @@ def report(args) -> int:
               f"{chosen[1]:.2f}, distinct_color_contrast {chosen[2]:.2f}, color_shading {chosen[3]:.2f}, "
               f"min_relative_contrast {chosen[4]:.1f}, min_relative_contrast_distinct {chosen[5]:.1f}, "
               f"color_saturation {chosen[6]:.0f}, last look {chosen[7]:.1f} / {chosen[8]:.1f}, decision "
-              f"{chosen[9]}")
+              f"{chosen[9]}, verifier last look {chosen[10]:.2f}")
     return 0
 
 
@@ -281,6 +283,8 @@ def parse_args(argv=None):
     c.add_argument("--decision", choices=DECISIONS, default=None,
                    help="attention's decision (rule: the thresholds; verifier: the region verifier); by "
                         "default the shipped AttentionParams'")
+    c.add_argument("--verifier-last-look", type=float, default=None,
+                   help="attention's verifier_last_look (0 = off; default: the shipped AttentionParams')")
     c.add_argument("--seeds", type=int, default=8, help="episodes per scene size")
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))

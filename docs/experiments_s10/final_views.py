@@ -104,9 +104,77 @@ def report():
               f"| {r['reason'][:140]}")
 
 
+def scored(record, params=None):
+    """attend() on a record, and the verifier's probability of each candidate with whether it lies on a
+    remaining target: (output, [(probability, on_target)], chosen cluster or None, visible target cells)."""
+    from impurity_attention.core.attention import AttentionParams, attend, salient_regions, sanitize, scene_maps
+    from impurity_attention.core.density import find_clusters, select_occluded_region
+    from impurity_attention.core.verifier import candidate_features, default_verifier
+
+    params = params or AttentionParams()
+    output = attend(record.color, record.height, params)
+    color, height = sanitize(record.color, record.height)
+    objects = height > params.density.occupied_height
+    _, conspicuity = scene_maps(color, objects, params)
+    regions = salient_regions(_, objects, params)
+    targets = record.visible_target_cells
+    scores = []
+    if regions:
+        candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions), strict=True)
+        if features[0] is not None:
+            prob = default_verifier().probability(np.array(features))
+            scores = [(float(p), bool(np.any(c.mask & targets))) for p, c in zip(prob, candidates, strict=True)]
+    chosen = select_occluded_region(find_clusters(height, HeightmapGrid().resolution, params.density))
+    return output, scores, chosen, int(np.count_nonzero(targets))
+
+
+def analyse():
+    """What the last views show, and how a last look at the verifier's probability would act there."""
+    from collections import Counter
+    rows, records = load()
+    left, clean = [], []
+    for row, record in zip(rows, records, strict=True):
+        if row["termination"] == "no_target_or_cluster_left" and row["left"] > 0:
+            left.append((row, record))
+        elif row["completed"]:
+            clean.append((row, record))
+    print(f"last views with a target left (ended by attention): {len(left)}")
+    kinds = Counter()
+    left_best = []
+    for row, record in left:
+        output, scores, chosen, visible = scored(record)
+        best = max(scores, default=(0.0, False))
+        on = [p for p, hit in scores if hit]
+        kind = ("hidden" if visible < evaluation.MIN_VISIBLE_CELLS else
+                "visible, not a candidate" if not on else
+                "visible, likeliest candidate" if best[1] else "visible, not the likeliest")
+        kinds[kind] += 1
+        left_best.append(best[0] if best[1] else 0.0)
+        print(f"  {row['palette']:16s} {row['scenario']:12s} {row['seed']}  {kind:28s} visible {visible:4d} "
+              f"target p {max(on, default=float('nan')):.2f} best p {best[0]:.2f} | {output.reason[:90]}")
+    print("  " + ", ".join(f"{k}: {v}" for k, v in kinds.items()))
+    quiet = []
+    for _row, record in clean:
+        output, scores, chosen, _ = scored(record)
+        if chosen is None and output.mode.name != "TARGET":
+            quiet.append(max((p for p, _ in scores), default=0.0))
+        elif output.mode.name == "TARGET":
+            quiet.append(float("inf"))  # already a false TARGET, with or without a last look
+    quiet = np.array(quiet)
+    print(f"clean last views (every target picked) with neither TARGET nor a heap: "
+          f"{np.count_nonzero(np.isfinite(quiet))}; already TARGET: {np.count_nonzero(~np.isfinite(quiet))} "
+          f"of {len(clean)}")
+    print("last look at probability >= t: rescued (target the likeliest, p >= t) / clean last views grasped")
+    for t in np.arange(0.05, 0.69, 0.05):
+        rescued = sum(p >= t for p in left_best)
+        grasped = int(np.count_nonzero(np.isfinite(quiet) & (quiet >= t)))
+        print(f"  t {t:.2f}: rescued {rescued}/{len(left)}, clean grasped {grasped}/"
+              f"{np.count_nonzero(np.isfinite(quiet))}")
+
+
 if __name__ == "__main__":
     ap = argparse.ArgumentParser()
-    ap.add_argument("command", choices=("collect", "report"))
+    ap.add_argument("command", choices=("collect", "report", "analyse"))
     ap.add_argument("--shard", default="0/1")
     a = ap.parse_args()
-    sys.exit(collect(a.shard) if a.command == "collect" else report())
+    sys.exit({"collect": lambda: collect(a.shard), "report": report, "analyse": analyse}[a.command]())

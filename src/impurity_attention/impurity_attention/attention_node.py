@@ -124,6 +124,10 @@ class AttentionNodeParameters:
     verifier_threshold: float = param(DEFAULTS.verifier_threshold, "verifier: least impurity probability of "
                                       "a target; 0: the shipped model's own (core/verifier_model.py)",
                                       low=0.0, high=0.999)
+    verifier_last_look: float = param(DEFAULTS.verifier_last_look, "verifier: with no target and no heap "
+                                      "left, the likeliest region is grasped from this impurity probability "
+                                      "on before the scene is called clean; 0: no last look",
+                                      low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -149,7 +153,7 @@ class AttentionNodeParameters:
             last_look_contrast=self.last_look_contrast,
             last_look_color_contrast=self.last_look_color_contrast,
             decision=self.decision, verifier_threshold=self.verifier_threshold,
-            mask_chroma_tolerance=self.mask_chroma_tolerance,
+            verifier_last_look=self.verifier_last_look, mask_chroma_tolerance=self.mask_chroma_tolerance,
             crop_size=self.crop_size)
 
 

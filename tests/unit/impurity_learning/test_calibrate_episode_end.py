@@ -70,17 +70,18 @@ def test_a_recorded_rule_is_part_of_the_setting_and_defaults_to_the_shipped_one(
                min_relative_contrast_distinct=2.3)
     # no saturation, no last look and no decision recorded: they read as 0 (off) and "rule", what those
     # rows ran with
-    assert calibrate.setting_of(new) == (0.04, 1.0, 2.5, 0.15, 5.0, 2.3, 0.0, 0.0, 0.0, "rule")
+    assert calibrate.setting_of(new) == (0.04, 1.0, 2.5, 0.15, 5.0, 2.3, 0.0, 0.0, 0.0, "rule", 0.0)
     assert calibrate.setting_of(dict(new, color_saturation=250.0))[6] == 250.0
     looked = dict(new, last_look_contrast=3.0, last_look_color_contrast=2.5)
     assert calibrate.setting_of(looked)[7:9] == (3.0, 2.5)
     assert calibrate.setting_of(dict(new, decision="verifier"))[9] == "verifier"
+    assert calibrate.setting_of(dict(new, verifier_last_look=0.35))[10] == 0.35
     assert calibrate.choose([new, row(0.04, LIMIT, floor=1.0, distinct=2.5)]) == calibrate.setting_of(new)
     jobs = calibrate.jobs_of("tuning", (0.04,), seeds=1, random_palettes=1)
     assert {job[0][3:] for job in jobs} == {calibrate.default_rule()}
     jobs = calibrate.jobs_of("tuning", (0.04,), seeds=1, random_palettes=1,
-                             rule=(0.3, 4.0, 2.0, 250.0, 3.0, 2.5, "verifier"))
-    assert {job[0] for job in jobs} == {(0.04, 0.0, 0.0, 0.3, 4.0, 2.0, 250.0, 3.0, 2.5, "verifier")}
+                             rule=(0.3, 4.0, 2.0, 250.0, 3.0, 2.5, "verifier", 0.35))
+    assert {job[0] for job in jobs} == {(0.04, 0.0, 0.0, 0.3, 4.0, 2.0, 250.0, 3.0, 2.5, "verifier", 0.35)}
 
 
 def test_a_tie_in_clean_ends_goes_to_the_distinct_colour_path_on():
