@@ -100,7 +100,8 @@ def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR
 def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int) -> dict:
     """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast,
     distinct_color_contrast, color_shading, min_relative_contrast, min_relative_contrast_distinct,
-    color_saturation, last_look_contrast, last_look_color_contrast, decision, verifier_last_look) = setting."""
+    color_saturation, last_look_contrast, last_look_color_contrast, decision, verifier_last_look) =
+    setting."""
     (height, floor, distinct, shading, relative, relative_distinct, saturation, look, look_colour,
      decision, verifier_look) = setting
     scenario, targets, objects, max_actions = scene
@@ -232,8 +233,8 @@ def report(args) -> int:
     tuning = [r for r in rows
               if r["group"] in ("default", "tuning") and r["seed"] in splits.TUNING_SEED_RANGE]
     chosen = choose(tuning) if tuning else None
-    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  ll_s  ll_c  decision  ll_p  "
-          "scenes                "
+    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  ll_s  ll_c  decision  "
+          "ll_p  scenes                "
           "episodes  clean_end  "
           "ended_by_NONE  left_behind  completion  actions  count_match  verdicts")
     for group in sorted({r["group"] for r in rows}):

@@ -7,6 +7,7 @@ and one impurity box of the palette's impurity colour; the clean version recolou
 product box. Palettes follow the named jobs of the simulator (sRGB 0..255).
 """
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -16,6 +17,7 @@ from impurity_attention.core import attention as att
 from impurity_attention.core import saliency
 from impurity_attention.core.heightmap import rgbd_to_heightmaps
 from impurity_attention.core.synthetic import Box, render_boxes
+from impurity_attention.core.verifier import default_verifier
 
 # name: (product shades, impurity colour)
 PALETTES = {
@@ -238,3 +240,28 @@ def test_a_last_look_leaves_a_clean_scene_clean_and_is_refused_below_zero():
     assert looked.mode == att.AttentionMode.NONE  # the best region is coloured like the product
     with pytest.raises(ValueError, match="last_look_contrast"):
         RULE(last_look_contrast=-1.0)
+
+
+@pytest.mark.parametrize("palette", list(PALETTES))
+def test_with_no_heap_left_the_verifiers_last_look_grasps_its_likeliest_region(palette):
+    color, height, impurity = scene(palette, 0)
+    # a model as sure of the order as the shipped one, far less of the probabilities: the impurity falls short
+    # of the threshold, the way late views of an episode did on tuning palettes (docs/experiments.md, tenth)
+    model = default_verifier()
+    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
+                                 intercept=0.2 * model.intercept)
+    strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.99)
+    missed = att.attend(color, height, strict)
+    assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
+    looked = att.attend(color, height, dataclasses.replace(strict, verifier_last_look=0.35))
+    assert looked.mode == att.AttentionMode.TARGET and looked.reason.startswith("last look")
+    assert np.any(looked.target_mask & impurity)
+
+
+def test_the_verifiers_last_look_leaves_a_clean_scene_clean_and_is_a_probability():
+    color, height, _ = scene("blue_red", 0, with_impurity=False)
+    looked = att.attend(color, height, att.AttentionParams(verifier_last_look=0.35))
+    assert looked.mode == att.AttentionMode.NONE  # no product region is that likely an impurity
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ValueError, match="verifier_last_look"):
+            att.AttentionParams(verifier_last_look=bad)
