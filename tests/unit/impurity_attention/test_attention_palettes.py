@@ -250,7 +250,7 @@ def test_with_no_heap_left_the_verifiers_last_look_grasps_its_likeliest_region(p
     model = default_verifier()
     unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
                                  intercept=0.2 * model.intercept)
-    strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.99)
+    strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.99, verifier_last_look=0.0)
     missed = att.attend(color, height, strict)
     assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
     looked = att.attend(color, height, dataclasses.replace(strict, verifier_last_look=0.35))

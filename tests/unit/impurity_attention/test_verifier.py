@@ -169,10 +169,11 @@ def test_a_threshold_set_on_the_node_overrides_the_models():
     coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
                               threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
     color, height, *_ = two_colour_view()
-    own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin))
+    own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
+                                                        verifier_last_look=0.0))  # no last look at 0.5
     assert own.mode != att.AttentionMode.TARGET and "0.50 < 0.60" in own.reason
     lowered = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
-                                                            verifier_threshold=0.4))
+                                                            verifier_threshold=0.4, verifier_last_look=0.0))
     assert lowered.mode == att.AttentionMode.TARGET and "0.50 >= 0.40" in lowered.reason
 
 
