@@ -194,6 +194,7 @@ def to_message(heightmap: Heightmap, output) -> AttentionResult:
     result.header = heightmap.header
     result.mode = int(output.mode)
     result.score = float(output.score)
+    result.last_look = bool(output.last_look)
     result.center_row, result.center_col = (int(v) for v in output.center)
     result.center.x, result.center.y = (float(v) for v in output.center_xy)
     result.center.z = float(heightmap.origin.z)

@@ -93,7 +93,8 @@ class PerceptionSimCell(SimCell):
         if int(attention.mode) == AttentionMode.TARGET:
             placed = full_mask(attention.mask > 0, attention.crop_origin, height.shape)
             mask, score = (placed if placed.any() else None), float(attention.score)
-        return picking.View(sensed.obs.mode, sensed.maps.color, sensed, height, mask, score)
+        return picking.View(sensed.obs.mode, sensed.maps.color, sensed, height, mask, score,
+                            bool(attention.last_look))
 
     def execute(self, action: picking.Action) -> picking.Outcome:
         x, y, z = action.position

@@ -188,7 +188,8 @@ class RosCell:
         self._after_what = "the last view"
         color = self._color(attention)
         height, mask = self._height_and_mask(attention, color)
-        return View(int(attention.mode), color, (attention, primitive), height, mask, float(attention.score))
+        return View(int(attention.mode), color, (attention, primitive), height, mask, float(attention.score),
+                    bool(attention.last_look))
 
     def decide(self, view: View) -> Action | None:
         attention, primitive = view.source

@@ -5,6 +5,7 @@ the action limit or after repeated failures; each grasp is judged by the next vi
 A cell that offers truth() gets it recorded beside each verdict, and nothing it says steers the loop.
 No simulator, no ROS: the cell below plays a script of views and outcomes."""
 
+import dataclasses
 import json
 
 import numpy as np
@@ -234,3 +235,28 @@ def test_a_node_lost_while_judging_a_grasp_still_records_that_grasp(tmp_path):
     assert summary["termination_reason"] == "node_lost: camera" and summary["actions"] == 1
     steps = [r for r in read_steps(recorder.steps_path) if r["event"] == "step"]
     assert len(steps) == 1 and not steps[0]["target_grasped"] and "not judged" in steps[0]["verdict"]
+
+
+# ---- attention's last look --------------------------------------------------------------------------------
+def last_look(target_there=True):
+    """A TARGET attention gave as a last look (no heap left, no region judged an impurity)."""
+    return dataclasses.replace(view(MODE_TARGET, target_there), last_look=True)
+
+
+def test_a_last_look_is_grasped_like_a_target():
+    summary, cell = run([last_look(), NONE, NONE, NONE], [grasp()])
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+    assert summary["targets_picked"] == 1 and summary["actions"] == 1
+
+
+def test_after_a_last_look_that_lifted_no_impurity_later_last_looks_count_as_none():
+    # the grasp lifts nothing: the verdict says no impurity; the same suspicious region keeps being offered
+    summary, cell = run([last_look(), last_look(), last_look(), last_look()], [grasp(holding=False)])
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT and summary["completed"]
+    assert summary["actions"] == 1 and summary["targets_picked"] == 0
+    assert cell.calls.count("decide") == 1  # the later last looks were not decided on
+
+
+def test_a_target_that_is_no_last_look_is_still_acted_on_after_a_last_look_in_vain():
+    summary, _ = run([last_look(), view(), NONE, NONE, NONE], [grasp(holding=False), grasp()])
+    assert summary["actions"] == 2 and summary["targets_picked"] == 1

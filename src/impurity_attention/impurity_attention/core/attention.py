@@ -246,6 +246,7 @@ class AttentionOutput:
     target_mask: np.ndarray | None = None  # (rows, cols) bool: m_t grown to the whole target object(s)
     cluster: Cluster | None = None
     reason: str = ""  # one line: why this mode
+    last_look: bool = False  # TARGET from a last look (no heap left; the decision itself said no target)
 
 
 def sanitize(color: np.ndarray, height: np.ndarray) -> tuple:
@@ -445,13 +446,17 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                      "(coloured like the other objects)")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
+    looked = None
     if chosen is None and last_look_region is not None:
-        return target(last_look_region[0], f"last look (no heap could hide an impurity): salient "
-                                           f"{last_look_region[1]}", clusters)
-    if chosen is None and best is not None and last_look(best.score, colour(), params):
-        return target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
-                            f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
-                            f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
+        looked = target(last_look_region[0], f"last look (no heap could hide an impurity): salient "
+                                             f"{last_look_region[1]}", clusters)
+    elif chosen is None and best is not None and last_look(best.score, colour(), params):
+        looked = target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
+                              f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
+                              f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
+    if looked is not None:
+        looked.last_look = True
+        return looked
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,

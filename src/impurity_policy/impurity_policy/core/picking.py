@@ -31,7 +31,9 @@ Two ways to count:
   holding); the picked count is the number of grasps judged "impurity picked". The loop stops when
   attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible
   impurity and no heap that could hide one) -> "no_target_or_cluster_left", at the action limit (the
-  request's, else `max_actions_uncounted`), or after repeated failures. With a cell that offers truth()
+  request's, else `max_actions_uncounted`), or after repeated failures. A last look (View.last_look) is
+  taken until one lifts no impurity by its verdict; after that a last look counts as NONE, so a clean
+  scene costs at most one product piece. With a cell that offers truth()
   (a simulated cell as the hardware), every step records the truth beside its verdict and the summary
   their agreement (episode.truth_audit).
 
@@ -118,7 +120,8 @@ class View:
     map (H, W) float m above the table, or None; target_mask: (H, W) bool, the attended target's cells
     (TARGET only, else None); target_score: its saliency contrast (inf when not given); color, height,
     target_mask and target_score let the next view judge a grasp
-    (core/verdict.py); source: the adapter's own data (attention result, sensed state)."""
+    (core/verdict.py); source: the adapter's own data (attention result, sensed state); last_look: a TARGET
+    attention gave as a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
 
     mode: int
     color: np.ndarray | None = None
@@ -126,6 +129,7 @@ class View:
     height: np.ndarray | None = None
     target_mask: np.ndarray | None = None
     target_score: float = float("inf")  # TARGET: attention's saliency contrast (AttentionResult.score)
+    last_look: bool = False
 
 
 @dataclass
@@ -331,6 +335,7 @@ class _Episode:
             self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
         none_views = 0
         view = None
+        looked_in_vain = False  # a last look's grasp lifted no impurity: later last looks count as NONE
         while True:
             if tracker.actions >= tracker.max_actions:
                 return TERMINATION_ACTION_LIMIT
@@ -340,7 +345,7 @@ class _Episode:
                 return TERMINATION_CANCELED
             if view is None:
                 view = self._look()
-            if view.mode == AttentionMode.NONE:
+            if view.mode == AttentionMode.NONE or (view.last_look and looked_in_vain):
                 none_views += 1
                 if none_views >= limits.none_frames_to_finish:
                     return TERMINATION_NOTHING_LEFT
@@ -360,6 +365,7 @@ class _Episode:
                 except (EpisodeCanceled, EpisodeAborted) as error:
                     pending = error  # record the step (not judged), then end
                 verdict = self._judge(view, after, outcome)
+                looked_in_vain = looked_in_vain or (view.last_look and not verdict.impurity_picked)
             truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
             score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
             self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
