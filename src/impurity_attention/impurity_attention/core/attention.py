@@ -451,9 +451,9 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         looked = target(last_look_region[0], f"last look (no heap could hide an impurity): salient "
                                              f"{last_look_region[1]}", clusters)
     elif chosen is None and best is not None and last_look(best.score, colour(), params):
-        looked = target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
-                              f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
-                              f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
+        looked = target(best, f"last look (no heap could hide an impurity): salient region of {best.area} "
+                              f"px, contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour "
+                              f"contrast {colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
     if looked is not None:
         looked.last_look = True
         return looked
