@@ -260,3 +260,9 @@ def test_after_a_last_look_that_lifted_no_impurity_later_last_looks_count_as_non
 def test_a_target_that_is_no_last_look_is_still_acted_on_after_a_last_look_in_vain():
     summary, _ = run([last_look(), view(), NONE, NONE, NONE], [grasp(holding=False), grasp()])
     assert summary["actions"] == 2 and summary["targets_picked"] == 1
+
+
+def test_a_last_look_answered_by_a_push_was_in_vain_too():
+    summary, cell = run([last_look(), last_look(), last_look(), last_look(), last_look()], [push()])
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+    assert summary["actions"] == 1 and cell.calls.count("decide") == 1

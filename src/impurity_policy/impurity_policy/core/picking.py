@@ -32,8 +32,9 @@ Two ways to count:
   attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible
   impurity and no heap that could hide one) -> "no_target_or_cluster_left", at the action limit (the
   request's, else `max_actions_uncounted`), or after repeated failures. A last look (View.last_look) is
-  taken until one lifts no impurity by its verdict; after that a last look counts as NONE, so a clean
-  scene costs at most one product piece. With a cell that offers truth()
+  acted on until one was in vain (answered by a push, or by a grasp its verdict says lifted no impurity);
+  after that a last look counts as NONE. A grasp that lifts a product piece the verdict takes for an
+  impurity does not stop them. With a cell that offers truth()
   (a simulated cell as the hardware), every step records the truth beside its verdict and the summary
   their agreement (episode.truth_audit).
 
@@ -365,7 +366,8 @@ class _Episode:
                 except (EpisodeCanceled, EpisodeAborted) as error:
                     pending = error  # record the step (not judged), then end
                 verdict = self._judge(view, after, outcome)
-                looked_in_vain = looked_in_vain or (view.last_look and not verdict.impurity_picked)
+            # a last look answered by a push, or by a grasp the verdict says lifted no impurity, was in vain
+            looked_in_vain = looked_in_vain or (view.last_look and not (verdict and verdict.impurity_picked))
             truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
             score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
             self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
