@@ -397,16 +397,18 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         once and only when a decision reads it (the verifier does not)."""
         return region_color_contrast(color, objects, best, params) if best is not None else float("inf")
 
-    def target(region: SalientRegion, reason: str, clusters=()) -> AttentionOutput:
-        """TARGET on `region`, its mask grown to the whole object."""
+    def target(region: SalientRegion, reason: str, clusters=(), looked: bool = False) -> AttentionOutput:
+        """TARGET on `region`, its mask grown to the whole object; looked: given as a last look."""
         target_cells = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
-        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
-                       saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
-                       mask_cells=target_cells, reason=reason)
+        output = _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
+                         saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
+                         mask_cells=target_cells, reason=reason)
+        output.last_look = looked
+        return output
 
-    last_look_region = None  # verifier: the likeliest region, when a last look may take it
+    last_look_region = None  # verifier: (the likeliest region, why), when a last look may take it
     if params.decision == "verifier" and params.contrast == "relative":
         no_target = "no salient region"
         if regions:
@@ -427,7 +429,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
             no_target = (f"no salient region is an impurity: the likeliest, region {k + 1} of "
                          f"{len(regions)}, {probability[k]:.2f} < {least:.2f}")
             if 0 < params.verifier_last_look <= probability[k]:
-                last_look_region = (candidates[k], f"region {k + 1} of {len(regions)} ({candidates[k].area} "
+                last_look_region = (candidates[k], f"last look (no heap could hide an impurity): salient "
+                                                   f"region {k + 1} of {len(regions)} ({candidates[k].area} "
                                                    f"px): impurity probability {probability[k]:.2f} >= "
                                                    f"{params.verifier_last_look:.2f}")
     elif best is not None and is_target(best.score, colour(), params):
@@ -446,17 +449,12 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                      "(coloured like the other objects)")
     clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
-    looked = None
     if chosen is None and last_look_region is not None:
-        looked = target(last_look_region[0], f"last look (no heap could hide an impurity): salient "
-                                             f"{last_look_region[1]}", clusters)
-    elif chosen is None and best is not None and last_look(best.score, colour(), params):
-        looked = target(best, f"last look (no heap could hide an impurity): salient region of {best.area} "
-                              f"px, contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour "
-                              f"contrast {colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters)
-    if looked is not None:
-        looked.last_look = True
-        return looked
+        return target(*last_look_region, clusters, looked=True)
+    if chosen is None and best is not None and last_look(best.score, colour(), params):
+        return target(best, f"last look (no heap could hide an impurity): salient region of {best.area} px, "
+                            f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
+                            f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters, looked=True)
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,

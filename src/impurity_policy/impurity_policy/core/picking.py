@@ -336,7 +336,7 @@ class _Episode:
             self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
         none_views = 0
         view = None
-        looked_in_vain = False  # a last look's grasp lifted no impurity: later last looks count as NONE
+        looked_in_vain = False  # a last look was in vain (see below): later last looks count as NONE
         while True:
             if tracker.actions >= tracker.max_actions:
                 return TERMINATION_ACTION_LIMIT
