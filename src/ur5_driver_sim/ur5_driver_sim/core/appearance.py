@@ -215,6 +215,18 @@ PALETTES = {p.name: p for p in (
     _palette("pp_flakes_rubber", [(170, 172, 176), (182, 184, 188)], [(44, 42, 42), (150, 60, 52)],
              "light grey polypropylene flakes with black rubber and red foreign flakes", product_jitter=0.02,
              ambient=0.6, diffuse=0.45, exposure=0.9),
+    # Added 2026-12-01 (eleventh session) as the sixth held-out set, fixed before any of them was rendered.
+    _palette("rice_paddy", [(236, 230, 214), (228, 222, 204)], [(164, 120, 70)],
+             "white milled rice with brown unhulled paddy grains", product_jitter=0.015,
+             light_direction=(0.2, 0.4, 1.0)),
+    _palette("sunflower_seeds_stones", [(58, 58, 62), (72, 70, 70), (50, 50, 54)], [(168, 160, 148)],
+             "dark grey sunflower seeds of several shades with light stones", product_jitter=0.02,
+             ambient=0.55, diffuse=0.5),
+    _palette("cocoa_beans_stones", [(112, 72, 52), (100, 64, 46)], [(126, 122, 116), (88, 84, 80)],
+             "brown cocoa beans with grey stones, light and dark", product_jitter=0.02,
+             light_direction=(-0.2, 0.3, 1.0)),
+    _palette("hdpe_flakes_paper", [(226, 226, 220), (216, 218, 214)], [(198, 186, 154)],
+             "white HDPE flakes with paper label scraps", product_jitter=0.015, exposure=1.1),
 )}
 
 
