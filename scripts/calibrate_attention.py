@@ -590,7 +590,7 @@ def model_source(verifier) -> str:
             "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
 
 
-def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False) -> None:
+def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -599,7 +599,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
     VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
-    (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half."""
+    (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
+    whether to run it). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
@@ -668,12 +669,15 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     if write:
         VERIFIER_MODEL.write_text(model_source(verifier))
         print(f"wrote {VERIFIER_MODEL}")
+    if not check:
+        return verifier
     print("checked through attend() on the same scenes (shipped rule, then the verifier):")
     for name, tried in (("rule", dataclasses.replace(params, decision="rule")),
                         ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier))):
         for half, scenes in halves.items():
             print(f" {name}, {half}:")
             print_palette_rates(palette_rates(scenes, tried), per_palette=False)
+    return verifier
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
