@@ -305,6 +305,42 @@ def palette_names(split: str) -> list:
 
 
 OWN_LAYOUT_SEED_BASE = 20_000  # collect_palettes(own_layouts=True): tuning seeds of no other use (splits.py)
+# The default palette's exposure scenes (eleventh session): (scenario, targets, scenes) on seeds base + 1000 x
+# row + i, tuning seeds of no other use. verifier-fit learns from EXPOSURE_FIT_SEED_BASE's at every EXPOSURE
+# (a long exposure clips the product's lit faces, and the fit had seen few such views);
+# docs/experiments_s11/exposure_wide.py checks on EXPOSURE_CHECK_SEED_BASE's, which nothing is fitted on.
+EXPOSURE_PLAN = [("random", 0, 60), ("challenging", 0, 60), ("invisible", 0, 30), ("random", 2, 30),
+                 ("challenging", 2, 30)]
+EXPOSURE_FIT_SEED_BASE, EXPOSURE_CHECK_SEED_BASE = 35_000, 30_000
+
+
+def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale: float = 1.0) -> list:
+    """The default palette's EXPOSURE_PLAN scenes on seeds seed_base + 1000 x row + i (at exposure x1; callers
+    expose them), cached in runs/perception/exposure_<seed_base>.npz; count_scale scales every row's count."""
+    wanted = [(scenario, seed_base + 1000 * row + i, targets) for row, (scenario, targets, count)
+              in enumerate(EXPOSURE_PLAN) for i in range(int(count * count_scale))]
+    path = CACHE / f"exposure_{seed_base}.npz"
+    have = {}
+    if path.exists():
+        have = {(r.scenario, r.seed, r.num_targets): r for r in evaluation.load_records(path)}
+    missing = [w for w in wanted if w not in have]
+    if missing:
+        from tqdm import tqdm
+
+        from ur5_driver_sim.core.world import CellWorld
+
+        world = CellWorld(mode="floating")
+        for scenario, seed, targets in tqdm(missing, desc=f"render exposure scenes {seed_base}+",
+                                            unit="scene"):
+            try:
+                have[(scenario, seed, targets)] = evaluation.record_from_world(world, scenario, seed, targets,
+                                                                               NUM_OBJECTS)
+            except RuntimeError as error:
+                print(f"  skipped {scenario} seed {seed}: {error}", file=sys.stderr)
+        world.close()
+        CACHE.mkdir(parents=True, exist_ok=True)
+        evaluation.save_records(path, list(have.values()))
+    return [have[w] for w in wanted if w in have]
 
 
 def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> list:
@@ -590,7 +626,8 @@ def model_source(verifier) -> str:
             "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
 
 
-def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True):
+def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
+                 exposure_scenes: bool = True):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -600,7 +637,9 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
-    whether to run it). Returns the fitted RegionVerifier."""
+    whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
+    every EXPOSURE join them (eleventh session; False: the tenth session's fit). Returns the fitted
+    RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
@@ -608,6 +647,10 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     from impurity_attention.core.verifier import FEATURES, RegionVerifier
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
+    if exposure_scenes:
+        halves["default palette at x0.5, x1, x2"] = [r.exposed(e) for r in collect_exposure_scenes()
+                                                     for e in EXPOSURES]
+        records = records + halves["default palette at x0.5, x1, x2"]
     if own_layouts:
         halves["own layouts"] = collect_palettes("tuning", own_layouts=True)
         records = records + halves["own layouts"]

@@ -5,61 +5,33 @@ found one false TARGET at x2 (3.0 points against 0 at x1; the aim is 2). This re
 tuning seeds of no other use (30000 + 1000 x row + i, splits.TUNING_SEED_RANGE) and reads attention at
 exposure x0.5 / x1 / x2 on them, with the details of every false TARGET.
 
-    python docs/experiments_s11/exposure_wide.py collect [--count 60]   # render (cached in runs/perception)
-    python docs/experiments_s11/exposure_wide.py report [--last-look 0.35] [--palettes blocks,...]
+    python docs/experiments_s11/exposure_wide.py collect               # render (cached in runs/perception)
+    python docs/experiments_s11/exposure_wide.py report [--last-look 0.35] [--model runs/s11/refit_*.json]
+    python docs/experiments_s11/exposure_wide.py diagnose [--model ...]
+    python docs/experiments_s11/exposure_wide.py report --seed-base 900800000   # evaluation seeds: measured
 """
 import argparse
 import collections
 import dataclasses
+import json
 import pathlib
 import sys
 
 sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
 import numpy as np  # noqa: E402
-from tqdm import tqdm  # noqa: E402
 
 from impurity_attention.core import evaluation  # noqa: E402
 from impurity_attention.core.attention import AttentionParams, attend  # noqa: E402
 
-SEED_BASE = 30_000
-# (scenario, targets, scenes): clean rows first (the false-TARGET question), then visible ones (found)
-ROWS = [("random", 0, 1.0), ("challenging", 0, 1.0), ("invisible", 0, 0.5), ("random", 2, 0.5),
-        ("challenging", 2, 0.5)]
+SEED_BASE = ca.EXPOSURE_CHECK_SEED_BASE  # 30000: tuning seeds nothing is fitted on (ca.EXPOSURE_PLAN's rows)
+EVAL_SEED_BASE = 900_800_000  # the evaluation set (only measured), fixed in experiments.md before rendering
 
 
-def cache(palette: str) -> pathlib.Path:
-    return ca.CACHE / f"exposure_wide_{palette or 'blocks'}.npz"
-
-
-def wanted(count: int) -> list:
-    return [(scenario, SEED_BASE + 1000 * row + i, targets)
-            for row, (scenario, targets, share) in enumerate(ROWS) for i in range(int(count * share))]
-
-
-def collect(palette: str, count: int) -> list:
-    path = cache(palette)
-    have = {}
-    if path.exists():
-        have = {(r.scenario, r.seed, r.num_targets): r for r in evaluation.load_records(path)}
-    missing = [w for w in wanted(count) if w not in have]
-    if missing:
-        from ur5_driver_sim.core.world import CellWorld
-
-        world = CellWorld(mode="floating")
-        for n, (scenario, seed, targets) in enumerate(tqdm(missing, desc=f"render {palette or 'blocks'}",
-                                                           unit="scene")):
-            try:
-                have[(scenario, seed, targets)] = evaluation.record_from_world(
-                    world, scenario, seed, targets, ca.NUM_OBJECTS, palette=palette)
-            except RuntimeError as error:
-                print(f"  skipped {scenario} seed {seed}: {error}", file=sys.stderr)
-            if (n + 1) % 40 == 0:  # resumable
-                evaluation.save_records(path, list(have.values()))
-        world.close()
-        ca.CACHE.mkdir(parents=True, exist_ok=True)
-        evaluation.save_records(path, list(have.values()))
-    return [have[w] for w in wanted(count) if w in have]
+def collect(count_scale: float = 1.0, seed_base: int = SEED_BASE) -> list:
+    """ca.collect_exposure_scenes: 60 random and 60 challenging scenes without an impurity, 30 invisible ones
+    without, 30 random and 30 challenging with two (count_scale scales them)."""
+    return ca.collect_exposure_scenes(seed_base, count_scale)
 
 
 def report(records, params: AttentionParams) -> None:
@@ -91,7 +63,7 @@ def diagnose(records, params: AttentionParams, exposure: float = 2.0) -> None:
     from impurity_attention.core.attention import salient_regions, sanitize, scene_maps
     from impurity_attention.core.verifier import FEATURES, candidate_features, default_verifier
 
-    model = default_verifier()
+    model = params.verifier or default_verifier()
     out = pathlib.Path("runs/s11/exposure_false")
     out.mkdir(parents=True, exist_ok=True)
     np.set_printoptions(precision=2, suppress=True, linewidth=200)
@@ -127,22 +99,30 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__,
                                      formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("command", choices=("collect", "report", "diagnose"))
-    parser.add_argument("--count", type=int, default=60)
-    parser.add_argument("--palettes", default="", help="comma-separated tuning palettes ('' = the default)")
+    parser.add_argument("--count-scale", type=float, default=1.0, help="scales every row's scene count")
     parser.add_argument("--last-look", type=float, default=None, help="override verifier_last_look")
+    parser.add_argument("--seed-base", type=int, default=SEED_BASE,
+                        help=f"scene seeds seed_base + 1000 x row + i (default {SEED_BASE}: tuning; the "
+                             f"evaluation set fixed before it was rendered: {EVAL_SEED_BASE})")
+    parser.add_argument("--model", type=pathlib.Path, default=None,
+                        help="a RegionVerifier as JSON (refit.py's runs/s11/refit_*.json), not the shipped")
     args = parser.parse_args()
     params = AttentionParams()
+    if args.model:
+        from impurity_attention.core.verifier import RegionVerifier
+        fields = json.loads(args.model.read_text())
+        params = dataclasses.replace(params, verifier=RegionVerifier(**{
+            k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}))
     if args.last_look is not None:
         params = dataclasses.replace(params, verifier_last_look=args.last_look)
-    for palette in args.palettes.split(","):
-        records = collect(palette, args.count)
-        if args.command == "report":
-            print(f"== {palette or 'blocks (default)'}: {len(records)} tuning scenes, seeds {SEED_BASE}+, "
-                  f"verifier_last_look {params.verifier_last_look}")
-            report(records, params)
-        elif args.command == "diagnose":
-            diagnose(records, params)
-
+    records = collect(args.count_scale, args.seed_base)
+    if args.command == "report":
+        kind = "tuning" if args.seed_base < EVAL_SEED_BASE else "evaluation"
+        print(f"== blocks (default): {len(records)} {kind} scenes, seeds {args.seed_base}+, "
+              f"verifier_last_look {params.verifier_last_look}, model {args.model or 'shipped'}")
+        report(records, params)
+    elif args.command == "diagnose":
+        diagnose(records, params)
 
 if __name__ == "__main__":
     main()
