@@ -8,7 +8,9 @@ tuning set (exposure_wide.py) and on the fitting scenes through attend().
     python docs/experiments_s11/refit.py unclipped --exposed-palettes all|separable  # + palettes x0.5, x2
     python docs/experiments_s11/refit.py unclipped --default-extra   # + the default palette's exposure scenes
 
-Each writes runs/s11/refit_<name>.json (the model) beside its printout.
+Each writes runs/s11/refit_<name>.json (the model) beside its printout. The `unclipped` variants need
+verifier.colour_cells, which is in commit 6e681af only (the refit was not kept: docs/experiments.md, eleventh
+section); run them from a git worktree of 6e681af.
 """
 import argparse
 import dataclasses
