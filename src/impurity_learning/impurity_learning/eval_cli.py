@@ -25,7 +25,9 @@ CPU of the cluster; ray_eval.py). All three call run_task, so the records are th
 appended to a journal (--journal, default the --json path with .partial.jsonl) as its episode ends; a
 run interrupted part-way and started again with the same arguments runs only the episodes missing
 from it (the same row, checkpoint bytes, decision settings, scenario, seed, group, palette and device);
-the journal is removed once the results are written. --no-resume starts afresh.
+the journal is removed once the results are written. --no-resume starts afresh. SIGTERM (a supervisor,
+`kill`) stops a run as Ctrl-C does: the pool's workers finish the episodes they hold and exit with it,
+and the journal keeps every finished episode.
 
     python -m impurity_learning.eval_cli --ray --jobs 2 --episodes 20
     python -m impurity_learning.eval_cli --ray-address 10.0.0.5:6379 --jobs 0 --episodes 20
@@ -41,7 +43,9 @@ import json
 import math
 import os
 import pathlib
+import signal
 import sys
+import threading
 import time
 
 import numpy as np
@@ -408,7 +412,23 @@ def generalisation_outputs(args):
     return args
 
 
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 def main(argv=None) -> int:
+    """The command line (module docstring); returns the exit status. SIGTERM raises KeyboardInterrupt
+    while it runs (in the main thread), so a process pool is shut down rather than left running."""
+    if threading.current_thread() is not threading.main_thread():
+        return _main(argv)
+    previous = signal.signal(signal.SIGTERM, _interrupt)
+    try:
+        return _main(argv)
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _main(argv=None) -> int:
     import torch
     from tqdm import tqdm
 

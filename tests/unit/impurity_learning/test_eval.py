@@ -232,3 +232,54 @@ def test_the_generalisation_outputs_follow_the_markdown_unless_given():
     assert elsewhere.generalisation_scenes == str(pathlib.Path("runs/check/images/generalisation_scenes.png"))
     given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--generalisation", "x/g.md"])
     assert given.generalisation == "x/g.md"
+
+
+def test_sigterm_stops_the_run_with_its_pool_workers_and_keeps_finished_episodes(tmp_path):
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+
+    def children(pid):
+        found = subprocess.run(["pgrep", "-P", str(pid)], capture_output=True, text=True).stdout.split()
+        return {int(p) for p in found}
+
+    def alive(pid):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return False
+        return pathlib.Path(f"/proc/{pid}/status").read_text().find("State:\tZ") < 0
+
+    def wait_for(condition, timeout):
+        deadline = time.monotonic() + timeout
+        while time.monotonic() < deadline:
+            if condition():
+                return True
+            time.sleep(0.2)
+        return condition()
+
+    Trainer(seed=0).save(tmp_path / "policy.pt")
+    out = tmp_path / "docs"
+    journal = tmp_path / "journal.jsonl"
+    run = subprocess.Popen(
+        [sys.executable, "-m", "impurity_learning.eval_cli", "--methods", "ours", "--scenarios", "random",
+         "--episodes", "40", "--palette-groups", "default",
+         "--policy-checkpoint", str(tmp_path / "policy.pt"),
+         "--markdown", str(out / "r.md"), "--chart", str(out / "r.png"), "--json", str(out / "r.json"),
+         "--journal", str(journal), *generalisation_paths(out), "--threads", "1", "--jobs", "2",
+         "--no-progress"], stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    try:
+        # the pool is up (two workers and the resource tracker) and an episode has finished
+        assert wait_for(lambda: len(children(run.pid)) >= 3 and journal.is_file() and journal.stat().st_size,
+                        timeout=300), "the run never started its pool or finished an episode"
+        workers = children(run.pid)
+        run.send_signal(signal.SIGTERM)
+        run.wait(timeout=300)
+    finally:
+        if run.poll() is None:
+            run.kill()
+    assert run.returncode != 0  # interrupted, not a finished run
+    assert wait_for(lambda: not any(alive(pid) for pid in workers), timeout=60), "workers outlived the run"
+    assert not (out / "r.json").exists() and journal.read_text().count("\n") >= 1  # finished episodes kept
