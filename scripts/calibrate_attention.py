@@ -317,30 +317,9 @@ EXPOSURE_FIT_SEED_BASE, EXPOSURE_CHECK_SEED_BASE = 35_000, 30_000
 def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale: float = 1.0) -> list:
     """The default palette's EXPOSURE_PLAN scenes on seeds seed_base + 1000 x row + i (at exposure x1; callers
     expose them), cached in runs/perception/exposure_<seed_base>.npz; count_scale scales every row's count."""
-    wanted = [(scenario, seed_base + 1000 * row + i, targets) for row, (scenario, targets, count)
+    wanted = [("", scenario, seed_base + 1000 * row + i, targets) for row, (scenario, targets, count)
               in enumerate(EXPOSURE_PLAN) for i in range(int(count * count_scale))]
-    path = CACHE / f"exposure_{seed_base}.npz"
-    have = {}
-    if path.exists():
-        have = {(r.scenario, r.seed, r.num_targets): r for r in evaluation.load_records(path)}
-    missing = [w for w in wanted if w not in have]
-    if missing:
-        from tqdm import tqdm
-
-        from ur5_driver_sim.core.world import CellWorld
-
-        world = CellWorld(mode="floating")
-        for scenario, seed, targets in tqdm(missing, desc=f"render exposure scenes {seed_base}+",
-                                            unit="scene"):
-            try:
-                have[(scenario, seed, targets)] = evaluation.record_from_world(world, scenario, seed, targets,
-                                                                               NUM_OBJECTS)
-            except RuntimeError as error:
-                print(f"  skipped {scenario} seed {seed}: {error}", file=sys.stderr)
-        world.close()
-        CACHE.mkdir(parents=True, exist_ok=True)
-        evaluation.save_records(path, list(have.values()))
-    return [have[w] for w in wanted if w in have]
+    return render_cached(CACHE / f"exposure_{seed_base}.npz", wanted, f"exposure scenes {seed_base}+")
 
 
 def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> list:
@@ -363,6 +342,13 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
             else:
                 base = SEED_BASE[split] + 100 * index
             wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
+    return render_cached(path, wanted, f"{split} palettes")
+
+
+def render_cached(path: pathlib.Path, wanted: list, what: str) -> list:
+    """Records of `wanted` ((palette, scenario, seed, num_targets), palette "" the default) in that order:
+    those cached in `path` (.npz), the others rendered (a scene the sim cannot build is reported and
+    skipped) and the cache rewritten with them."""
     cached = {}
     if path.exists():
         cached = {(r.palette, r.scenario, r.seed, r.num_targets): r for r in evaluation.load_records(path)}
@@ -373,7 +359,7 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
         from ur5_driver_sim.core.world import CellWorld
 
         world = CellWorld(mode="floating")
-        for palette, scenario, seed, targets in tqdm(missing, desc=f"render {split} palettes", unit="scene"):
+        for palette, scenario, seed, targets in tqdm(missing, desc=f"render {what}", unit="scene"):
             try:
                 record = evaluation.record_from_world(world, scenario, seed, targets, NUM_OBJECTS,
                                                       palette=palette)
