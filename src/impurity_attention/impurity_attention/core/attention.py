@@ -402,11 +402,9 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         target_cells = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
-        output = _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
-                         saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
-                         mask_cells=target_cells, reason=reason)
-        output.last_look = looked
-        return output
+        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
+                       saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
+                       mask_cells=target_cells, reason=reason, last_look=looked)
 
     last_look_region = None  # verifier: (the likeliest region, why), when a last look may take it
     if params.decision == "verifier" and params.contrast == "relative":
@@ -507,7 +505,7 @@ def region_color_contrast(color: np.ndarray, objects: np.ndarray, region: Salien
 
 
 def _output(mode, score, centroid, color, height, saliency, params, grid, regions=(), clusters=(),
-            target_region=None, cluster=None, mask_cells=None, reason="") -> AttentionOutput:
+            target_region=None, cluster=None, mask_cells=None, reason="", last_look=False) -> AttentionOutput:
     size = params.crop_size
     center_row, center_col = int(round(centroid[0])), int(round(centroid[1]))
     color_crop, origin = crop_centered(color, center_row, center_col, size)
@@ -524,7 +522,7 @@ def _output(mode, score, centroid, color, height, saliency, params, grid, region
         color_crop=color_crop, height_crop=height_crop.astype(np.float32), mask=mask, saliency=saliency,
         regions=list(regions), clusters=list(clusters), target_region=target_region,
         target_mask=mask_cells if mode == AttentionMode.TARGET else None, cluster=cluster,
-        reason=reason)
+        reason=reason, last_look=last_look)
 
 
 MODE_COLORS = {AttentionMode.TARGET: (255, 40, 40), AttentionMode.OCCLUDED_REGION: (255, 200, 0),
