@@ -227,6 +227,19 @@ PALETTES = {p.name: p for p in (
              light_direction=(-0.2, 0.3, 1.0)),
     _palette("hdpe_flakes_paper", [(226, 226, 220), (216, 218, 214)], [(198, 186, 154)],
              "white HDPE flakes with paper label scraps", product_jitter=0.015, exposure=1.1),
+    # Added 2026-12-01 (twelfth session) as the seventh held-out set, fixed before any of them was rendered.
+    _palette("cashews_shells", [(228, 208, 170), (218, 196, 156)], [(100, 72, 50)],
+             "pale cashew kernels with dark brown shell pieces", product_jitter=0.015,
+             light_direction=(-0.4, -0.2, 1.0)),
+    _palette("green_coffee_stones", [(150, 160, 112), (138, 150, 102), (160, 168, 120)],
+             [(72, 68, 62), (44, 40, 36)],
+             "green coffee beans of several shades with grey stones and black beans", product_jitter=0.02,
+             ambient=0.55, diffuse=0.5),
+    _palette("flint_glass_amber", [(204, 216, 206), (192, 206, 196)], [(172, 102, 42), (120, 116, 110)],
+             "clear flint glass cullet with amber glass and stones", product_jitter=0.02, exposure=1.1,
+             light_direction=(0.5, 0.1, 1.0)),
+    _palette("kidney_beans_stones", [(112, 38, 42), (98, 32, 38)], [(118, 114, 108)],
+             "dark red kidney beans with grey stones", product_jitter=0.02, ambient=0.6, diffuse=0.45),
 )}
 
 
