@@ -128,6 +128,10 @@ class AttentionNodeParameters:
                                       "left, the likeliest region is grasped from this impurity probability "
                                       "on before the scene is called clean; 0: no last look",
                                       low=0.0, high=0.999)
+    verifier_clipped_threshold: float = param(DEFAULTS.verifier_clipped_threshold, "verifier: least "
+                                              "impurity probability of a target on a view whose objects are "
+                                              "clipped (half their cells at 250+ in one channel); 0: as "
+                                              "elsewhere", low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -153,8 +157,9 @@ class AttentionNodeParameters:
             last_look_contrast=self.last_look_contrast,
             last_look_color_contrast=self.last_look_color_contrast,
             decision=self.decision, verifier_threshold=self.verifier_threshold,
-            verifier_last_look=self.verifier_last_look, mask_chroma_tolerance=self.mask_chroma_tolerance,
-            crop_size=self.crop_size)
+            verifier_last_look=self.verifier_last_look,
+            verifier_clipped_threshold=self.verifier_clipped_threshold,
+            mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
 class AttentionNode(Node):

@@ -15,7 +15,7 @@ import pytest
 
 from impurity_attention.core import attention as att
 from impurity_attention.core import saliency
-from impurity_attention.core.heightmap import rgbd_to_heightmaps
+from impurity_attention.core.heightmap import clipped_view, rgbd_to_heightmaps
 from impurity_attention.core.synthetic import Box, render_boxes
 from impurity_attention.core.verifier import default_verifier
 
@@ -265,3 +265,34 @@ def test_the_verifiers_last_look_leaves_a_clean_scene_clean_and_is_a_probability
     for bad in (-0.1, 1.0):
         with pytest.raises(ValueError, match="verifier_last_look"):
             att.AttentionParams(verifier_last_look=bad)
+
+
+def test_on_a_clipped_view_a_target_needs_the_clipped_threshold_and_elsewhere_it_does_not():
+    # a model as sure of the order as the shipped one, less of the probabilities (none reaches 0.999)
+    model = default_verifier()
+    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
+                                 intercept=0.2 * model.intercept)
+    lenient = att.AttentionParams(verifier=unsure, verifier_threshold=0.5, verifier_last_look=0.0)
+    strict_when_clipped = dataclasses.replace(lenient, verifier_clipped_threshold=0.999)
+    bright, height, impurity = scene("green_light", 0, brightness=2.0)
+    assert clipped_view(bright, height > lenient.density.occupied_height)  # the green channel at the ceiling
+    found = att.attend(bright, height, lenient)
+    assert found.mode == att.AttentionMode.TARGET and np.any(found.target_mask & impurity)
+    refused = att.attend(bright, height, strict_when_clipped)
+    assert refused.mode != att.AttentionMode.TARGET and "(clipped view)" in refused.reason
+    color, height, impurity = scene("green_light", 0)  # the same scene, not clipped: the threshold is 0.5
+    assert not clipped_view(color, height > lenient.density.occupied_height)
+    kept = att.attend(color, height, strict_when_clipped)
+    assert kept.mode == att.AttentionMode.TARGET and np.any(kept.target_mask & impurity)
+    assert "(clipped view)" not in kept.reason
+
+
+def test_the_clipped_threshold_never_lowers_the_verifiers_and_is_a_probability():
+    bright, height, _ = scene("green_light", 0, brightness=2.0)
+    strict = att.AttentionParams(verifier_threshold=0.999, verifier_last_look=0.0)
+    alone = att.attend(bright, height, strict)
+    lower = att.attend(bright, height, dataclasses.replace(strict, verifier_clipped_threshold=0.2))
+    assert (lower.mode, lower.reason) == (alone.mode, alone.reason)
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ValueError, match="verifier_clipped_threshold"):
+            att.AttentionParams(verifier_clipped_threshold=bad)

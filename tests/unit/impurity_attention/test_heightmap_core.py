@@ -178,3 +178,17 @@ def test_exposure_is_judged_on_the_same_objects_as_attention():
     from impurity_attention.core.density import OCCUPIED_HEIGHT
 
     assert hm.exposure_problem.__defaults__[0] == OCCUPIED_HEIGHT
+
+
+def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_share():
+    colours = np.array([[255, 250, 10], [255, 100, 10], [200, 252, 10], [255, 251, 10]], np.uint8)
+    assert hm.clipped_channel(colours) == (0, 0.75)  # R at 250+ on three of four, G on two
+    assert hm.clipped_channel(np.zeros((0, 3), np.uint8)) == (0, 0.0)
+
+
+def test_a_view_is_clipped_from_half_its_object_cells_on_as_exposure_problem_warns():
+    color, height = exposure_scene((255, 230, 200))
+    objects = height > 0.01
+    assert hm.clipped_view(color, objects) and hm.exposure_problem(color, height) is not None
+    color, height = exposure_scene((200, 180, 150))
+    assert not hm.clipped_view(color, height > 0.01)

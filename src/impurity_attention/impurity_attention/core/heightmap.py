@@ -196,6 +196,23 @@ EXPOSURE_SHARE = 0.5
 CHANNEL_NAMES = "RGB"
 
 
+def clipped_channel(colours: np.ndarray) -> tuple:
+    """(channel, share) of colours (N, 3) uint8 RGB: the channel (0 R, 1 G, 2 B) in which the largest share
+    of them is at CLIPPED_LEVEL or more, and that share; (0, 0.0) for no colours."""
+    colours = np.asarray(colours).reshape(-1, 3)
+    if not len(colours):
+        return 0, 0.0
+    shares = np.mean(colours >= CLIPPED_LEVEL, axis=0)
+    channel = int(np.argmax(shares))
+    return channel, float(shares[channel])
+
+
+def clipped_view(color: np.ndarray, objects: np.ndarray) -> bool:
+    """Whether a colour heightmap (H, W, 3) uint8 is clipped on its object cells (H, W) bool: at least
+    EXPOSURE_SHARE of them at CLIPPED_LEVEL or more in one channel (exposure_problem's first test)."""
+    return clipped_channel(np.asarray(color)[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
+
+
 def exposure_problem(color: np.ndarray, height: np.ndarray,
                      min_object_height: float = cell.OCCUPIED_HEIGHT) -> str | None:
     """None when the objects of a colour heightmap (H, W, 3) uint8 RGB, height (H, W) m (cells above
@@ -206,11 +223,10 @@ def exposure_problem(color: np.ndarray, height: np.ndarray,
     if not objects.any():
         return None
     colours = np.asarray(color)[objects]
-    clipped = np.mean(colours >= CLIPPED_LEVEL, axis=0)
-    channel = int(np.argmax(clipped))
-    if clipped[channel] >= EXPOSURE_SHARE:
+    channel, share = clipped_channel(colours)
+    if share >= EXPOSURE_SHARE:
         return (f"the colour image is clipped ({CLIPPED_LEVEL}+ of 255) in {CHANNEL_NAMES[channel]} on "
-                f"{clipped[channel]:.0%} of the object cells: colour differences in that channel are lost, "
+                f"{share:.0%} of the object cells: colour differences in that channel are lost, "
                 "and an impurity lighter than a light product cannot be seen. Lower the camera's exposure "
                 "(realsense-ros: rgb_camera.enable_auto_exposure false, rgb_camera.exposure) or the light")
     dark = float(np.mean(colours.max(axis=1) <= DARK_LEVEL))
