@@ -553,7 +553,7 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
     visible, no_impurity, invisible), its best salient regions' features as attention scores them
     (verifier.candidate_features). Returns (features (N, F), on target (N,) bool, scene index (N,), group
     (N,): the palette, visible per scene (S,) bool); a scene without a salient region has no row."""
-    from impurity_attention.core.attention import decision_colours, scene_maps
+    from impurity_attention.core.attention import scene_maps
     from impurity_attention.core.verifier import candidate_features
     rows, on, scene, group, visible = [], [], [], [], []
     for record in records:
@@ -563,10 +563,9 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
         index = len(visible)
         visible.append(category == "visible")
         objects = record.height > params.density.occupied_height
-        color = decision_colours(record.color, objects, params)  # as attend() reads it
-        saliency, conspicuity = scene_maps(color, objects, params)
+        saliency, conspicuity = scene_maps(record.color, objects, params)
         regions = salient_regions(saliency, objects, params)
-        for region, row in candidate_features(color, record.height, objects, conspicuity, regions):
+        for region, row in candidate_features(record.color, record.height, objects, conspicuity, regions):
             if row is None:  # every object in view: attention lets saliency decide (no features)
                 continue
             rows.append(row)

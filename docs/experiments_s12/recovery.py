@@ -1,4 +1,4 @@
-"""Twelfth session, tuning data only (needs commit RECOVERY_COMMIT, taken back after): attention deciding on
+"""Twelfth session, tuning data only (needs commit 55effa9, taken back after): attention deciding on
 clipped views with their highlights recovered
 (AttentionParams.recover_highlights, heightmap.recover_highlights) against the camera's colours.
 

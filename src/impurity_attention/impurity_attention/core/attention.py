@@ -56,7 +56,7 @@ from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-ex
 from impurity_common.grid import HeightmapGrid
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
-from .heightmap import clipped_view, recover_highlights
+from .heightmap import clipped_view
 from .saliency import (
     CELL_SALIENCY,
     CHANNELS,
@@ -191,11 +191,6 @@ class AttentionParams:
     # cell whose camera cannot be kept from clipping; a camera that does not clip is the remedy (the
     # heightmap node names the parameter).
     verifier_clipped_threshold: float = 0.0
-    # On a clipped view (heightmap.clipped_view), decide on the colours heightmap.recover_highlights
-    # restores (clipped channels estimated by the product's own chromaticity, the image darkened to fit):
-    # the lit faces of a product then have the hue of its shaded ones again. Crops keep the camera's colours.
-    # Tried in the twelfth session, no gain (docs/experiments.md).
-    recover_highlights: bool = False
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 
     def __post_init__(self):
@@ -405,9 +400,8 @@ def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegi
 def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
            grid: HeightmapGrid = HeightmapGrid()) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m."""
-    camera, height = sanitize(color, height)
+    color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
-    color = decision_colours(camera, objects, params)  # what the decision reads; crops keep `camera`
     saliency, conspicuity = scene_maps(color, objects, params)
     regions = salient_regions(saliency, objects, params)
     best = regions[0] if regions else None
@@ -424,7 +418,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         target_cells = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
                                         reach=params.crop_size // 2)
         rows, cols = np.nonzero(target_cells)
-        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), camera, height,
+        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
                        mask_cells=target_cells, reason=reason, last_look=looked)
 
@@ -434,7 +428,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         if regions:
             model = params.verifier or default_verifier()
             least = params.verifier_threshold or model.threshold
-            clipped = params.verifier_clipped_threshold > least and clipped_view(camera, objects)
+            clipped = params.verifier_clipped_threshold > least and clipped_view(color, objects)
             if clipped:
                 least = params.verifier_clipped_threshold
             view = " (clipped view)" if clipped else ""
@@ -480,7 +474,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                             f"contrast {best.score:.4f} >= {params.last_look_contrast:.2f}, colour contrast "
                             f"{colour():.2f} >= {params.last_look_color_contrast:.2f}", clusters, looked=True)
     if chosen is not None:
-        return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, camera, height,
+        return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
                        saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,
                        reason=f"{no_target}; cluster of {chosen.area * 1e4:.1f} cm^2, "
                               f"{chosen.height * 100:.1f} cm high")
@@ -488,14 +482,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                f"largest cluster {clusters[0].area * 1e4:.1f} cm^2, {clusters[0].height * 100:.1f} cm high "
                f"is too small or too low to hide a target")
     centre = ((height.shape[0] - 1) / 2.0, (height.shape[1] - 1) / 2.0)
-    return _output(AttentionMode.NONE, 0.0, centre, camera, height, saliency, params, grid,
+    return _output(AttentionMode.NONE, 0.0, centre, color, height, saliency, params, grid,
                    regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
-
-
-def decision_colours(color: np.ndarray, objects: np.ndarray, params: AttentionParams) -> np.ndarray:
-    """The colour heightmap (H, W, 3) uint8 the decision reads: with params.recover_highlights, a clipped
-    view's highlights restored (heightmap.recover_highlights); otherwise `color`. objects (H, W) bool."""
-    return recover_highlights(color, objects) if params.recover_highlights else color
 
 
 def is_target(score, colour, params: AttentionParams):

@@ -213,50 +213,6 @@ def clipped_view(color: np.ndarray, objects: np.ndarray) -> bool:
     return clipped_channel(np.asarray(color)[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
 
 
-# recover_highlights: the product's chromaticity is read on at least RECOVERY_MIN_CELLS object cells with no
-# channel clipped.
-RECOVERY_MIN_CELLS = 50
-
-
-def recover_highlights(color: np.ndarray, objects: np.ndarray) -> np.ndarray:
-    """A clipped view's colours as a camera that does not clip would give them, darker: (H, W, 3) uint8 RGB.
-
-    Clipping changes a surface's hue where it is lit only: a blue product at a long exposure reads cyan on
-    its lit faces (B at 255, G still rising) and blue on its shaded ones, so a shaded face stands out as if
-    it were another material. When the view is clipped (clipped_view on `objects`, (H, W) bool), every cell
-    with channels at CLIPPED_LEVEL or more gets them raised (never lowered) to the product's chromaticity
-    scaled to its unclipped channels: c = the median of R, G, B over their sum on the object cells with no
-    channel clipped, the cell's level t = (sum of its unclipped channels) / (sum of c over them), and at
-    least CLIPPED_LEVEL / c_j for every clipped channel j (a clipped channel read CLIPPED_LEVEL or more), the
-    clipped channels max(value, t c). This is ratio-based highlight reconstruction, as raw converters do: a
-    Lambertian surface keeps its channel ratios under any light, and most clipped cells are product. Then
-    the whole image is scaled so that its brightest object cell fits 255 (a shorter exposure; attention's
-    decision does not depend on exposure). Unchanged when the view is not clipped or fewer than
-    RECOVERY_MIN_CELLS object cells are unclipped (nothing to read the chromaticity on)."""
-    color = np.asarray(color)
-    objects = np.asarray(objects, dtype=bool)
-    seen = color[objects]
-    if clipped_channel(seen)[1] < EXPOSURE_SHARE:
-        return color
-    unclipped = seen[np.all(seen < CLIPPED_LEVEL, axis=1)].astype(np.float32)
-    if len(unclipped) < RECOVERY_MIN_CELLS:
-        return color
-    chromaticity = np.median(unclipped / np.maximum(unclipped.sum(axis=1, keepdims=True), 1.0), axis=0)
-    chromaticity = np.maximum(chromaticity, 1e-3)
-    image = color.astype(np.float32)
-    clipped = image >= CLIPPED_LEVEL  # (H, W, 3)
-    kept = ~clipped
-    level = (np.where(kept, image, 0.0).sum(axis=-1)
-             / np.maximum(np.where(kept, chromaticity, 0.0).sum(axis=-1), 1e-6))
-    # a clipped channel's true value is CLIPPED_LEVEL at least: the level is at least what that needs
-    level = np.maximum(level, np.where(clipped, CLIPPED_LEVEL / chromaticity, 0.0).max(axis=-1))
-    image = np.where(clipped, np.maximum(image, level[..., None] * chromaticity), image)
-    peak = float(image[objects].max())
-    if peak > 255.0:
-        image *= 255.0 / peak
-    return np.clip(image + 0.5, 0, 255).astype(np.uint8)
-
-
 def exposure_problem(color: np.ndarray, height: np.ndarray,
                      min_object_height: float = cell.OCCUPIED_HEIGHT) -> str | None:
     """None when the objects of a colour heightmap (H, W, 3) uint8 RGB, height (H, W) m (cells above
