@@ -8,11 +8,18 @@
 #     scripts/run_heldout.sh runs/s12/heldout7 900900000 60      # the seventh set: each palette once
 #
 # The earlier sets' runs are kept as they ran in docs/experiments_s*/run_heldout*.sh.
+# OUT is taken relative to the caller's directory; an existing OUT's results are replaced (--no-resume).
 set -euo pipefail
-if [ $# -lt 3 ]; then sed -n 2,9p "$0"; exit 2; fi
-out=$1 seed_base=$2 group_episodes=$3 episodes=${4:-20}
+usage() { sed -n 2,11p "$0" >&2; exit 2; }
+[ $# -ge 3 ] || usage
+for number in "$2" "$3" "${4:-20}"; do
+  [[ $number =~ ^[0-9]+$ ]] || { echo "run_heldout.sh: '$number' is not a whole number" >&2; usage; }
+done
+out=$(realpath -m -- "$1") seed_base=$2 group_episodes=$3 episodes=${4:-20}
 cd "$(dirname "$0")/.."
-set +u; source scripts/env.sh >/dev/null 2>&1; set -u
+set +u
+source scripts/env.sh >/dev/null || { echo "run_heldout.sh: scripts/env.sh failed (run make setup)" >&2; exit 1; }
+set -u
 mkdir -p "$out/images"
 date; git rev-parse HEAD
 python -c "from impurity_attention.core.attention import AttentionParams as A; a = A(); print('verifier_last_look', a.verifier_last_look, 'verifier_clipped_threshold', a.verifier_clipped_threshold); from impurity_attention.core.verifier import default_verifier as v; print(v().provenance)"

@@ -14,12 +14,11 @@ import sys
 
 sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
-import numpy as np  # noqa: E402
 
 from impurity_attention.core import evaluation  # noqa: E402
 from impurity_attention.core.attention import AttentionParams, attend  # noqa: E402
 from impurity_attention.core.density import find_clusters, select_occluded_region  # noqa: E402
-from impurity_attention.core.heightmap import CLIPPED_LEVEL  # noqa: E402
+from impurity_attention.core.heightmap import clipped_channel  # noqa: E402
 from impurity_common.grid import HeightmapGrid  # noqa: E402
 
 ANY = dataclasses.replace(AttentionParams(), verifier_threshold=1e-9, verifier_last_look=0.0)
@@ -30,7 +29,7 @@ def row(record) -> dict | None:
     if category not in ("visible", "no_impurity"):
         return None
     objects = record.height > ANY.density.occupied_height
-    clipped = float(np.max(np.mean(record.color[objects] >= CLIPPED_LEVEL, axis=0))) if objects.any() else 0.0
+    clipped = clipped_channel(record.color[objects])[1]
     output = attend(record.color, record.height, ANY)
     verdict = evaluation.judge(record, output)
     probability = float(output.reason.split("probability ")[1].split(" ")[0]) if "probability" in \

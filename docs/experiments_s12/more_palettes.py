@@ -61,6 +61,7 @@ def main() -> None:
     params = AttentionParams()
     model = ca.verifier_fit(params, write=False, own_layouts=True, check=False)
     out = pathlib.Path(f"runs/s12/verifier_extra{count}.json")
+    out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(dataclasses.asdict(model)))
     print(f"wrote {out}")
     fresh = fresh_records()

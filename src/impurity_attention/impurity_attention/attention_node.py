@@ -130,8 +130,9 @@ class AttentionNodeParameters:
                                       low=0.0, high=0.999)
     verifier_clipped_threshold: float = param(DEFAULTS.verifier_clipped_threshold, "verifier: least "
                                               "impurity probability of a target on a view whose objects are "
-                                              "clipped (half their cells at 250+ in one channel); 0: as "
-                                              "elsewhere", low=0.0, high=0.999)
+                                              "clipped (half their cells at 250+ in one channel); 0, or a "
+                                              "value at or below the threshold used elsewhere: no change. "
+                                              "The last look is not affected", low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)

@@ -184,6 +184,9 @@ def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_sha
     colours = np.array([[255, 250, 10], [255, 100, 10], [200, 252, 10], [255, 251, 10]], np.uint8)
     assert hm.clipped_channel(colours) == (0, 0.75)  # R at 250+ on three of four, G on two
     assert hm.clipped_channel(np.zeros((0, 3), np.uint8)) == (0, 0.0)
+    for bad in (np.full((3, 6), 255, np.uint8), np.full((6, 4), 255, np.uint8), colours / 255.0):
+        with pytest.raises(ValueError, match=r"\(N, 3\) uint8"):  # channel-first, RGBA, float: refused
+            hm.clipped_channel(bad)
 
 
 def test_a_view_is_clipped_from_half_its_object_cells_on_as_exposure_problem_warns():

@@ -189,7 +189,10 @@ class AttentionParams:
     # own-layout scenes). On a fresh tuning set (45000+) it gave 8 instead of 10 false TARGETs of 300 at x2
     # against 1 at x1: over the 2-point aim, so the criterion written beforehand failed (docs/experiments.md,
     # twelfth section). A lever for a cell whose camera cannot be kept from clipping; a camera that does not
-    # clip is the remedy (the heightmap node names the parameter).
+    # clip is the remedy (the heightmap node's exposure warning names the camera parameters). It applies to
+    # the decision only: with no heap left, the last look still takes the likeliest region from
+    # verifier_last_look on. It reads the colours attention receives: with the heightmap node's
+    # colour_adaptation on, the transferred colours are rarely clipped, so it seldom applies.
     verifier_clipped_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 

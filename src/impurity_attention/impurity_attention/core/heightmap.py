@@ -198,8 +198,11 @@ CHANNEL_NAMES = "RGB"
 
 def clipped_channel(colours: np.ndarray) -> tuple:
     """(channel, share) of colours (N, 3) uint8 RGB: the channel (0 R, 1 G, 2 B) in which the largest share
-    of them is at CLIPPED_LEVEL or more, and that share; (0, 0.0) for no colours."""
-    colours = np.asarray(colours).reshape(-1, 3)
+    of them is at CLIPPED_LEVEL or more, and that share; (0, 0.0) for no colours. ValueError for another
+    shape or type (a channel-first, RGBA or float image would give a wrong share)."""
+    colours = np.asarray(colours)
+    if colours.dtype != np.uint8 or colours.ndim != 2 or colours.shape[1] != 3:
+        raise ValueError(f"colours must be (N, 3) uint8 RGB, got {colours.shape} {colours.dtype}")
     if not len(colours):
         return 0, 0.0
     shares = np.mean(colours >= CLIPPED_LEVEL, axis=0)
@@ -209,8 +212,12 @@ def clipped_channel(colours: np.ndarray) -> tuple:
 
 def clipped_view(color: np.ndarray, objects: np.ndarray) -> bool:
     """Whether a colour heightmap (H, W, 3) uint8 is clipped on its object cells (H, W) bool: at least
-    EXPOSURE_SHARE of them at CLIPPED_LEVEL or more in one channel (exposure_problem's first test)."""
-    return clipped_channel(np.asarray(color)[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
+    EXPOSURE_SHARE of them at CLIPPED_LEVEL or more in one channel (exposure_problem's first test).
+    ValueError when color is not (H, W, 3) uint8."""
+    color = np.asarray(color)
+    if color.ndim != 3:
+        raise ValueError(f"colour heightmap must be (H, W, 3) uint8, got {color.shape} {color.dtype}")
+    return clipped_channel(color[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
 
 
 def exposure_problem(color: np.ndarray, height: np.ndarray,
