@@ -184,14 +184,14 @@ class AttentionParams:
     # the same threshold as elsewhere. Off: tried in the twelfth session and not adopted. Clipping changes a
     # light product's hue on its lit faces only (a blue product at exposure x2: lit faces cyan, shaded ones
     # still blue), so a shaded face can look like an impurity. 0.8 was chosen on the default palette's tuning
-    # scenes at x2 (seeds 30000+, 35000+, 40000+: false TARGETs 16 -> about 6 of 600, x1 4, every impurity still
-    # found; 65 instead of 67 of the tuning palettes' 81 clipped views with an impurity, no change on their
-    # own-layout scenes). On a fresh tuning set (45000+) it gave 8 instead of 10 false TARGETs of 300 at x2
-    # against 1 at x1: over the 2-point aim, so the criterion written beforehand failed (docs/experiments.md,
-    # twelfth section). A lever for a cell whose camera cannot be kept from clipping; a camera that does not
-    # clip is the remedy (the heightmap node's exposure warning names the camera parameters). It applies to
-    # the decision only: with no heap left, the last look still takes the likeliest region from
-    # verifier_last_look on. It reads the colours attention receives: with the heightmap node's
+    # scenes at x2 (seeds 30000+, 35000+, 40000+: false TARGETs 16 -> about 6 of 600, x1 4, every impurity
+    # still found; 65 instead of 67 of the tuning palettes' 81 clipped views with an impurity, no change on
+    # their own-layout scenes). On a fresh tuning set (45000+) it gave 8 instead of 10 false TARGETs of 300 at
+    # x2 against 1 at x1: over the 2-point aim, so the criterion written beforehand failed
+    # (docs/experiments.md, twelfth section). A lever for a cell whose camera cannot be kept from clipping; a
+    # camera that does not clip is the remedy (the heightmap node's exposure warning names the camera
+    # parameters). It applies to the decision only: with no heap left, the last look still takes the likeliest
+    # region from verifier_last_look on. It reads the colours attention receives: with the heightmap node's
     # colour_adaptation on, the transferred colours are rarely clipped, so it seldom applies.
     verifier_clipped_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
