@@ -15,15 +15,21 @@ import calibrate_attention as ca  # noqa: E402
 from impurity_attention.core.attention import AttentionParams  # noqa: E402
 
 
-def main() -> None:
-    first = int(sys.argv[1]) if len(sys.argv) > 1 else 500
-    count = int(sys.argv[2]) if len(sys.argv) > 2 else 60
+def fresh_records(first: int, count: int) -> list:
+    """Records of random-<first> ... random-<first + count - 1> on the tuning palettes' layouts (PALETTE_PLAN
+    on tuning seeds, as collect_palettes("tuning")), cached in runs/perception/palettes_fresh<first>.npz."""
     palettes = [f"random-{seed}" for seed in range(first, first + count)]
     wanted = [(palette, scenario, ca.SEED_BASE["tuning"] + 100 * index + i, targets)
               for palette in palettes
               for index, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN) for i in range(scenes)]
-    records = ca.render_cached(ca.CACHE / f"palettes_fresh{first}.npz", wanted,
-                               f"fresh tuning palettes {first}+")
+    return ca.render_cached(ca.CACHE / f"palettes_fresh{first}.npz", wanted,
+                            f"fresh tuning palettes {first}+")
+
+
+def main() -> None:
+    first = int(sys.argv[1]) if len(sys.argv) > 1 else 500
+    count = int(sys.argv[2]) if len(sys.argv) > 2 else 60
+    records = fresh_records(first, count)
     print(f"== random-{first} ... {first + count - 1}: tuning palettes nothing was fitted on, tuning layouts")
     ca.print_palette_rates(ca.palette_rates(records, AttentionParams()))
 

@@ -16,7 +16,9 @@ import pathlib
 import sys
 
 sys.path.insert(0, "scripts")
+sys.path.insert(0, "docs/experiments_s12")
 import calibrate_attention as ca  # noqa: E402
+from fresh_tuning_palettes import fresh_records  # noqa: E402
 
 from impurity_attention.core.attention import AttentionParams  # noqa: E402
 
@@ -34,15 +36,6 @@ def extra_records(count: int) -> list:
             wanted += [(palette, scenario, base + i, targets) for i in range(scenes)]
     return ca.render_cached(ca.CACHE / f"palettes_extra{FIRST_EXTRA}.npz", wanted,
                             f"extra tuning palettes {FIRST_EXTRA}+")
-
-
-def fresh_records() -> list:
-    palettes = [f"random-{seed}" for seed in range(FRESH_FIRST, FRESH_FIRST + FRESH_COUNT)]
-    wanted = [(palette, scenario, ca.SEED_BASE["tuning"] + 100 * index + i, targets)
-              for palette in palettes
-              for index, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN) for i in range(scenes)]
-    return ca.render_cached(ca.CACHE / f"palettes_fresh{FRESH_FIRST}.npz", wanted,
-                            f"fresh tuning palettes {FRESH_FIRST}+")
 
 
 def main() -> None:
@@ -64,7 +57,7 @@ def main() -> None:
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(dataclasses.asdict(model)))
     print(f"wrote {out}")
-    fresh = fresh_records()
+    fresh = fresh_records(FRESH_FIRST, FRESH_COUNT)
     for name, tried in (("shipped", params), (f"refit with {count} more palettes",
                                                dataclasses.replace(params, verifier=model))):
         print(f"== random-{FRESH_FIRST} ... {FRESH_FIRST + FRESH_COUNT - 1}, {name}")
