@@ -7,7 +7,7 @@
 #     scripts/run_heldout.sh OUT SEED_BASE GROUP_EPISODES [EPISODES]
 #     scripts/run_heldout.sh runs/s12/heldout7 900900000 60      # the seventh set: each palette once
 #
-# The earlier sets' runs are kept as they ran in docs/experiments_s*/run_heldout*.sh.
+# The earlier sets' runs (docs/experiments_s*/run_heldout*.sh) call this script with their arguments.
 # OUT is taken relative to the caller's directory; an existing OUT's results are replaced (--no-resume).
 set -euo pipefail
 usage() { sed -n 2,11p "$0" >&2; exit 2; }
@@ -22,7 +22,7 @@ source scripts/env.sh >/dev/null || { echo "run_heldout.sh: scripts/env.sh faile
 set -u
 mkdir -p "$out/images"
 date; git rev-parse HEAD
-python -c "from impurity_attention.core.attention import AttentionParams as A; a = A(); print('verifier_last_look', a.verifier_last_look, 'verifier_clipped_threshold', a.verifier_clipped_threshold); from impurity_attention.core.verifier import default_verifier as v; print(v().provenance)"
+python -c "from impurity_attention.core.attention import AttentionParams as A; a = A(); print('decision', a.decision, 'verifier_last_look', a.verifier_last_look, 'verifier_clipped_threshold', a.verifier_clipped_threshold); from impurity_attention.core import verifier as v; print('verifier features', len(v.FEATURES), v.default_verifier().provenance)"
 cp README.md "$out/README.md"
 python -m impurity_learning.eval_cli --methods ours --rules cell none --episodes "$episodes" \
   --palette-groups default held_out --group-episodes "$group_episodes" --seed-base "$seed_base" \
