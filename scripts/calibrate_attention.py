@@ -595,91 +595,28 @@ def threshold_at(best, visible, cap: float) -> float:
 
 
 def model_source(verifier) -> str:
-    """verifier_model.py's text for a RegionVerifier or a TreeVerifier: its fields, tuples wrapped to the
-    line length."""
+    """verifier_model.py's text for a RegionVerifier: its fields, tuples wrapped to the line length."""
     import textwrap
 
-    kind = type(verifier).__name__
     lines = []
-    for field in dataclasses.fields(verifier):
-        value = getattr(verifier, field.name)
-        if isinstance(value, tuple):
-            values = ", ".join(repr(v) for v in value) + ("," if len(value) == 1 else "")
-            lines += [f"    {field.name}=("] + [f"        {chunk}" for chunk in textwrap.wrap(values, 96)]
-            lines += ["    ),"]
-        elif field.name == "provenance":
-            chunks = textwrap.wrap(value, 90, drop_whitespace=False)
-            lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
-        else:
-            lines += [f"    {field.name}={value!r},"]
+    for name in ("mean", "scale", "coef", "low", "high"):
+        values = ", ".join(repr(v) for v in getattr(verifier, name))
+        lines += [f"    {name}=("] + [f"        {chunk}" for chunk in textwrap.wrap(values, 96)] + ["    ),"]
+    lines += [f"    intercept={verifier.intercept!r},", f"    threshold={verifier.threshold!r},"]
+    chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
+    lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
     return ('"""The shipped region verifier (verifier.py), written by\n'
             '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
             '(tuning palettes and seeds only). Features in the order of '
-            f'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import {kind}\n\n'
-            f"MODEL = {kind}(\n" + "\n".join(lines) + "\n)\n")
-
-
-VERIFIER_FORMS = ("logistic", "trees")  # verifier-fit --form
-
-
-def fit_verifier_form(form: str, rows: np.ndarray, labels: np.ndarray):
-    """An unfitted-then-fitted scikit-learn classifier of `form` (VERIFIER_FORMS) on (N, F) rows and (N,) bool
-    labels: "logistic" standardised features and C = 1 (the ninth to twelfth sessions' model); "trees"
-    gradient-boosted trees, depth 4, learning rate 0.05, 300 of them (thirteenth session,
-    docs/experiments.md). Both give predict_proba."""
-    from sklearn.ensemble import HistGradientBoostingClassifier
-    from sklearn.linear_model import LogisticRegression
-    from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
-
-    if form == "logistic":
-        model = make_pipeline(StandardScaler(), LogisticRegression(C=1.0, max_iter=5000))
-    elif form == "trees":
-        model = HistGradientBoostingClassifier(max_depth=4, learning_rate=0.05, max_iter=300, early_stopping=False,
-                                               random_state=0)
-    else:
-        raise ValueError(f"verifier form '{form}' not one of {VERIFIER_FORMS}")
-    return model.fit(rows, labels)
-
-
-def exported_verifier(fitted, threshold: float, rows: np.ndarray, provenance: str):
-    """The run-time verifier (impurity_attention.core.verifier) of a fit_verifier_form model: a
-    RegionVerifier of the logistic pipeline's scaler and coefficients, a TreeVerifier of the boosted trees'
-    nodes (sklearn's TreePredictor tables, each tree's child indices shifted to the joined table). low / high:
-    the rows' range per feature."""
-    from impurity_attention.core.verifier import RegionVerifier, TreeVerifier
-
-    def values(array, digits=6):
-        return tuple(round(float(v), digits) for v in array)
-
-    common = dict(threshold=round(threshold, 6), low=values(rows.min(axis=0)), high=values(rows.max(axis=0)),
-                  provenance=provenance)
-    if hasattr(fitted, "named_steps"):
-        scaler, model = fitted.named_steps["standardscaler"], fitted.named_steps["logisticregression"]
-        return RegionVerifier(mean=values(scaler.mean_), scale=values(scaler.scale_), coef=values(model.coef_[0]),
-                              intercept=round(float(model.intercept_[0]), 6), **common)
-    roots, feature, split, left, right, value = [], [], [], [], [], []
-    for (tree,) in fitted._predictors:  # one tree per iteration for a binary classifier
-        nodes, offset = tree.nodes, len(feature)
-        if nodes["is_categorical"].any():
-            raise ValueError("verifier-fit: categorical splits cannot be exported")
-        roots.append(offset)
-        leaf = nodes["is_leaf"].astype(bool)
-        feature += [-1 if is_leaf else int(f) for is_leaf, f in zip(leaf, nodes["feature_idx"], strict=True)]
-        split += [0.0 if is_leaf else float(t) for is_leaf, t in zip(leaf, nodes["num_threshold"], strict=True)]
-        left += [-1 if is_leaf else offset + int(c) for is_leaf, c in zip(leaf, nodes["left"], strict=True)]
-        right += [-1 if is_leaf else offset + int(c) for is_leaf, c in zip(leaf, nodes["right"], strict=True)]
-        value += [float(v) if is_leaf else 0.0 for is_leaf, v in zip(leaf, nodes["value"], strict=True)]
-    return TreeVerifier(roots=tuple(roots), feature=tuple(feature), split=tuple(split), left=tuple(left),
-                        right=tuple(right), value=values(value, 7),
-                        baseline=round(float(fitted._baseline_prediction.ravel()[0]), 7), **common)
+            'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
+            "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
 
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
-                 exposure_scenes: bool = False, form: str = "logistic"):
-    """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only: a
-    classifier of `form` (fit_verifier_form: logistic regression or gradient-boosted trees) of "this region
-    lies on the impurity" on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
+                 exposure_scenes: bool = False):
+    """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
+    logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
+    on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
     (VERIFIER_FOLDS folds; each fold's palettes unseen by its model, as held-out palettes are), with the
     threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
@@ -689,9 +626,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
     every EXPOSURE join them (tried in the eleventh session and not kept: docs/experiments.md; the shipped
     model is fitted without). Returns the fitted RegionVerifier."""
+    from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
+    from sklearn.preprocessing import StandardScaler
 
-    from impurity_attention.core.verifier import FEATURES
+    from impurity_attention.core.verifier import FEATURES, RegionVerifier
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
     if exposure_scenes:
@@ -707,10 +646,13 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
           f"{len(set(group))} palettes; features: {', '.join(FEATURES)}")
 
     def fit(rows, labels):
-        return fit_verifier_form(form, rows, labels)
+        scaler = StandardScaler().fit(rows)
+        model = LogisticRegression(C=1.0, max_iter=5000).fit(scaler.transform(rows), labels)
+        return scaler, model
 
     def predict(fitted, rows):
-        return fitted.predict_proba(rows)[:, 1]
+        scaler, model = fitted
+        return model.predict_proba(scaler.transform(rows))[:, 1]
 
     caps = (0.01, 0.02, 0.05)
     out_of_fold = np.zeros(len(features))
@@ -740,19 +682,19 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     fitted = fit(features, on)
     best, hit = scene_decisions(predict(fitted, features), on, scene, count)
     least = threshold_at(best, visible, VERIFIER_FALSE_TARGET)
+    scaler, model = fitted
+    verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
+                              scale=tuple(round(float(v), 6) for v in scaler.scale_),
+                              coef=tuple(round(float(v), 6) for v in model.coef_[0]),
+                              intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
+                              low=tuple(round(float(v), 6) for v in features.min(axis=0)),
+                              high=tuple(round(float(v), 6) for v in features.max(axis=0)))
     found, false = np.mean((best >= least)[visible] & hit[visible]), np.mean((best >= least)[~visible])
-    provenance = (f"scripts/calibrate_attention.py verifier-fit --form {form}: {count} tuning scenes, "
-                  f"{len(set(group))} palettes; on them {100 * found:.1f} % found, {100 * false:.1f} % false TARGET")
-    verifier = exported_verifier(fitted, least, features, provenance)
-    exported = verifier.probability(features)
-    print(f"exported model against scikit-learn's: largest probability difference "
-          f"{float(np.max(np.abs(exported - predict(fitted, features)))):.2e} over {len(features)} regions")
+    provenance = (f"scripts/calibrate_attention.py verifier-fit: {count} tuning scenes, {len(set(group))} "
+                  f"palettes; on them {100 * found:.1f} % found, {100 * false:.1f} % false TARGET")
+    verifier = dataclasses.replace(verifier, provenance=provenance)
     print(f"fitted on all: {provenance}")
-    if not hasattr(verifier, "roots"):  # a RegionVerifier (a TreeVerifier has thousands of nodes)
-        print(f"  {verifier}")
-    else:
-        print(f"  {type(verifier).__name__}: {len(verifier.roots)} trees, {len(verifier.feature)} nodes, "
-              f"threshold {verifier.threshold}")
+    print(f"  {verifier}")
     if write:
         VERIFIER_MODEL.write_text(model_source(verifier))
         print(f"wrote {VERIFIER_MODEL}")
@@ -833,8 +775,6 @@ def main() -> None:
                              "the shipped AttentionParams')")
     parser.add_argument("--own-layouts", action="store_true",
                         help="verifier-fit: also the tuning palettes' own-layout scenes (collect_palettes)")
-    parser.add_argument("--form", choices=VERIFIER_FORMS, default="logistic",
-                        help="verifier-fit: the model's form (fit_verifier_form)")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -863,7 +803,7 @@ def main() -> None:
         palette_gallery(params)
         return
     if args.action == "verifier-fit":
-        verifier_fit(params, args.write_model, args.own_layouts, form=args.form)
+        verifier_fit(params, args.write_model, args.own_layouts)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

@@ -1,4 +1,5 @@
-"""Thirteenth session: the criterion for the gradient-boosted verifier (docs/experiments.md, thirteenth
+"""Thirteenth session (needs commit 11a499c: TreeVerifier and verifier-fit --form trees, taken back after this
+check failed): the criterion for the gradient-boosted verifier (docs/experiments.md, thirteenth
 section), written before its check set was read. Fits the candidate (`verifier_fit(form="trees")` on the shipped
 rows: rule-sweep's scenes and the tuning palettes' own layouts), writes it to runs/s13/trees_model.py, and
 measures, through attend(), the shipped model beside it on:

@@ -68,7 +68,7 @@ from .saliency import (
     opponent_colour,
     vocus2,
 )
-from .verifier import Verifier, candidate_features, default_verifier
+from .verifier import RegionVerifier, candidate_features, default_verifier
 
 BACKGROUNDS = ("objects", "table")
 CONTRASTS = ("relative", "absolute")
@@ -194,7 +194,7 @@ class AttentionParams:
     # region from verifier_last_look on. It reads the colours attention receives: with the heightmap node's
     # colour_adaptation on, the transferred colours are rarely clipped, so it seldom applies.
     verifier_clipped_threshold: float = 0.0
-    verifier: Verifier | None = None  # None: the shipped model (verifier_model.py)
+    verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 
     def __post_init__(self):
         if self.crop_size < 2 or self.crop_size % 2:

@@ -87,13 +87,17 @@ class RegionVerifier:
     provenance: str = ""
 
     def __post_init__(self):
-        for name in ("mean", "scale", "coef"):
+        for name in ("mean", "scale", "coef", "low", "high"):
             if len(getattr(self, name)) != len(FEATURES):
                 raise ValueError(f"RegionVerifier.{name} needs {len(FEATURES)} values "
                                  f"({', '.join(FEATURES)}), got {len(getattr(self, name))}")
         if not all(s > 0 for s in self.scale):
             raise ValueError(f"RegionVerifier.scale must be > 0, got {self.scale}")
-        _check_range_and_threshold(type(self).__name__, self.low, self.high, self.threshold)
+        if not all(lo <= hi for lo, hi in zip(self.low, self.high, strict=True)):
+            raise ValueError(f"RegionVerifier.low must not exceed high, got {self.low} / {self.high}")
+        if not 0.0 < self.threshold < 1.0:
+            raise ValueError(f"RegionVerifier.threshold must be a probability in (0, 1), got "
+                             f"{self.threshold}")
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity."""
@@ -101,79 +105,6 @@ class RegionVerifier:
         z = (features - np.asarray(self.mean)) / np.asarray(self.scale)
         logit = z @ np.asarray(self.coef) + self.intercept
         return 1.0 / (1.0 + np.exp(-logit))
-
-
-@dataclass(frozen=True)
-class TreeVerifier:
-    """Gradient-boosted regression trees over FEATURES (scikit-learn's HistGradientBoostingClassifier,
-    written out as arrays by verifier-fit so that attention needs numpy only): logit = baseline + the sum,
-    over the trees, of the value of the leaf a row reaches; p = 1 / (1 + exp(-logit)). The nodes of every
-    tree in one table, one entry per node: feature (the index into FEATURES an inner node splits on; -1 at a
-    leaf), split (an inner node's threshold: a row with x[feature] <= split goes to `left`, else to `right`,
-    both indices into the table), value (a leaf's addition to the logit); roots: each tree's first node.
-    threshold, low, high and provenance as RegionVerifier's (features are clipped to the fitted range first,
-    which changes no path: every split lies within it)."""
-
-    roots: tuple
-    feature: tuple
-    split: tuple
-    left: tuple
-    right: tuple
-    value: tuple
-    baseline: float
-    threshold: float
-    low: tuple
-    high: tuple
-    provenance: str = ""
-
-    def __post_init__(self):
-        nodes = len(self.feature)
-        for name in ("split", "left", "right", "value"):
-            if len(getattr(self, name)) != nodes:
-                raise ValueError(f"TreeVerifier.{name} needs one value per node ({nodes}), got "
-                                 f"{len(getattr(self, name))}")
-        if not self.roots or not all(0 <= r < nodes for r in self.roots):
-            raise ValueError(f"TreeVerifier.roots must index nodes 0..{nodes - 1}, got {len(self.roots)} roots")
-        feature = np.asarray(self.feature)
-        if np.any((feature < -1) | (feature >= len(FEATURES))):
-            raise ValueError(f"TreeVerifier.feature must be -1 (a leaf) or an index into FEATURES "
-                             f"(0..{len(FEATURES) - 1})")
-        inner = feature >= 0
-        for name in ("left", "right"):
-            child = np.asarray(getattr(self, name))[inner]
-            if np.any((child <= np.flatnonzero(inner)) | (child >= nodes)):
-                raise ValueError(f"TreeVerifier.{name} of an inner node must index a later node")
-        _check_range_and_threshold(type(self).__name__, self.low, self.high, self.threshold)
-
-    def probability(self, features: np.ndarray) -> np.ndarray:
-        """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity."""
-        x = np.clip(np.atleast_2d(np.asarray(features, dtype=np.float64)), self.low, self.high)
-        feature, split = np.asarray(self.feature), np.asarray(self.split)
-        left, right = np.asarray(self.left), np.asarray(self.right)
-        node = np.broadcast_to(np.asarray(self.roots), (len(x), len(self.roots))).copy()
-        rows = np.arange(len(x))[:, None]
-        while True:  # every step goes one level down (children come later), so this ends
-            on = feature[node]
-            inner = on >= 0
-            if not inner.any():
-                break
-            below = x[rows, np.maximum(on, 0)] <= split[node]
-            node = np.where(inner, np.where(below, left[node], right[node]), node)
-        logit = self.baseline + np.asarray(self.value)[node].sum(axis=1)
-        return 1.0 / (1.0 + np.exp(-logit))
-
-
-def _check_range_and_threshold(name: str, low, high, threshold) -> None:
-    """The fitted range (one (low, high) pair per feature, low <= high) and the threshold (a probability in
-    (0, 1)) every verifier carries; ValueError naming the field otherwise."""
-    for field, values in (("low", low), ("high", high)):
-        if len(values) != len(FEATURES):
-            raise ValueError(f"{name}.{field} needs {len(FEATURES)} values ({', '.join(FEATURES)}), got "
-                             f"{len(values)}")
-    if not all(lo <= hi for lo, hi in zip(low, high, strict=True)):
-        raise ValueError(f"{name}.low must not exceed high, got {low} / {high}")
-    if not 0.0 < threshold < 1.0:
-        raise ValueError(f"{name}.threshold must be a probability in (0, 1), got {threshold}")
 
 
 def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
@@ -241,10 +172,7 @@ def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarra
     return candidates
 
 
-Verifier = RegionVerifier | TreeVerifier  # what attention scores regions with (AttentionParams.verifier)
-
-
-def default_verifier() -> Verifier:
+def default_verifier() -> RegionVerifier:
     """The shipped model (verifier_model.py)."""
     from .verifier_model import MODEL
     return MODEL
