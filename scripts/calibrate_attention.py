@@ -323,26 +323,35 @@ def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale
 
 
 def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> list:
-    """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz); the same
-    scene seeds under every palette, tuning seeds for tuning palettes, acceptance seeds otherwise (the
-    retired held-out palettes share the acceptance cache: records are keyed by palette).
+    """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz). Tuning
+    palettes share the same scene seeds (tuning seeds), as do the retired held-out sets (acceptance seeds;
+    records are keyed by palette). The held-out set ("acceptance") gives each palette scenes of its own, on
+    evaluation seeds splits.HELD_OUT_LAYOUT_SEED_BASE + 10 000 x the plan's row + the palette's index x the
+    row's count + i (cached in palettes_held_out_own.npz; the sets before the eighth shared the ten layouts
+    of the acceptance seeds).
     own_layouts (tuning only): every palette gets scenes of its own, seeds OWN_LAYOUT_SEED_BASE + 1000 x
     the plan's row + the palette's index x the row's count + i, so that a choice made over palettes is not
     made on ten layouts only (cached in palettes_tuning_own.npz)."""
+    from impurity_learning import splits
+
     palettes = palette_names(split)
-    split = "acceptance" if split == "retired" else split
     if own_layouts and split != "tuning":
-        raise ValueError("own_layouts is for tuning palettes (held-out ones are only measured)")
-    path = CACHE / f"palettes_{split}{'' if scale == 1 else f'_x{scale}'}{'_own' if own_layouts else ''}.npz"
+        raise ValueError("own_layouts is for tuning palettes (the held-out set always has scenes of its own)")
+    held_out = split == "acceptance"  # from the eighth set on: scenes of its own per palette (splits.py)
+    split = "acceptance" if split == "retired" else split
+    suffix = ('' if scale == 1 else f'_x{scale}') + ('_own' if own_layouts or held_out else '')
+    path = CACHE / f"palettes_{'held_out' if held_out else split}{suffix}.npz"
     wanted = []
     for number, palette in enumerate(palettes):
         for index, (scenario, targets, count) in enumerate(PALETTE_PLAN):
             if own_layouts:
                 base = OWN_LAYOUT_SEED_BASE + 1000 * index + number * count * scale
+            elif held_out:
+                base = splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * index + number * count * scale
             else:
                 base = SEED_BASE[split] + 100 * index
             wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
-    return render_cached(path, wanted, f"{split} palettes")
+    return render_cached(path, wanted, f"{'held-out' if held_out else split} palettes")
 
 
 def render_cached(path: pathlib.Path, wanted: list, what: str) -> list:
@@ -710,10 +719,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
 
 
 def palette_evaluate(params: AttentionParams, json_path=None) -> dict:
-    """Held-out palettes (acceptance seeds), the retired held-out sets (for comparison) and the
-    default palette at exposure x0.5, x1, x2 (acceptance seeds): only measured."""
+    """Held-out palettes (each on scenes of its own, evaluation seeds), the retired held-out sets (acceptance
+    seeds; for comparison) and the default palette at exposure x0.5, x1, x2 (acceptance seeds): only
+    measured."""
     results = {"params": dataclasses.asdict(params)}
-    print("== held-out palettes (acceptance seeds)")
+    print("== held-out palettes (each on scenes of its own: splits.HELD_OUT_LAYOUT_SEED_BASE)")
     results["held_out"] = print_palette_rates(palette_rates(collect_palettes("acceptance"), params))
     print("== retired held-out palettes, the earlier sets (acceptance seeds; measured for comparison)")
     results["retired"] = print_palette_rates(palette_rates(collect_palettes("retired"), params))

@@ -29,4 +29,4 @@ def test_the_held_out_set_is_held_out_and_every_earlier_set_is_retired():
 
 def test_a_palette_outside_the_split_is_refused():
     with pytest.raises(ValueError, match="no group"):
-        splits.palette_group("random-8000")
+        splits.palette_group("random-9000")

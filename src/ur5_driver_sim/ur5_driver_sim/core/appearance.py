@@ -240,6 +240,18 @@ PALETTES = {p.name: p for p in (
              light_direction=(0.5, 0.1, 1.0)),
     _palette("kidney_beans_stones", [(112, 38, 42), (98, 32, 38)], [(118, 114, 108)],
              "dark red kidney beans with grey stones", product_jitter=0.02, ambient=0.6, diffuse=0.45),
+    # Added 2026-12-01 (thirteenth session) as the eighth held-out set, fixed before any of them was rendered.
+    _palette("soybeans_stones", [(222, 196, 140), (210, 182, 124)], [(120, 112, 104)],
+             "yellow soybeans with grey-brown stones", product_jitter=0.02, light_direction=(0.3, 0.4, 1.0)),
+    _palette("macadamia_shells", [(236, 222, 190), (226, 208, 172)], [(122, 84, 56), (150, 110, 76)],
+             "cream macadamia kernels with brown shell pieces, dark and light", product_jitter=0.015,
+             exposure=1.05),
+    _palette("red_lentils_stones", [(222, 120, 70), (210, 108, 62), (230, 132, 80)], [(140, 130, 120)],
+             "orange-red lentils of several shades with grey stones", product_jitter=0.02, ambient=0.55,
+             diffuse=0.5),
+    _palette("barley_stones", [(214, 186, 120), (200, 170, 104)], [(96, 92, 88), (150, 140, 128)],
+             "golden barley with dark and light stones", product_jitter=0.02,
+             light_direction=(-0.3, 0.5, 1.0)),
 )}
 
 
