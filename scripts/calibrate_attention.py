@@ -341,17 +341,27 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
     split = "acceptance" if split == "retired" else split
     suffix = ('' if scale == 1 else f'_x{scale}') + ('_own' if own_layouts or held_out else '')
     path = CACHE / f"palettes_{'held_out' if held_out else split}{suffix}.npz"
-    wanted = []
-    for number, palette in enumerate(palettes):
-        for index, (scenario, targets, count) in enumerate(PALETTE_PLAN):
-            if own_layouts:
-                base = OWN_LAYOUT_SEED_BASE + 1000 * index + number * count * scale
-            elif held_out:
-                base = splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * index + number * count * scale
-            else:
-                base = SEED_BASE[split] + 100 * index
-            wanted += [(palette, scenario, base + i, targets) for i in range(count * scale)]
-    return render_cached(path, wanted, f"{'held-out' if held_out else split} palettes")
+    if own_layouts:
+        def base(row, number, count):
+            return OWN_LAYOUT_SEED_BASE + 1000 * row + number * count
+    elif held_out:
+        def base(row, number, count):
+            return splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * row + number * count
+    else:
+        def base(row, number, count):
+            return SEED_BASE[split] + 100 * row
+    return render_cached(path, palette_scenes(palettes, base, scale), f"{'held-out' if held_out else split} "
+                                                                      "palettes")
+
+
+def palette_scenes(palettes: list, base, scale: int = 1) -> list:
+    """The scenes PALETTE_PLAN asks of each palette, as render_cached wants them: (palette, scenario, seed,
+    targets) for every palette, plan row and i < the row's count x scale, on seeds base(row, the palette's
+    index, the row's count x scale) + i (a base ignoring the palette's index gives every palette the same
+    layouts)."""
+    return [(palette, scenario, base(row, number, count * scale) + i, targets)
+            for number, palette in enumerate(palettes)
+            for row, (scenario, targets, count) in enumerate(PALETTE_PLAN) for i in range(count * scale)]
 
 
 def render_cached(path: pathlib.Path, wanted: list, what: str) -> list:

@@ -19,9 +19,7 @@ def fresh_records(first: int, count: int) -> list:
     """Records of random-<first> ... random-<first + count - 1> on the tuning palettes' layouts (PALETTE_PLAN
     on tuning seeds, as collect_palettes("tuning")), cached in runs/perception/palettes_fresh<first>.npz."""
     palettes = [f"random-{seed}" for seed in range(first, first + count)]
-    wanted = [(palette, scenario, ca.SEED_BASE["tuning"] + 100 * index + i, targets)
-              for palette in palettes
-              for index, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN) for i in range(scenes)]
+    wanted = ca.palette_scenes(palettes, lambda row, number, scenes: ca.SEED_BASE["tuning"] + 100 * row)
     return ca.render_cached(ca.CACHE / f"palettes_fresh{first}.npz", wanted,
                             f"fresh tuning palettes {first}+")
 

@@ -28,12 +28,8 @@ FRESH_FIRST, FRESH_COUNT = 500, 60
 
 
 def extra_records(count: int) -> list:
-    wanted = []
-    for number in range(count):
-        palette = f"random-{FIRST_EXTRA + number}"
-        for row, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN):
-            base = SEED_BASE + 2000 * row + number * scenes
-            wanted += [(palette, scenario, base + i, targets) for i in range(scenes)]
+    palettes = [f"random-{FIRST_EXTRA + number}" for number in range(count)]
+    wanted = ca.palette_scenes(palettes, lambda row, number, scenes: SEED_BASE + 2000 * row + number * scenes)
     return ca.render_cached(ca.CACHE / f"palettes_extra{FIRST_EXTRA}.npz", wanted,
                             f"extra tuning palettes {FIRST_EXTRA}+")
 

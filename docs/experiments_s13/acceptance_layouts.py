@@ -1,6 +1,6 @@
-"""Thirteenth session: are the held-out sets' layouts harder than the tuning ones? Every held-out set so far was
-rendered on the same ten visible layouts (PALETTE_PLAN on the acceptance seeds, 1000 + 100 x row + i), and the
-seven sets read lower than tuning palettes do on layouts of their own (96.2 % over 260 palettes,
+"""Thirteenth session: are the held-out sets' layouts harder than the tuning ones? Every held-out set so far
+was rendered on the same ten visible layouts (PALETTE_PLAN on the acceptance seeds, 1000 + 100 x row + i),
+and the seven sets read lower than tuning palettes do on layouts of their own (96.2 % over 260 palettes,
 docs/experiments_s13/set_spread.py). Here tuning palettes the verifier never saw, random-700 ... 759, are
 rendered on those acceptance layouts and only measured (evaluation seeds: nothing is chosen on them).
 
@@ -18,9 +18,7 @@ from impurity_attention.core.attention import AttentionParams, attend  # noqa: E
 
 def main() -> None:
     palettes = [f"random-{seed}" for seed in range(700, 760)]
-    wanted = [(palette, scenario, ca.SEED_BASE["acceptance"] + 100 * row + i, targets)
-              for palette in palettes for row, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN)
-              for i in range(scenes)]
+    wanted = ca.palette_scenes(palettes, lambda row, number, scenes: ca.SEED_BASE["acceptance"] + 100 * row)
     records = ca.render_cached(ca.CACHE / "palettes_fresh700_acceptance_layouts.npz", wanted,
                                "random-700+ on the acceptance layouts")
     print("== random-700 ... 759 on the held-out sets' layouts (acceptance seeds)")

@@ -16,7 +16,13 @@ import fresh_tuning_palettes as fresh  # noqa: E402
 
 from impurity_attention.core import evaluation  # noqa: E402
 from impurity_attention.core.attention import (  # noqa: E402
-    AttentionMode, AttentionParams, attend, salient_regions, sanitize, scene_maps)
+    AttentionMode,
+    AttentionParams,
+    attend,
+    salient_regions,
+    sanitize,
+    scene_maps,
+)
 from impurity_attention.core.heightmap import clipped_view  # noqa: E402
 from impurity_attention.core.verifier import TOP_REGIONS  # noqa: E402
 

@@ -24,13 +24,11 @@ import numpy as np
 sys.path.insert(0, "scripts")
 sys.path.insert(0, "docs/experiments_s12")
 sys.path.insert(0, "docs/experiments_s13")
-import calibrate_attention as ca  # noqa: E402
 import nonlinear  # noqa: E402
 
 from impurity_attention.core.attention import AttentionParams, salient_regions, scene_maps  # noqa: E402
 from impurity_attention.core.saliency import CHROMA_MIN_INTENSITY, opponent_chromaticity  # noqa: E402
-from impurity_attention.core.verifier import (  # noqa: E402
-    PRODUCT_MARGIN, SATURATION, TOP_REGIONS, candidate_features)
+from impurity_attention.core.verifier import PRODUCT_MARGIN, SATURATION, TOP_REGIONS, candidate_features  # noqa: E402
 
 CACHE = pathlib.Path("runs/s13")
 CHROMA_FLOOR = 0.01
@@ -78,7 +76,8 @@ def rows(name: str, records_of) -> tuple:
             on.append(category == "visible" and bool(np.any(region.mask & record.visible_target_cells)))
             scene.append(index)
             group.append(record.palette or "blocks")
-    result = (np.array(features), np.array(on, bool), np.array(scene), np.array(group), np.array(visible, bool))
+    result = (np.array(features), np.array(on, bool), np.array(scene), np.array(group),
+              np.array(visible, bool))
     CACHE.mkdir(parents=True, exist_ok=True)
     np.savez(path, **dict(zip(("features", "on", "scene", "group", "visible"), result, strict=True)))
     return result
@@ -87,7 +86,7 @@ def rows(name: str, records_of) -> tuple:
 def main() -> None:
     import fresh_tuning_palettes
     command, rest = sys.argv[1], sys.argv[2:]
-    data = rows("shipped", lambda: ca.rule_sweep_records()[0] + ca.collect_palettes("tuning", own_layouts=True))
+    data = nonlinear.shipped_rows_of(rows)
     assert TOP_REGIONS == 3
     for label, columns in (("12 features", slice(0, 12)), ("14 features (+ chroma)", slice(0, 14))):
         cut = (data[0][:, columns],) + data[1:]

@@ -1,9 +1,9 @@
-"""Thirteenth session, tuning data only: are the "fresh" tuning palette sets fresh in their layouts? random-500+,
--600+ and -700+ were rendered on the ten visible layouts every tuning palette shares (PALETTE_PLAN on tuning
-seeds), layouts the verifier was fitted on under 105 other palettes. Held-out sets are rendered on acceptance
-layouts nobody fitted on. Here the same palettes are rendered on layouts of their own that nothing used:
-palette k (0-based) gets seeds LAYOUT_SEED_BASE + 800 x the plan's row + k x the row's count + i (94000 ...
-98800, tuning seeds < 100000, unused before). Only measured.
+"""Thirteenth session, tuning data only: are the "fresh" tuning palette sets fresh in their layouts?
+random-500+, -600+ and -700+ were rendered on the ten visible layouts every tuning palette shares
+(PALETTE_PLAN on tuning seeds), layouts the verifier was fitted on under 105 other palettes. Held-out sets
+are rendered on acceptance layouts nobody fitted on. Here the same palettes are rendered on layouts of their
+own that nothing used: palette k (0-based) gets seeds LAYOUT_SEED_BASE + 800 x the plan's row + k x the
+row's count + i (94000 ... 98800, tuning seeds < 100000, unused before). Only measured.
 
     python docs/experiments_s13/fresh_layouts.py [first] [count]      # default 700 60
 """
@@ -20,12 +20,9 @@ LAYOUT_SEED_BASE = 94_000
 def own_layout_records(first: int, count: int) -> list:
     """random-<first> ... on layouts of their own (module docstring), cached in
     runs/perception/palettes_fresh<first>_own.npz."""
-    wanted = []
-    for number in range(count):
-        palette = f"random-{first + number}"
-        for row, (scenario, targets, scenes) in enumerate(ca.PALETTE_PLAN):
-            base = LAYOUT_SEED_BASE + 800 * row + number * scenes
-            wanted += [(palette, scenario, base + i, targets) for i in range(scenes)]
+    palettes = [f"random-{first + number}" for number in range(count)]
+    wanted = ca.palette_scenes(palettes,
+                               lambda row, number, scenes: LAYOUT_SEED_BASE + 800 * row + number * scenes)
     assert max(seed for *_, seed, _ in wanted) < 100_000  # tuning seeds
     return ca.render_cached(ca.CACHE / f"palettes_fresh{first}_own.npz", wanted,
                             f"fresh tuning palettes {first}+ on their own layouts")

@@ -1,7 +1,7 @@
-"""Thirteenth session, tuning palettes only: how much of a palette set's found rate is its layouts? Every palette
-of a set is rendered on the same ten visible layouts (calibrate_attention.PALETTE_PLAN on one seed base), so a
-layout the attention finds hard counts once per palette. Per set: misses per layout, and the found rate with
-each layout left out.
+"""Thirteenth session, tuning palettes only: how much of a palette set's found rate is its layouts? Every
+palette of a set is rendered on the same ten visible layouts (calibrate_attention.PALETTE_PLAN on one seed
+base), so a layout the attention finds hard counts once per palette. Per set: misses per layout, and the
+found rate with each layout left out.
 
     python docs/experiments_s13/layouts.py 500 600 700
 """
@@ -36,7 +36,8 @@ def main() -> None:
             print(f"  {layout:16s} missed {missed[layout]:3d} of {visible[layout]:3d}")
         shares = [missed[k] / max(misses, 1) for k in visible]
         print(f"  the worst layout holds {100 * max(shares):.0f} % of the misses; the two worst "
-              f"{100 * sum(sorted(shares)[-2:]):.0f} %; std of misses over layouts {np.std(list(missed.values())):.1f}")
+              f"{100 * sum(sorted(shares)[-2:]):.0f} %; std of misses over layouts "
+              f"{np.std(list(missed.values())):.1f}")
 
 
 if __name__ == "__main__":

@@ -1,12 +1,13 @@
-"""Thirteenth session, tuning palettes only: is the logistic verifier's form what holds it back? Most misses on
-fresh tuning palettes are impurities that are one of the verifier's candidates but score under its threshold
-(docs/experiments_s13/candidates.py). Same features, same rows, same palette-grouped cross-validation and
-1 % false-TARGET threshold as `calibrate_attention.py verifier-fit --own-layouts`; models compared:
-logistic (the shipped form), a small MLP, gradient-boosted trees. Then each, fitted on all the rows, is scored
-on fresh tuning palette sets by the same scene decision (the likeliest candidate at or over the threshold).
+"""Thirteenth session, tuning palettes only: is the logistic verifier's form what holds it back? Most
+misses on fresh tuning palettes are impurities that are one of the verifier's candidates but score under its
+threshold (docs/experiments_s13/candidates.py). Same features, same rows, same palette-grouped
+cross-validation and 1 % false-TARGET threshold as `calibrate_attention.py verifier-fit --own-layouts`;
+models compared: logistic (the shipped form), a small MLP, gradient-boosted trees. Then each, fitted on all
+the rows, is scored on fresh tuning palette sets by the same scene decision (the likeliest candidate at or
+over the threshold).
 
-    python docs/experiments_s13/nonlinear.py cv [extra]          # extra: the 200 extra palettes join the rows
-    python docs/experiments_s13/nonlinear.py fresh 500 600 [--extra]
+    python docs/experiments_s13/nonlinear.py cv [extra]      # extra: the 200 extra palettes join the rows
+    python docs/experiments_s13/nonlinear.py fresh 500 600 [--extra] [--caps=0.01,0.02]
 
 Rows are cached in runs/s13/rows_<name>.npz.
 """
@@ -37,8 +38,17 @@ def rows(name: str, records_of) -> tuple:
     return result
 
 
+def shipped_records() -> list:
+    """The shipped fit's scenes (verifier-fit --own-layouts): rule-sweep's and the tuning own layouts."""
+    return ca.rule_sweep_records()[0] + ca.collect_palettes("tuning", own_layouts=True)
+
+
+def shipped_rows_of(rows_of) -> tuple:
+    return rows_of("shipped", shipped_records)
+
+
 def shipped_rows():
-    return rows("shipped", lambda: ca.rule_sweep_records()[0] + ca.collect_palettes("tuning", own_layouts=True))
+    return shipped_rows_of(rows)
 
 
 def extra_rows():
@@ -79,7 +89,8 @@ def models() -> dict:
 
 def scene_rate(probability, on, scene, visible, least) -> tuple:
     best, hit = ca.scene_decisions(probability, on, scene, len(visible))
-    return (float(np.mean((best >= least)[visible] & hit[visible])), float(np.mean((best >= least)[~visible])))
+    decided = best >= least
+    return float(np.mean(decided[visible] & hit[visible])), float(np.mean(decided[~visible]))
 
 
 def cv(data) -> None:

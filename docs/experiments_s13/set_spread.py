@@ -1,8 +1,9 @@
 """Thirteenth session, tuning data only: how precisely does a held-out set of N random palettes measure the
-found rate? The shipped attention on 260 random tuning palettes it was never fitted on, each on layouts of its
-own: random-192 ... 391 (docs/experiments_s12/more_palettes.py, seeds 80000+) and random-700 ... 759
-(docs/experiments_s13/fresh_layouts.py, seeds 94000+). Per palette the found count of its ten visible scenes;
-then sets of N palettes drawn from those 260 (with replacement, 20000 draws): the spread of a set's found rate.
+found rate? The shipped attention on 260 random tuning palettes it was never fitted on, each on layouts of
+its own: random-192 ... 391 (docs/experiments_s12/more_palettes.py, seeds 80000+) and random-700 ... 759
+(docs/experiments_s13/fresh_layouts.py, seeds 94000+). Per palette the found count of its ten visible
+scenes; then sets of N palettes drawn from those 260 (with replacement, 20000 draws): the spread of a set's
+found rate.
 
     python docs/experiments_s13/set_spread.py
 """

@@ -1,6 +1,7 @@
 """Thirteenth session (needs commit 11a499c: TreeVerifier and verifier-fit --form trees, taken back after this
 check failed): the criterion for the gradient-boosted verifier (docs/experiments.md, thirteenth
-section), written before its check set was read. Fits the candidate (`verifier_fit(form="trees")` on the shipped
+section), written before its check set was read. Fits the candidate (`verifier_fit(form="trees")` on the
+shipped
 rows: rule-sweep's scenes and the tuning palettes' own layouts), writes it to runs/s13/trees_model.py, and
 measures, through attend(), the shipped model beside it on:
 - random-700 ... 759, tuning layouts (fresh_tuning_palettes.fresh_records), and
@@ -36,13 +37,15 @@ def candidate():
 
 
 def models() -> dict:
-    return {"shipped": AttentionParams(), "trees": dataclasses.replace(AttentionParams(), verifier=candidate())}
+    return {"shipped": AttentionParams(),
+            "trees": dataclasses.replace(AttentionParams(), verifier=candidate())}
 
 
 def main() -> None:
     command = sys.argv[1]
     if command == "fit":
-        verifier = ca.verifier_fit(AttentionParams(), write=False, own_layouts=True, check=False, form="trees")
+        verifier = ca.verifier_fit(AttentionParams(), write=False, own_layouts=True, check=False,
+                                   form="trees")
         MODEL.parent.mkdir(parents=True, exist_ok=True)
         MODEL.write_text(ca.model_source(verifier))
         print(f"wrote {MODEL}")
@@ -69,7 +72,8 @@ def main() -> None:
             for exposure in ca.EXPOSURES:
                 clean = total[exposure, "no_impurity", True] + total[exposure, "no_impurity", False]
                 visible = total[exposure, "visible", True] + total[exposure, "visible", False]
-                print(f"  {name:8s} x{exposure:g}: false TARGET {total[exposure, 'no_impurity', False]}/{clean}, "
+                false = total[exposure, "no_impurity", False]
+                print(f"  {name:8s} x{exposure:g}: false TARGET {false}/{clean}, "
                       f"impurity found {total[exposure, 'visible', True]}/{visible}")
     else:
         raise SystemExit(f"unknown command {command}: fit, palettes or exposure")
