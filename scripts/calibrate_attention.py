@@ -13,9 +13,10 @@
 
 Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Palettes (issue 17) follow the split
 of impurity_learning/splits.py: the relative threshold is chosen on tuning palettes with tuning seeds
-only; held-out palettes are rendered with acceptance seeds and only measured. Rendered scenes are
-cached as .npz under runs/perception/ (rendering and settling is the slow part); `evaluate` collects
-what is missing.
+only; held-out palettes are rendered on evaluation seeds, each palette on scenes of its own
+(splits.HELD_OUT_LAYOUT_SEED_BASE; the retired sets on acceptance seeds), and only measured. Rendered
+scenes are cached as .npz under runs/perception/ (rendering and settling is the slow part); `evaluate`
+collects what is missing.
 Everything is seeded: the same command gives the same figures.
 """
 

@@ -5,7 +5,7 @@
 # before the set was rendered. Writes everything into OUT (nothing in README or docs/).
 #
 #     scripts/run_heldout.sh OUT SEED_BASE GROUP_EPISODES [EPISODES]
-#     scripts/run_heldout.sh runs/s12/heldout7 900900000 60      # the seventh set: each palette once
+#     scripts/run_heldout.sh runs/s13/heldout8 902900000 100     # the eighth set: its first 100 palettes
 #
 # The earlier sets' runs (docs/experiments_s*/run_heldout*.sh) call this script with their arguments.
 # OUT is taken relative to the caller's directory; an existing OUT's results are replaced (--no-resume).

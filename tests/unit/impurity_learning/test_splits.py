@@ -30,3 +30,13 @@ def test_the_held_out_set_is_held_out_and_every_earlier_set_is_retired():
 def test_a_palette_outside_the_split_is_refused():
     with pytest.raises(ValueError, match="no group"):
         splits.palette_group("random-9000")
+
+
+def test_held_out_perception_scenes_are_evaluation_seeds_below_the_picking_runs():
+    # palette-evaluate gives palette k of the held-out set seeds HELD_OUT_LAYOUT_SEED_BASE + 10 000 x row +
+    # k x count + i (PALETTE_PLAN: at most 6 per row, 7 rows): never a tuning seed, and below the eighth set's
+    # picking run (HELD_OUT_LAYOUT_SEED_BASE + 900 000 + k, docs/experiments.md thirteenth section)
+    last = splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * 6 + 6 * len(splits.held_out_palettes())
+    assert splits.HELD_OUT_LAYOUT_SEED_BASE >= splits.EVAL_SEED_BASE
+    assert splits.HELD_OUT_LAYOUT_SEED_BASE not in splits.TUNING_SEED_RANGE
+    assert last < splits.HELD_OUT_LAYOUT_SEED_BASE + 900_000
