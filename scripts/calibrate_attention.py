@@ -327,9 +327,8 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
     """Records of every palette of the split (cached in runs/perception/palettes_<split>.npz). Tuning
     palettes share the same scene seeds (tuning seeds), as do the retired held-out sets (acceptance seeds;
     records are keyed by palette). The held-out set ("acceptance") gives each palette scenes of its own, on
-    evaluation seeds splits.HELD_OUT_LAYOUT_SEED_BASE + 10 000 x the plan's row + the palette's index x the
-    row's count + i (cached in palettes_held_out_own.npz; the sets before the eighth shared the ten layouts
-    of the acceptance seeds).
+    evaluation seeds splits.held_out_layout_seed(row, the palette's index, the row's count) + i (cached in
+    palettes_held_out_own.npz; the sets before the eighth shared the ten layouts of the acceptance seeds).
     own_layouts (tuning only): every palette gets scenes of its own, seeds OWN_LAYOUT_SEED_BASE + 1000 x
     the plan's row + the palette's index x the row's count + i, so that a choice made over palettes is not
     made on ten layouts only (cached in palettes_tuning_own.npz)."""
@@ -346,8 +345,7 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
         def base(row, number, count):
             return OWN_LAYOUT_SEED_BASE + 1000 * row + number * count
     elif held_out:
-        def base(row, number, count):
-            return splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * row + number * count
+        base = splits.held_out_layout_seed
     else:
         def base(row, number, count):
             return SEED_BASE[split] + 100 * row

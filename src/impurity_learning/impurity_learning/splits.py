@@ -43,9 +43,9 @@ HELD_OUT_NAMED = ("soybeans_stones", "macadamia_shells", "red_lentils_stones", "
 HELD_OUT_RANDOM_SEEDS = range(8000, 9000)  # random-<seed>, only measured
 HELD_OUT_RANDOM_COUNT = 196  # random palettes of the held-out set (held_out_palettes' default)
 # The held-out palettes' perception scenes (scripts/calibrate_attention.py palette-evaluate, from the eighth
-# set on): palette k of held_out_palettes() gets scenes of its own on evaluation seeds
-# HELD_OUT_LAYOUT_SEED_BASE + 10 000 x the plan's row + k x the row's count + i, not the ten layouts every
-# earlier set shared (the acceptance seeds): the figure is then a draw of 2000 layouts, not of ten.
+# set on): each palette of held_out_palettes() gets scenes of its own on evaluation seeds
+# (held_out_layout_seed), not the ten layouts every earlier set shared (the acceptance seeds): the figure is
+# then a draw of 2000 layouts, not of ten.
 HELD_OUT_LAYOUT_SEED_BASE = 902_000_000
 # the retired sets, oldest first: (named palettes, random seeds); 8 random palettes of each were measured
 # (24 of the fourth, fifth and sixth sets, 56 of the seventh; retired_palettes measures 8 of every set)
@@ -70,6 +70,13 @@ def tuning_palettes(random_count: int = 8) -> list:
 
 def held_out_palettes(random_count: int = HELD_OUT_RANDOM_COUNT) -> list:
     return list(HELD_OUT_NAMED) + [f"random-{s}" for s in HELD_OUT_RANDOM_SEEDS[:random_count]]
+
+
+def held_out_layout_seed(row: int, palette_index: int, count: int) -> int:
+    """The first perception scene seed of held-out palette `palette_index` (0-based, in held_out_palettes())
+    in row `row` of calibrate_attention's PALETTE_PLAN, which asks `count` scenes there: its scenes are seeds
+    this + i, i < count. HELD_OUT_LAYOUT_SEED_BASE + 10 000 x row + palette_index x count."""
+    return HELD_OUT_LAYOUT_SEED_BASE + 10_000 * row + palette_index * count
 
 
 def retired_palettes(random_count: int = 8) -> list:

@@ -32,11 +32,14 @@ def test_a_palette_outside_the_split_is_refused():
         splits.palette_group("random-9000")
 
 
-def test_held_out_perception_scenes_are_evaluation_seeds_below_the_picking_runs():
-    # palette-evaluate gives palette k of the held-out set seeds HELD_OUT_LAYOUT_SEED_BASE + 10 000 x row +
-    # k x count + i (PALETTE_PLAN: at most 6 per row, 7 rows): never a tuning seed, and below the eighth set's
-    # picking run (HELD_OUT_LAYOUT_SEED_BASE + 900 000 + k, docs/experiments.md thirteenth section)
-    last = splits.HELD_OUT_LAYOUT_SEED_BASE + 10_000 * 6 + 6 * len(splits.held_out_palettes())
-    assert splits.HELD_OUT_LAYOUT_SEED_BASE >= splits.EVAL_SEED_BASE
-    assert splits.HELD_OUT_LAYOUT_SEED_BASE not in splits.TUNING_SEED_RANGE
-    assert last < splits.HELD_OUT_LAYOUT_SEED_BASE + 900_000
+def test_held_out_perception_scenes_are_evaluation_seeds_of_their_own_below_the_picking_runs():
+    # palette-evaluate's PALETTE_PLAN: 7 rows of at most 6 scenes. Every palette's scenes are its own, never a
+    # tuning seed, and below the eighth set's picking run (HELD_OUT_LAYOUT_SEED_BASE + 900 000 + k,
+    # docs/experiments.md thirteenth section)
+    palettes = len(splits.held_out_palettes())
+    seeds = [splits.held_out_layout_seed(row, k, 6) + i for row in range(7) for k in range(palettes)
+             for i in range(6)]
+    assert len(set(seeds)) == len(seeds)
+    assert min(seeds) == splits.HELD_OUT_LAYOUT_SEED_BASE >= splits.EVAL_SEED_BASE
+    assert not any(seed in splits.TUNING_SEED_RANGE for seed in seeds)
+    assert max(seeds) < splits.HELD_OUT_LAYOUT_SEED_BASE + 900_000
