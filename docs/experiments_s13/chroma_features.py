@@ -94,10 +94,11 @@ def main() -> None:
         if command == "cv":
             nonlinear.cv(cut)
         else:
+            sets = {}
             for first in [int(a) for a in rest]:
                 fresh = rows(f"fresh{first}", lambda f=first: fresh_tuning_palettes.fresh_records(f, 60))
-                nonlinear.FRESH[first] = (fresh[0][:, columns],) + fresh[1:]
-            nonlinear.fresh(cut, [int(a) for a in rest])
+                sets[first] = (fresh[0][:, columns],) + fresh[1:]
+            nonlinear.fresh(cut, sets)
 
 
 if __name__ == "__main__":

@@ -24,7 +24,6 @@ from impurity_attention.core.attention import AttentionParams  # noqa: E402
 
 CACHE = pathlib.Path("runs/s13")
 CAP = ca.VERIFIER_FALSE_TARGET
-FRESH = {}  # first -> rows, when a caller scores other features than verifier_rows'
 
 
 def rows(name: str, records_of) -> tuple:
@@ -120,10 +119,10 @@ def cv(data) -> None:
               f"{100 * false / clean:.1f} %")
 
 
-def fresh(data, firsts, caps=(CAP,)) -> None:
+def fresh(data, sets: dict, caps=(CAP,)) -> None:
     """Each model fitted on all of `data`, its threshold the least that lets through `cap` of the rows'
-    scenes without a visible impurity; scored on the fresh sets (false TARGET over every scene without a
-    visible impurity: no_impurity and invisible)."""
+    scenes without a visible impurity; scored on the fresh sets ({first palette: rows as `data`}; false
+    TARGET over every scene without a visible impurity: no_impurity and invisible)."""
     features, on, scene, group, visible = data
     for name, make in models().items():
         model = make().fit(features, on)
@@ -131,8 +130,7 @@ def fresh(data, firsts, caps=(CAP,)) -> None:
         for cap in caps:
             least = ca.threshold_at(best, visible, cap)
             line = f"  {name:10s} cap {100 * cap:.0f} % threshold {least:.3f}:"
-            for first in firsts:
-                f, o, s, _, v = FRESH[first] if first in FRESH else fresh_rows(first)
+            for first, (f, o, s, _, v) in sets.items():
                 found, false = scene_rate(model.predict_proba(f)[:, 1], o, s, v, least)
                 line += f"  random-{first}+ found {100 * found:5.1f} % false TARGET {100 * false:.1f} %"
             print(line)
@@ -147,7 +145,7 @@ def main() -> None:
     else:
         caps = [float(a[len("--caps="):].split(",")[i]) for a in rest if a.startswith("--caps=")
                 for i in range(len(a[len("--caps="):].split(",")))] or [CAP]
-        fresh(data, [int(a) for a in rest if a.isdigit()], caps)
+        fresh(data, {int(a): fresh_rows(int(a)) for a in rest if a.isdigit()}, caps)
 
 
 if __name__ == "__main__":
