@@ -9,10 +9,12 @@ import pathlib
 import signal
 import subprocess
 import time
+import uuid
 
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
+from unique_identifier_msgs.msg import UUID
 
 from impurity_common.clients import RaceFreeActionClient
 
@@ -21,6 +23,7 @@ INSTALL = ROOT / "ros2_ws" / "install"
 LOG_DIR = ROOT / "ros2_ws" / "log" / "test-processes"
 CELL_CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 CALIBRATION = ROOT / "bringup" / "config" / "camera_calibration.yaml"  # the camera pose, read after cell.yaml
+LOST_RESPONSE_GRACE = 2.0  # s: a goal the server reports on waits this long for its response (episode_client)
 
 
 def executable_path(package: str, executable: str) -> pathlib.Path:
@@ -160,10 +163,23 @@ class ActionHelper:
         self.feedback = []
 
     def send_goal(self, goal, timeout: float = 30.0):
-        """Returns the goal handle (check .accepted)."""
+        """Returns the goal handle (check .accepted). When the goal response is lost below rclpy (Fast DDS:
+        "failed to send response (timeout)") but the server reports on the goal, the goal is followed
+        through RaceFreeActionClient.adopt_accepted_goal, as bringup/episode_client.py does: never sent
+        twice."""
+        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
         future = self.client.send_goal_async(
-            goal, feedback_callback=lambda fb: self.feedback.append(fb.feedback))
-        spin_until(self.node, future.done, timeout, f"goal response from {self.name}", self.processes)
+            goal, goal_uuid=goal_id, feedback_callback=lambda fb: self.feedback.append(fb.feedback))
+
+        def answered() -> bool:  # the goal response, or the server's feedback / status about the goal
+            return future.done() or self.client.heard_of(goal_id)
+
+        spin_until(self.node, answered, timeout, f"goal response from {self.name}", self.processes)
+        if not future.done():  # heard of: give the response a moment, then follow the goal without it
+            try:
+                spin_until(self.node, future.done, LOST_RESPONSE_GRACE, "goal response", self.processes)
+            except WaitTimeout:
+                return self.client.adopt_accepted_goal(goal_id)
         return future.result()
 
     def get_result(self, goal_handle, timeout: float = 60.0):
