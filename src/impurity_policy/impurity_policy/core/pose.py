@@ -230,6 +230,34 @@ def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: i
     return inside
 
 
+EDGE_APPROACH = 0.3  # pushes_not_toward_near_edge: a push approaches an edge when its unit direction's
+# component towards it is at least this (within 72.5 degrees of the edge's outward normal; of the 16 rotations,
+# those at 0, 22.5, 45 and 67.5 degrees do)
+
+
+def pushes_not_toward_near_edge(crop_origin, size: int, margin: float,
+                                num_rotations: int = cell.NUM_ROTATIONS, grid: HeightmapGrid = HeightmapGrid(),
+                                length: float = cell.PUSH_LENGTH) -> np.ndarray:
+    """(R, S, S) bool: False where a push from that crop pixel along rotation r's yaw approaches a
+    workspace edge (the heightmap's `grid`; its direction's component towards the edge at least
+    EDGE_APPROACH) and ends less than `margin` (m) from that edge. What a push drives through a pile
+    travels on beyond its end, in its direction: a push along an edge, or away from it, keeps it."""
+    rows, cols = np.mgrid[:size, :size].astype(np.float64)
+    x, y = grid.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]))
+    kept = np.empty((num_rotations, size, size), dtype=bool)
+    for r in range(num_rotations):
+        yaw = cell.rotation_yaw(r)
+        dx, dy = math.cos(yaw), math.sin(yaw)
+        end_x, end_y = x + length * dx, y + length * dy
+        near = np.zeros((size, size), dtype=bool)
+        for component, room in ((dx, grid.x_max - end_x), (-dx, end_x - grid.x_min),
+                                (dy, grid.y_max - end_y), (-dy, end_y - grid.y_min)):
+            if component >= EDGE_APPROACH:
+                near |= room < margin
+        kept[r] = ~near
+    return kept
+
+
 def action_pose(primitive: int, rotation: int, crop_pixel, crop_origin, height: np.ndarray,
                 rules: PoseRules = PoseRules(), grid: HeightmapGrid = HeightmapGrid()) -> ActionPose:
     """Crop pixel + rotation index -> pose in base_link; `height` is the full heightmap (m) on `grid`.

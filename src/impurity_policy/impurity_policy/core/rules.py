@@ -9,10 +9,11 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
   3. grasp_on_target               mask  with a target in view, grasps on its mask only
   4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top
   5. push_end_inside               mask  pushes that end inside the workspace, with a margin
-  6. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
-  7. grasp_where_target_on_top     pref  grasps where the target is the local top
-  8. target_push_start_near        pref  with a target in view, pushes that start next to it
-  9. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
+  6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge
+  7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
+  8. grasp_where_target_on_top     pref  grasps where the target is the local top
+  9. target_push_start_near        pref  with a target in view, pushes that start next to it
+ 10. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
                                          when no grasp is left there, the policy pushes)
 
 A *mask* always applies. A *preference* applies only where it leaves at least one action of its
@@ -46,6 +47,7 @@ from .pose import (
     heap_top,
     pixels_near,
     pushes_ending_inside,
+    pushes_not_toward_near_edge,
     pushes_passing,
     pushes_starting_on_flank,
     target_core,
@@ -70,6 +72,8 @@ class RuleParams:
     heap_sigma_px: float = 6.0  # occluded rules: smoothing (px) of the height crop before its top is taken
     occluded_push_radius_px: int = 10  # occluded_push_through_heap: pushes pass this close to the top
     push_end_margin: float = 0.06  # m, push_end_inside: pushes end at least this far inside the workspace
+    occluded_push_edge_margin: float = 0.12  # m, occluded_push_off_edge: pushes that head for an edge end at
+    # least this far from it (0: off)
     occluded_push_start_band: tuple = (0.5, 0.7)  # occluded_push_start_on_flank: local top at the start,
     # as a fraction of the heap top's height
     target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
@@ -84,7 +88,8 @@ class RuleParams:
                      "occluded_push_radius_px", "target_push_radius_px"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("heap_sigma_px", "push_end_margin", "target_on_top_tolerance", "grasp_core_depth_px"):
+        for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin", "target_on_top_tolerance",
+                     "grasp_core_depth_px"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -238,6 +243,23 @@ class PushEndInside(Rule):
         return (Keep(PUSH, inside),)
 
 
+class OccludedPushOffEdge(Rule):
+    """No target in view: a push that heads for a workspace edge (pose.pushes_not_toward_near_edge) and
+    ends less than `occluded_push_edge_margin` from it. A hidden target in the heap is shoved on beyond the
+    push's end, and one pushed out of the workspace is lost to the cell; heaps by an edge are pushed along
+    it or inwards instead (docs/experiments.md, fourteenth session)."""
+
+    name = "occluded_push_off_edge"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_edge_margin <= 0:
+            return ()
+        return (Keep(PUSH, pushes_not_toward_near_edge(ctx.obs.crop_origin, ctx.size,
+                                                       ctx.params.occluded_push_edge_margin, ctx.rotations,
+                                                       ctx.grid)),)
+
+
 class OccludedPushStartOnFlank(Rule):
     """No target in view: a push that does not start on the heap's flank, where the local top is
     `occluded_push_start_band` times the heap top's height (pose.pushes_starting_on_flank): from the
@@ -295,8 +317,8 @@ class GraspAtTargetCore(Rule):
 
 
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
-                                      PushEndInside, OccludedPushStartOnFlank, GraspWhereTargetOnTop,
-                                      TargetPushStartNear, GraspAtTargetCore)}
+                                      PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
+                                      GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore)}
 RULE_ORDER = tuple(RULES)
 PRESETS = {"none": (), "cell": RULE_ORDER}
 

@@ -1,0 +1,161 @@
+"""Fourteenth session, tuning data only: which actions push a target out of the workspace.
+
+Runs truth-counted episodes of the shipped network under the `cell` rules on tuning palettes (the tuning
+group's named palettes and random-400...) and tuning seeds (99000 + k), and records every action after which
+the count of targets outside the workspace rose: attention's mode, the primitive, where the push started and
+ended and how far that end lay inside the workspace. Variants of the rules (`--without`, `--edge-margin`,
+`--push-end-margin`) are run on the same seeds, so a change can be chosen on them.
+
+    # the rules as shipped before this session (without the new occluded_push_off_edge)
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl --without occluded_push_off_edge
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
+    python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
+"""
+import argparse
+import dataclasses
+import json
+import math
+import pathlib
+import sys
+from concurrent.futures import ProcessPoolExecutor
+
+import numpy as np
+
+SEED_BASE = 99000
+RANDOM_FROM = 400
+_WORKER = {}
+
+
+def palettes(count: int) -> list:
+    from impurity_learning import splits
+    return list(splits.TUNING_NAMED) + [f"random-{s}" for s in splits.TUNING_RANDOM_SEEDS[RANDOM_FROM:RANDOM_FROM
+                                                                                         + count]]
+
+
+def edge_distance(x: float, y: float) -> float:
+    """m from (x, y) to the nearest workspace edge (negative outside)."""
+    from impurity_common import cell
+    return min(x - cell.WORKSPACE_X[0], cell.WORKSPACE_X[1] - x, y - cell.WORKSPACE_Y[0], cell.WORKSPACE_Y[1] - y)
+
+
+def run_one(task: tuple) -> dict:
+    scenario, seed, palette, rule_params = task
+    import torch
+
+    from impurity_common import cell
+    from impurity_learning.agents import NetworkAgent
+    from impurity_learning.evaluate import SimCell
+    from impurity_policy.core import picking
+    from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+    from impurity_policy.core.episode import EpisodeRequest
+    from impurity_policy.core.policy import Policy
+    from impurity_policy.core.rules import RuleParams, RulePipeline
+    from ur5_driver_sim.core.world import CellWorld
+
+    if "world" not in _WORKER:
+        torch.set_num_threads(1)
+        _WORKER["world"] = CellWorld(mode="floating")
+    key = json.dumps(rule_params, sort_keys=True)
+    if _WORKER.get("key") != key:
+        values = {k: v for k, v in rule_params.items() if k != "without"}
+        params = dataclasses.replace(RuleParams(), **values)
+        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(
+            SHIPPED_CHECKPOINT, rules=RulePipeline.preset("cell", params, without=rule_params.get("without", ()))))
+        _WORKER["key"] = key
+    steps, where = [], []
+    world = _WORKER["world"]
+
+    def targets_at() -> list:
+        truth = world.ground_truth()
+        return [tuple(round(v, 3) for v in truth.poses[b][0][:2]) for b in truth.target_ids]
+
+    def on_step(step):
+        steps.append(step)
+        where.append(targets_at())
+
+    summary = picking.run_episode(SimCell(_WORKER["world"], _WORKER["agent"]),
+                                  EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
+                                  on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
+    events, outside = [], 0
+    for index, step in enumerate(steps):
+        if step.targets_outside > outside:
+            x, y, _ = step.position
+            end = (x + cell.PUSH_LENGTH * math.cos(step.yaw), y + cell.PUSH_LENGTH * math.sin(step.yaw))
+            events.append({"step": step.step, "mode": step.attention_mode, "kind": step.kind,
+                           "start_edge": edge_distance(x, y),
+                           "end_edge": edge_distance(*end) if step.kind == "push" else None,
+                           "new_outside": step.targets_outside - outside, "start": (x, y), "end": end,
+                           "targets_before": where[index - 1] if index else None,
+                           "targets_after": where[index]})
+        outside = step.targets_outside
+    return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
+            "termination": summary["termination_reason"], "completed": summary["completed"],
+            "picked": summary["targets_picked"], "total": summary["targets_total"],
+            "attempts": summary["grasp_attempts"], "actions": summary["actions"],
+            "outside": summary["targets_outside"], "events": events}
+
+
+def run(args) -> None:
+    rule_params = {}
+    if args.push_end_margin is not None:
+        rule_params["push_end_margin"] = args.push_end_margin
+    if args.edge_margin is not None:
+        rule_params["occluded_push_edge_margin"] = args.edge_margin
+    if args.without:
+        rule_params["without"] = args.without
+    names = palettes(args.random_palettes)
+    ks = args.only or range(args.episodes)
+    tasks = [(args.scenario, SEED_BASE + k, names[k % len(names)], rule_params) for k in ks]
+    out = pathlib.Path(args.out)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    from tqdm import tqdm
+    with ProcessPoolExecutor(args.jobs) as pool, open(out, "w") as f:
+        for record in tqdm(pool.map(run_one, tasks), total=len(tasks), desc=out.stem):
+            f.write(json.dumps(record) + "\n")
+            f.flush()
+
+
+def report(args) -> None:
+    for path in args.files:
+        rows = [json.loads(line) for line in open(path)]
+        attempts = sum(r["attempts"] for r in rows)
+        picked = sum(r["picked"] for r in rows)
+        events = [e for r in rows for e in r["events"]]
+        print(f"{path}: {len(rows)} episodes, params {rows[0]['params'] or 'shipped'}")
+        print(f"  grasp success {100 * picked / max(attempts, 1):.1f} %, completion "
+              f"{100 * np.mean([r['completed'] for r in rows]):.1f} %, actions/episode "
+              f"{np.mean([r['actions'] for r in rows]):.2f}; episodes with a target outside "
+              f"{sum(r['outside'] > 0 for r in rows)}")
+        terminations = {}
+        for r in rows:
+            if not r["completed"]:
+                terminations[r["termination"]] = terminations.get(r["termination"], 0) + 1
+        print("  incomplete by reason:", terminations)
+        for e in events:
+            end = f"{e['end_edge']:.3f}" if e["end_edge"] is not None else "-"
+            print(f"    step {e['step']:2d} {e['mode']:16s} {e['kind']:5s} start {e['start_edge']:.3f} m from the "
+                  f"edge, end {end} m")
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    sub = p.add_subparsers(dest="command", required=True)
+    r = sub.add_parser("run")
+    r.add_argument("scenario")
+    r.add_argument("episodes", type=int)
+    r.add_argument("out")
+    r.add_argument("--push-end-margin", type=float, default=None)
+    r.add_argument("--edge-margin", type=float, default=None, help="occluded_push_edge_margin (m)")
+    r.add_argument("--without", nargs="*", default=[], help="rules of the cell preset left out")
+    r.add_argument("--random-palettes", type=int, default=100)
+    r.add_argument("--jobs", type=int, default=2)
+    r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
+    s = sub.add_parser("report")
+    s.add_argument("files", nargs="+")
+    args = p.parse_args(argv)
+    run(args) if args.command == "run" else report(args)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
