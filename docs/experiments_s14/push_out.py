@@ -7,7 +7,8 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
 `--push-end-margin`) are run on the same seeds, so a change can be chosen on them.
 
     # the rules as shipped before this session (without the new occluded_push_off_edge)
-    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl --without occluded_push_off_edge
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl \
+        --without occluded_push_off_edge
     python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
 """
@@ -28,14 +29,15 @@ _WORKER = {}
 
 def palettes(count: int) -> list:
     from impurity_learning import splits
-    return list(splits.TUNING_NAMED) + [f"random-{s}" for s in splits.TUNING_RANDOM_SEEDS[RANDOM_FROM:RANDOM_FROM
-                                                                                         + count]]
+    seeds = splits.TUNING_RANDOM_SEEDS[RANDOM_FROM:RANDOM_FROM + count]
+    return list(splits.TUNING_NAMED) + [f"random-{s}" for s in seeds]
 
 
 def edge_distance(x: float, y: float) -> float:
     """m from (x, y) to the nearest workspace edge (negative outside)."""
     from impurity_common import cell
-    return min(x - cell.WORKSPACE_X[0], cell.WORKSPACE_X[1] - x, y - cell.WORKSPACE_Y[0], cell.WORKSPACE_Y[1] - y)
+    (x_min, x_max), (y_min, y_max) = cell.WORKSPACE_X, cell.WORKSPACE_Y
+    return min(x - x_min, x_max - x, y - y_min, y_max - y)
 
 
 def run_one(task: tuple) -> dict:
@@ -59,8 +61,8 @@ def run_one(task: tuple) -> dict:
     if _WORKER.get("key") != key:
         values = {k: v for k, v in rule_params.items() if k != "without"}
         params = dataclasses.replace(RuleParams(), **values)
-        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(
-            SHIPPED_CHECKPOINT, rules=RulePipeline.preset("cell", params, without=rule_params.get("without", ()))))
+        rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
+        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
     steps, where = [], []
     world = _WORKER["world"]
@@ -133,8 +135,8 @@ def report(args) -> None:
         print("  incomplete by reason:", terminations)
         for e in events:
             end = f"{e['end_edge']:.3f}" if e["end_edge"] is not None else "-"
-            print(f"    step {e['step']:2d} {e['mode']:16s} {e['kind']:5s} start {e['start_edge']:.3f} m from the "
-                  f"edge, end {end} m")
+            print(f"    step {e['step']:2d} {e['mode']:16s} {e['kind']:5s} start {e['start_edge']:.3f} m "
+                  f"from the edge, end {end} m")
 
 
 def main(argv=None) -> int:

@@ -387,6 +387,9 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="generalisation table groups (default: the main table's episodes; tuning, held_out: "
                         "--group-episodes more per row and scenario, palettes cycling)")
     p.add_argument("--group-episodes", type=int, default=4, help="per row, scenario and non-default group")
+    p.add_argument("--group-palette-offset", type=int, default=0, metavar="N",
+                   help="episode k of a non-default group runs on its palette N + k (cycling): a run on "
+                        "palettes an earlier run with fewer episodes did not reach")
     p.add_argument("--perception-scenes", type=int, default=10,
                    help="rendered scenes with (and as many without) impurities per group and scenario")
     p.add_argument("--generalisation", default=None,
@@ -433,8 +436,10 @@ def _main(argv=None) -> int:
     from tqdm import tqdm
 
     args = parse_args(argv)
-    if args.episodes < 1 or args.group_episodes < 0 or args.perception_scenes < 1:
-        print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes >= 0", file=sys.stderr)
+    if (args.episodes < 1 or args.group_episodes < 0 or args.perception_scenes < 1
+            or args.group_palette_offset < 0):
+        print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes and "
+              "--group-palette-offset >= 0", file=sys.stderr)
         return 2
     torch.set_num_threads(args.threads)
     if args.ray or args.ray_address:
@@ -467,7 +472,7 @@ def _main(argv=None) -> int:
              for scenario in args.scenarios for row, checkpoint in runnable.items()
              for k in range(args.episodes)]
     tasks += [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, group,
-               generalisation.palette_for(group, k))
+               generalisation.palette_for(group, k + args.group_palette_offset))
               for group in groups if group != "default" for scenario in args.scenarios
               for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
     journal = pathlib.Path(args.journal or pathlib.Path(args.json).with_suffix(".partial.jsonl"))

@@ -96,6 +96,10 @@ class PolicyParameters:
                                          low=1, high=224)
     push_end_margin: float = param(_RULES.push_end_margin, "push_end_inside: pushes end at least this far "
                                    "inside the workspace (m)", low=0.0, high=0.2)
+    occluded_push_edge_margin: float = param(_RULES.occluded_push_edge_margin, "occluded_push_off_edge: "
+                                             "pushes that head for a workspace edge end at least this "
+                                             "far from it (m; 0: off, the default; docs/experiments.md)",
+                                             low=0.0, high=0.3)
     occluded_push_start_band: tuple[float, ...] = param(
         _RULES.occluded_push_start_band, "occluded_push_start_on_flank: [low, high] local top at the push "
         "start, as a fraction of the pile's top", length=2, low=0.0, high=1.0, check=increasing)
@@ -117,6 +121,7 @@ class PolicyParameters:
                             failed_grasps_before_push=self.failed_grasps_before_push,
                             occluded_push_radius_px=self.occluded_push_radius_px,
                             push_end_margin=self.push_end_margin,
+                            occluded_push_edge_margin=self.occluded_push_edge_margin,
                             occluded_push_start_band=tuple(self.occluded_push_start_band),
                             target_push_radius_px=self.target_push_radius_px,
                             target_on_top_tolerance=self.target_on_top_tolerance,

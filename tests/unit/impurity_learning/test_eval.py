@@ -185,14 +185,16 @@ def test_eval_cli_writes_table_chart_and_records_with_untrained_methods_listed(t
 def test_eval_cli_adds_the_generalisation_table_for_palette_groups(tmp_path):
     out = tmp_path / "docs"
     assert main(["--methods", "s_rgm", "--scenarios", "random", "--episodes", "1", "--palette-groups",
-                 "default", "held_out", "--group-episodes", "1", "--perception-scenes", "1", "--markdown",
+                 "default", "held_out", "--group-episodes", "1", "--group-palette-offset", "5",
+                 "--perception-scenes", "1", "--markdown",
                  str(out / "r.md"), "--chart", str(out / "r.png"), "--json", str(out / "r.json"), "--readme",
                  str(out / "README.md"), *generalisation_paths(out), "--jobs", "1", "--no-progress"]) == 0
     records = json.loads((out / "r.json").read_text())
-    # the held-out group ran its own episode, on a held-out palette, with the evaluation seed
+    # the held-out group ran its own episode, on a held-out palette (the sixth: offset 5), with the evaluation
+    # seed
     default, held_out = records["s_rgm"]["episodes"]
     assert (default["group"], default["palette"]) == ("default", "")
-    assert held_out["group"] == "held_out" and splits.palette_group(held_out["palette"]) == "held_out"
+    assert held_out["group"] == "held_out" and held_out["palette"] == splits.held_out_palettes()[5]
     assert held_out["seed"] == default["seed"] == 900_000_000
     assert records["s_rgm"]["groups"]["held_out"]["random"]["episodes"] == 1
     assert records["s_rgm"]["scenarios"]["random"]["episodes"] == 1  # the main table: default group only

@@ -44,6 +44,7 @@ from impurity_policy.core.pose import (
     pose_to_action,
     push_end,
     pushes_ending_inside,
+    pushes_not_toward_near_edge,
     pushes_passing,
     pushes_starting_on_flank,
     target_core,
@@ -321,6 +322,20 @@ def test_pushes_ending_inside_the_workspace():
     assert inside[0, 112, 224 - push_px - margin_px - 2] and inside[8, 112, 224 - push_px - margin_px + 2]
     assert not inside[4, 224 - push_px - margin_px + 2, 112]  # +y likewise
 
+
+
+def test_pushes_not_toward_a_near_edge():
+    kept = pushes_not_toward_near_edge((0, 0), 224, margin=0.12)  # the whole heightmap = the workspace
+    push_px, margin_px = 50, 60  # 10 cm push, 12 cm margin at 2 mm / px
+    assert kept.all(axis=0)[112, 112]  # from the centre, any direction ends 12 cm from every edge
+    col = 224 - push_px - margin_px  # +x from here ends 12 cm (less half a pixel) from the +x edge
+    assert kept[0, 112, col - 2] and not kept[0, 112, col + 2]
+    assert kept[4, 112, 220] and kept[12, 112, 220]  # along that edge (+y, -y): kept however close
+    assert kept[8, 112, 220]  # away from it
+    assert not kept[4, 220, 112] and kept[12, 220, 112]  # by the +y edge: towards it no, away yes
+    # 67.5 degrees (rotation 3) from col 150 ends 9.3 cm from the +x edge: its component towards it is 0.38 >=
+    # EDGE_APPROACH, so it counts as heading there; +y (rotation 4) from the same pixel does not
+    assert not kept[3, 112, 150] and kept[4, 112, 150]
 
 
 def test_pushes_starting_on_the_heap_flank():

@@ -1,4 +1,4 @@
-"""Test-time rules (impurity_policy.core.rules): what each of the nine rules keeps and rules out on a small
+"""Test-time rules (impurity_policy.core.rules): what each of the ten rules keeps and rules out on a small
 hand-built scene, how masks and preferences combine in the pipeline, the presets and the parameters;
 then the cell preset in a policy's decisions.
 
@@ -235,11 +235,42 @@ def test_target_rules_do_nothing_without_a_target_in_view(name):
         assert _kept([name], _observation(MODE_TARGET, height, empty)).all()  # nor on an empty mask
 
 
-@pytest.mark.parametrize("name", ["occluded_push_through_heap", "occluded_push_start_on_flank"])
+def test_occluded_push_off_edge_prefers_pushes_that_do_not_head_for_a_near_edge():
+    height = covered_heap()
+    origin = (112, 112)  # the crop covers the map's bottom-right quarter; crop col c is map col 112 + c
+    on = RuleParams(occluded_push_edge_margin=0.12)  # off by default
+    obs = _observation(MODE_OCCLUDED_REGION, height, origin=origin)
+    kept = _kept(["occluded_push_off_edge"], obs, params=on)
+    # +x (rotation 0) from map col 112 + c (its centre) ends (61.5 - c) x 2 mm from the edge: 12 cm or more
+    # for c <= 1
+    assert kept[0, PUSH, 56, 1] and not kept[0, PUSH, 56, 4]
+    assert kept[8, PUSH, 56, 100]  # -x, away from that edge
+    assert kept[4 + 8, PUSH, 100, 100]  # -y (rotation 12), away from the bottom edge
+    assert not kept[4, PUSH, 56, 56]  # +y towards the bottom edge, ending 4.4 cm from it
+    assert not kept[3, PUSH, 56, 1]  # 67.5 degrees off +x: it approaches the bottom edge too
+    assert kept[:, GRASP].all()
+    assert _kept(["occluded_push_off_edge"], _observation(MODE_OCCLUDED_REGION, height, origin=origin)).all()
+
+
+def test_occluded_push_off_edge_gives_way_when_every_push_heads_for_an_edge():
+    height = covered_heap()
+    obs = _observation(MODE_OCCLUDED_REGION, height, origin=(112, 112))
+    q = _q()
+    q[:, PUSH] = -np.inf
+    q[0, PUSH, 56, 100] = 0.0  # the one push left: +x, into the edge
+    on = RuleParams(occluded_push_edge_margin=0.12)
+    assert _kept(["occluded_push_off_edge"], obs, q, params=on)[0, PUSH, 56, 100]
+    q[0, PUSH, 56, 1] = 0.0  # with a push that keeps off the edge beside it, that one goes
+    assert not _kept(["occluded_push_off_edge"], obs, q, params=on)[0, PUSH, 56, 100]
+
+
+@pytest.mark.parametrize("name", ["occluded_push_through_heap", "occluded_push_off_edge",
+                                  "occluded_push_start_on_flank"])
 def test_occluded_region_rules_do_nothing_with_a_target_in_view(name):
     height = covered_heap()
-    assert not _kept([name], _observation(MODE_OCCLUDED_REGION, height)).all()
-    assert _kept([name], _observation(MODE_TARGET, height, _square_mask())).all()
+    on = RuleParams(occluded_push_edge_margin=0.12)  # occluded_push_off_edge is off by default
+    assert not _kept([name], _observation(MODE_OCCLUDED_REGION, height), params=on).all()
+    assert _kept([name], _observation(MODE_TARGET, height, _square_mask()), params=on).all()
 
 
 # ---- masks, preferences and their order -----------------------------------------------------------------
@@ -300,7 +331,7 @@ def test_preset_none_leaves_the_q_maps_untouched():
 
 def test_preset_cell_has_every_rule_and_can_leave_some_out():
     assert RulePipeline.preset("cell").names == RULE_ORDER == PRESETS["cell"]
-    assert len(RULE_ORDER) == 9
+    assert len(RULE_ORDER) == 10
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
     assert without == tuple(n for n in RULE_ORDER if n not in ("finger_clearance", "grasp_at_target_core"))
 
@@ -319,7 +350,8 @@ def test_unknown_preset_or_rule_names_are_refused_listing_the_known_ones(make, k
 @pytest.mark.parametrize("field, value", [
     ("tried_action_radius_px", -1), ("changed_pixels", -1), ("failed_grasps_before_push", -1),
     ("occluded_push_radius_px", -1), ("target_push_radius_px", -1), ("heap_sigma_px", -0.5),
-    ("heap_sigma_px", math.nan), ("push_end_margin", -0.01), ("target_on_top_tolerance", -0.001),
+    ("heap_sigma_px", math.nan), ("push_end_margin", -0.01), ("occluded_push_edge_margin", -0.01),
+    ("target_on_top_tolerance", -0.001),
     ("grasp_core_depth_px", -1.0), ("occluded_push_start_band", (0.7, 0.5)),
     ("occluded_push_start_band", (0.5, 1.2)),
 ])

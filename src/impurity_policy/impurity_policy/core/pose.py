@@ -231,12 +231,13 @@ def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: i
 
 
 EDGE_APPROACH = 0.3  # pushes_not_toward_near_edge: a push approaches an edge when its unit direction's
-# component towards it is at least this (within 72.5 degrees of the edge's outward normal; of the 16 rotations,
-# those at 0, 22.5, 45 and 67.5 degrees do)
+# component towards it is at least this (within 72.5 degrees of the edge's outward normal; of the 16
+# rotations, those at 0, 22.5, 45 and 67.5 degrees do)
 
 
 def pushes_not_toward_near_edge(crop_origin, size: int, margin: float,
-                                num_rotations: int = cell.NUM_ROTATIONS, grid: HeightmapGrid = HeightmapGrid(),
+                                num_rotations: int = cell.NUM_ROTATIONS,
+                                grid: HeightmapGrid = HeightmapGrid(),
                                 length: float = cell.PUSH_LENGTH) -> np.ndarray:
     """(R, S, S) bool: False where a push from that crop pixel along rotation r's yaw approaches a
     workspace edge (the heightmap's `grid`; its direction's component towards the edge at least

@@ -10,6 +10,7 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
   4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top
   5. push_end_inside               mask  pushes that end inside the workspace, with a margin
   6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge
+                                         (off unless occluded_push_edge_margin > 0; not adopted)
   7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
   8. grasp_where_target_on_top     pref  grasps where the target is the local top
   9. target_push_start_near        pref  with a target in view, pushes that start next to it
@@ -72,8 +73,8 @@ class RuleParams:
     heap_sigma_px: float = 6.0  # occluded rules: smoothing (px) of the height crop before its top is taken
     occluded_push_radius_px: int = 10  # occluded_push_through_heap: pushes pass this close to the top
     push_end_margin: float = 0.06  # m, push_end_inside: pushes end at least this far inside the workspace
-    occluded_push_edge_margin: float = 0.12  # m, occluded_push_off_edge: pushes that head for an edge end at
-    # least this far from it (0: off)
+    occluded_push_edge_margin: float = 0.0  # m, occluded_push_off_edge: pushes that head for an edge end
+    # at least this far from it (0: off, the default: at 0.12 it failed its criterion on tuning seeds)
     occluded_push_start_band: tuple = (0.5, 0.7)  # occluded_push_start_on_flank: local top at the start,
     # as a fraction of the heap top's height
     target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
@@ -88,8 +89,8 @@ class RuleParams:
                      "occluded_push_radius_px", "target_push_radius_px"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin", "target_on_top_tolerance",
-                     "grasp_core_depth_px"):
+        for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
+                     "target_on_top_tolerance", "grasp_core_depth_px"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
 
@@ -247,7 +248,9 @@ class OccludedPushOffEdge(Rule):
     """No target in view: a push that heads for a workspace edge (pose.pushes_not_toward_near_edge) and
     ends less than `occluded_push_edge_margin` from it. A hidden target in the heap is shoved on beyond the
     push's end, and one pushed out of the workspace is lost to the cell; heaps by an edge are pushed along
-    it or inwards instead (docs/experiments.md, fourteenth session)."""
+    it or inwards instead. Off by default (margin 0): at 0.12 m, on 200 invisible tuning episodes, completion
+    rose from 89.0 to 93.0 % but grasp success fell from 75.0 to 72.9 %, and the criterion written before
+    the run allowed 1 point (docs/experiments.md, fourteenth session)."""
 
     name = "occluded_push_off_edge"
     kind = PREFERENCE
