@@ -11,7 +11,7 @@ import signal
 import pytest
 
 from impurity_interfaces.action import RunEpisode
-from impurity_interfaces.srv import GetGroundTruth, ResetScene
+from impurity_interfaces.srv import GetGroundTruth, ResetScene, StartEpisode
 from impurity_policy.core.episode import read_steps
 from ros_harness import ROOT, ActionHelper, call_service, ros_args, spin_until
 
@@ -38,6 +38,11 @@ def steps_of(record_path):
 
 def test_complete_episode_matches_ground_truth(ros_node, cell):
     procs = list(cell.values())
+    # A start whose scene the cell cannot build is refused with the driver's reason, naming the known palettes
+    teal = call_service(ros_node, StartEpisode, "/episode/start",
+                        StartEpisode.Request(scenario="random", seed=11, palette="teal"), processes=procs)
+    assert not teal.accepted and teal.episode_id
+    assert "unknown palette 'teal'" in teal.reason and "coal_slate" in teal.reason, teal.reason
     episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
     handle, wrapped = episode.run(RunEpisode.Goal(scenario="random", seed=11, num_targets=1, num_objects=6,
                                                   max_actions=6), timeout=400.0)

@@ -28,8 +28,10 @@ from ros_harness import ActionHelper, call_service, ros_args, spin_until
 
 
 def test_refusals_and_a_missing_cell(ros_node, launch, tmp_path):
+    # start_wait 0.5 s: a start is answered before the 6 s wait for the missing reset service ends, so the
+    # episode is still under way (busy) for the requests below
     episode = launch("impurity_policy", "episode_node",
-                     ros_args({"record_dir": str(tmp_path), "service_timeout": 6.0}))
+                     ros_args({"record_dir": str(tmp_path), "service_timeout": 6.0, "start_wait": 0.5}))
 
     bad = call_service(ros_node, StartEpisode, "/episode/start",
                        StartEpisode.Request(scenario="moon_rocks"), processes=[episode], resend_after=5.0)

@@ -70,6 +70,9 @@ class EpisodeParameters:
                                     low=0.1)
     motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
     service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
+    start_wait: float = param(10.0, "/episode/start: s to wait for the episode's scene reset before "
+                              "answering; a reset that fails within it (an unknown palette, no cell) refuses "
+                              "the start with its reason, a slower one is answered accepted", low=0.0)
     use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth; false "
                                    "(a real cell): no target count, the episode ends by perception and each "
                                    "grasp is judged by perception")
@@ -150,9 +153,25 @@ class EpisodeNode(Node):
             response.accepted, response.reason = False, reason
             return response
         episode_id = _new_episode_id()
-        threading.Thread(target=self._run_and_release, args=(episode_id, episode_request, None),
-                         daemon=True).start()
-        response.accepted, response.episode_id = True, episode_id
+        started, answered, ended = threading.Event(), threading.Event(), {}
+
+        def run():
+            try:
+                ended["summary"] = self._run_and_release(episode_id, episode_request, None,
+                                                         on_started=lambda: (started.set(), answered.set()))
+            finally:
+                answered.set()
+
+        threading.Thread(target=run, daemon=True).start()
+        answered.wait(self.params.start_wait)  # the scene reset, or the episode's end before it
+        response.episode_id = episode_id  # its record exists even when it could not start
+        if started.is_set() or not answered.is_set():
+            response.accepted = True
+        else:
+            summary = ended.get("summary", {"termination_reason": "error: the episode failed"})
+            reason = summary["termination_reason"]
+            self.get_logger().warning(f"start refused: episode {episode_id} could not start: {reason}")
+            response.accepted, response.reason = False, reason
         return response
 
     def _on_goal(self, goal) -> GoalResponse:
@@ -182,15 +201,16 @@ class EpisodeNode(Node):
             goal_handle.succeed()
         return result
 
-    def _run_and_release(self, episode_id, request, goal_handle) -> dict:
+    def _run_and_release(self, episode_id, request, goal_handle, on_started=None) -> dict:
         try:
-            return self._run_episode(episode_id, request, goal_handle)
+            return self._run_episode(episode_id, request, goal_handle, on_started)
         finally:
             self._busy.release()
 
     # ---- the loop -----------------------------------------------------------------------------
-    def _run_episode(self, episode_id: str, request: EpisodeRequest, goal_handle) -> dict:
-        """One episode through the picking loop; the summary it recorded."""
+    def _run_episode(self, episode_id: str, request: EpisodeRequest, goal_handle, on_started=None) -> dict:
+        """One episode through the picking loop; the summary it recorded. on_started: see
+        picking.run_episode."""
         log = self.get_logger()
         recorder = EpisodeRecorder(self.record_dir, episode_id)
         log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}")
@@ -199,7 +219,8 @@ class EpisodeNode(Node):
             on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
             should_stop=lambda: goal_handle is not None and goal_handle.is_cancel_requested,
             clock_ns=lambda: self.get_clock().now().nanoseconds,
-            on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"))
+            on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"),
+            on_started=on_started)
         outside = summary.get("targets_outside", 0)
         outside_note = f" ({outside} outside the workspace)" if outside else ""
         total = summary["targets_total"] if summary["targets_total"] >= 0 else "?"

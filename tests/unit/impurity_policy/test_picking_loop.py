@@ -238,6 +238,24 @@ def test_an_aborted_episode_ends_with_its_reason_and_still_writes_its_records(tm
     assert read_steps(tmp_path / "episodes.jsonl")[-1]["termination_reason"] == "node_lost: x"
 
 
+class RefusingCell(ScriptedCell):
+    def reset(self, request):
+        raise EpisodeAborted("error: scene reset failed: unknown palette 'teal'; known: blocks, ...")
+
+
+def test_on_started_is_called_once_after_the_reset_and_not_when_the_reset_fails():
+    seen = []
+    cell = ScriptedCell([push()], targets=1)
+    run_episode(cell, EpisodeRequest("random", seed=1, num_targets=1), "ep-1",
+                on_started=lambda: seen.append(list(cell.calls)))
+    assert seen == [["reset"]]  # once, after the reset and before the first look
+    refused = []
+    summary = run_episode(RefusingCell(), EpisodeRequest("random", seed=1), "ep-2",
+                          on_started=lambda: refused.append(True))
+    assert refused == [] and summary["termination_reason"].startswith("error: scene reset failed")
+    assert summary["actions"] == 0
+
+
 def test_an_unexpected_exception_ends_as_an_error_and_is_reported():
     seen = []
     error = RuntimeError("gripper on fire")

@@ -212,7 +212,8 @@ def step_record(index: int, action: Action, outcome: Outcome, remaining: int, ou
 def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: EpisodeLimits = EpisodeLimits(),
                 recorder: EpisodeRecorder | None = None, on_step: Callable[[StepRecord], None] | None = None,
                 should_stop: Callable[[], bool] | None = None, clock_ns: Callable[[], int] | None = None,
-                on_error: Callable[[Exception], None] | None = None) -> dict:
+                on_error: Callable[[Exception], None] | None = None,
+                on_started: Callable[[], None] | None = None) -> dict:
     """One episode on `cell`. Returns the paper's metrics (episode.EpisodeTracker.metrics) with
     termination_reason, counted_by ("truth" | "perception") and completed (counted by truth: every target
     picked; by perception: it ended because attention saw nothing left); counted by perception on a cell
@@ -220,7 +221,9 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
     `on_step` sees each step after it is recorded; `should_stop` (a cancel) is asked before each look and
     before each motion, and handed to the cell (set_should_stop) for its waits: no motion starts after it
     said so; `clock_ns` stamps the start record (the time after which views show the scene); `on_error`
-    sees an unexpected exception before the episode is closed as "error: ...".
+    sees an unexpected exception before the episode is closed as "error: ..."; `on_started` is called once
+    the cell's reset has succeeded (the scene is ready), before the first look: an episode that ends
+    without it never started (its termination reason says why: a refused scene, a missing service).
     """
     tracker = EpisodeTracker(episode_id, request, request.num_targets, 0, limits.max_consecutive_failures)
     episode = _Episode(cell, request, limits, tracker, recorder, on_step, should_stop or (lambda: False))
@@ -230,6 +233,8 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
         if bind_stop is not None:
             bind_stop(should_stop)
         scene = cell.reset(request)
+        if on_started is not None:
+            on_started()
         if scene is None:
             reason = episode.run_by_perception(clock_ns)
         else:
