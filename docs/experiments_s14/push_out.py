@@ -11,6 +11,7 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
         --without occluded_push_off_edge
     python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
+    python docs/experiments_s14/push_out.py paired runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
 """
 import argparse
 import dataclasses
@@ -139,6 +140,28 @@ def report(args) -> None:
                   f"from the edge, end {end} m")
 
 
+def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
+    """The change in grasp success from base to other on the seeds both ran: point estimate and a paired
+    bootstrap's 95 % interval over the seeds (numpy's default_rng(0))."""
+    base = {r["seed"]: r for r in map(json.loads, open(base_path))}
+    other = {r["seed"]: r for r in map(json.loads, open(other_path))}
+    seeds = np.array(sorted(set(base) & set(other)))
+
+    def change(chosen) -> float:
+        rate = [sum(d[s]["picked"] for s in chosen) / max(sum(d[s]["attempts"] for s in chosen), 1)
+                for d in (base, other)]
+        return 100 * (rate[1] - rate[0])
+
+    rng = np.random.default_rng(0)
+    spread = [change(rng.choice(seeds, len(seeds))) for _ in range(draws)]
+    same = sum(base[s]["actions"] == other[s]["actions"] and base[s]["picked"] == other[s]["picked"]
+               and base[s]["attempts"] == other[s]["attempts"] for s in seeds)
+    low, high = np.percentile(spread, [2.5, 97.5])
+    print(f"{other_path} against {base_path}: {len(seeds)} seeds ({same} episodes alike in actions, picks "
+          f"and attempts); grasp success change {change(seeds):+.1f} points, paired bootstrap 95 % interval "
+          f"{low:+.1f} to {high:+.1f} ({draws} draws)")
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -154,8 +177,16 @@ def main(argv=None) -> int:
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     s = sub.add_parser("report")
     s.add_argument("files", nargs="+")
+    c = sub.add_parser("paired", help="the change in grasp success from BASE to OTHER, paired over seeds")
+    c.add_argument("base")
+    c.add_argument("other")
     args = p.parse_args(argv)
-    run(args) if args.command == "run" else report(args)
+    if args.command == "run":
+        run(args)
+    elif args.command == "report":
+        report(args)
+    else:
+        paired(args.base, args.other)
     return 0
 
 
