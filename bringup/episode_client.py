@@ -204,7 +204,8 @@ def main(argv=None) -> int:
                         "(see README, 'Appearance'); empty: the default blue/red palette")
     parser.add_argument("--timeout", type=float, default=900.0, help="s for the whole episode")
     parser.add_argument("--start-only", action="store_true",
-                        help=f"use the {START_EPISODE_SERVICE} service and return at once")
+                        help=f"use the {START_EPISODE_SERVICE} service and return once it answers (after "
+                             "the scene reset, or the episode node's start_wait)")
     args = parser.parse_args(argv)
     fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
                   max_actions=args.max_actions, scene_file=args.scene_file, palette=args.palette)

@@ -6,9 +6,9 @@ the count of targets outside the workspace rose: attention's mode, the primitive
 ended and how far that end lay inside the workspace. Variants of the rules (`--without`, `--edge-margin`,
 `--push-end-margin`) are run on the same seeds, so a change can be chosen on them.
 
-    # the rules as shipped before this session (without the new occluded_push_off_edge)
-    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl \
-        --without occluded_push_off_edge
+    # the shipped rules (push_out_base.jsonl was run before the new rule existed, so its params are {};
+    # today the rule is off by default and this command runs the same rules)
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl
     python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     python docs/experiments_s14/push_out.py paired runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl

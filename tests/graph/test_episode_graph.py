@@ -6,6 +6,7 @@ policy_node, episode_node, each its own process on this session's isolated ROS d
 
 import itertools
 import json
+import pathlib
 import signal
 
 import pytest
@@ -13,7 +14,7 @@ import pytest
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import GetGroundTruth, ResetScene, StartEpisode
 from impurity_policy.core.episode import read_steps
-from ros_harness import ROOT, ActionHelper, call_service, ros_args, spin_until
+from ros_harness import ROOT, ActionHelper, call_service, ros_args, spin_until, wait_for_service
 
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 GRAPH = [("ur5_driver_sim", "sim_cell"), ("impurity_attention", "heightmap_node"),
@@ -27,8 +28,10 @@ def cell(launch, tmp_path):
     for package, executable in GRAPH:
         overrides = {"mode": "floating"} if executable == "sim_cell" else {}
         processes[executable] = launch(package, executable, ros_args(overrides, params_file=CONFIG))
+    # start_wait 120 s: /episode/start answers when the scene is reset, not when the wait runs out (a start
+    # that waited for its episode's end would be refused, and one longer than call_service's wait fails)
     processes["episode_node"] = launch("impurity_policy", "episode_node", ros_args(
-        {"record_dir": str(tmp_path), "decision_timeout": 60.0}, params_file=CONFIG))
+        {"record_dir": str(tmp_path), "decision_timeout": 60.0, "start_wait": 120.0}, params_file=CONFIG))
     return processes
 
 
@@ -39,6 +42,7 @@ def steps_of(record_path):
 def test_complete_episode_matches_ground_truth(ros_node, cell):
     procs = list(cell.values())
     # A start whose scene the cell cannot build is refused with the driver's reason, naming the known palettes
+    wait_for_service(ros_node, ResetScene, "/cell/reset_scene", 60.0, procs)
     teal = call_service(ros_node, StartEpisode, "/episode/start",
                         StartEpisode.Request(scenario="random", seed=11, palette="teal"), processes=procs)
     assert not teal.accepted and teal.episode_id
@@ -70,6 +74,15 @@ def test_complete_episode_matches_ground_truth(ros_node, cell):
     summary = json.loads((ROOT / result.record_path / "summary.json").read_text())
     assert summary["targets_picked"] == result.targets_picked
     episode.destroy()
+
+    # A start whose scene is built is accepted once it is, while its episode runs (not after it ended)
+    started = call_service(ros_node, StartEpisode, "/episode/start", StartEpisode.Request(
+        scenario="random", seed=12, num_targets=1, num_objects=4, max_actions=2), processes=procs)
+    assert started.accepted and started.episode_id, started.reason
+    record = ROOT / pathlib.Path(result.record_path).parent / started.episode_id
+    spin_until(ros_node, (record / "summary.json").exists, 300.0, "the started episode's end", procs)
+    ended = json.loads((record / "summary.json").read_text())
+    assert ended["actions"] <= 2 and ended["termination_reason"] != "", ended  # the request's max_actions
 
 
 def episode_under_way(ros_node, cell, seed: int):

@@ -71,8 +71,10 @@ class EpisodeParameters:
     motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
     service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
     start_wait: float = param(10.0, "/episode/start: s to wait for the episode's scene reset before "
-                              "answering; a reset that fails within it (an unknown palette, no cell) refuses "
-                              "the start with its reason, a slower one is answered accepted", low=0.0)
+                              "answering; a reset that fails within it (e.g. an unknown palette) refuses the "
+                              "start with its reason; one still under way is answered accepted, and should "
+                              "it fail later the log and the record say why (a missing cell takes "
+                              "service_timeout to fail); 0: answer at once", low=0.0)
     use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth; false "
                                    "(a real cell): no target count, the episode ends by perception and each "
                                    "grasp is judged by perception")
@@ -157,19 +159,24 @@ class EpisodeNode(Node):
 
         def run():
             try:
-                ended["summary"] = self._run_and_release(episode_id, episode_request, None,
-                                                         on_started=lambda: (started.set(), answered.set()))
+                summary = self._run_and_release(episode_id, episode_request, None,
+                                                on_started=lambda: (started.set(), answered.set()))
+                ended["reason"] = summary["termination_reason"]
+            except Exception as error:  # noqa: BLE001 - before the loop (e.g. its record could not be opened)
+                ended["reason"] = f"error: {error!r}"
+                self.get_logger().error(f"episode {episode_id} failed before it started: {error!r}")
             finally:
                 answered.set()
 
         threading.Thread(target=run, daemon=True).start()
-        answered.wait(self.params.start_wait)  # the scene reset, or the episode's end before it
-        response.episode_id = episode_id  # its record exists even when it could not start
-        if started.is_set() or not answered.is_set():
+        # `started` is set before `answered`: an answer without it is an episode that ended before its reset
+        # was done; no answer within start_wait is a reset still under way (accepted)
+        done = answered.wait(self.params.start_wait)
+        response.episode_id = episode_id
+        if not done or started.is_set():
             response.accepted = True
         else:
-            summary = ended.get("summary", {"termination_reason": "error: the episode failed"})
-            reason = summary["termination_reason"]
+            reason = ended.get("reason", "error: the episode ended before its scene reset")
             self.get_logger().warning(f"start refused: episode {episode_id} could not start: {reason}")
             response.accepted, response.reason = False, reason
         return response

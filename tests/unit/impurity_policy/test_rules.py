@@ -246,7 +246,7 @@ def test_occluded_push_off_edge_prefers_pushes_that_do_not_head_for_a_near_edge(
     assert kept[0, PUSH, 56, 1] and not kept[0, PUSH, 56, 4]
     assert kept[8, PUSH, 56, 100]  # -x, away from that edge
     assert kept[4 + 8, PUSH, 100, 100]  # -y (rotation 12), away from the bottom edge
-    assert not kept[4, PUSH, 56, 56]  # +y towards the bottom edge, ending 4.4 cm from it
+    assert not kept[4, PUSH, 56, 56]  # +y towards the bottom edge, ending 1.1 cm from it
     assert not kept[3, PUSH, 56, 1]  # 67.5 degrees off +x: it approaches the bottom edge too
     assert kept[:, GRASP].all()
     assert _kept(["occluded_push_off_edge"], _observation(MODE_OCCLUDED_REGION, height, origin=origin)).all()

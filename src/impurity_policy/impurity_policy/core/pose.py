@@ -232,7 +232,7 @@ def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: i
 
 EDGE_APPROACH = 0.3  # pushes_not_toward_near_edge: a push approaches an edge when its unit direction's
 # component towards it is at least this (within 72.5 degrees of the edge's outward normal; of the 16
-# rotations, those at 0, 22.5, 45 and 67.5 degrees do)
+# rotations, the 7 within 67.5 degrees either side of it do)
 
 
 def pushes_not_toward_near_edge(crop_origin, size: int, margin: float,
