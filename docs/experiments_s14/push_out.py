@@ -141,8 +141,8 @@ def report(args) -> None:
 
 
 def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
-    """The change in grasp success from base to other on the seeds both ran: point estimate and a paired
-    bootstrap's 95 % interval over the seeds (numpy's default_rng(0))."""
+    """The change in grasp success (pooled) and in completion from base to other on the seeds both ran: point
+    estimates and a paired bootstrap's 95 % intervals over the seeds (numpy's default_rng(0))."""
     base = {r["seed"]: r for r in map(json.loads, open(base_path))}
     other = {r["seed"]: r for r in map(json.loads, open(other_path))}
     seeds = np.array(sorted(set(base) & set(other)))
@@ -152,14 +152,21 @@ def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
                 for d in (base, other)]
         return 100 * (rate[1] - rate[0])
 
+    def completion_change(chosen) -> float:
+        return 100 * (np.mean([other[s]["completed"] for s in chosen]) - np.mean([base[s]["completed"]
+                                                                                  for s in chosen]))
+
     rng = np.random.default_rng(0)
-    spread = [change(rng.choice(seeds, len(seeds))) for _ in range(draws)]
+    samples = [rng.choice(seeds, len(seeds)) for _ in range(draws)]
+    spread = [change(chosen) for chosen in samples]
+    completion = np.percentile([completion_change(chosen) for chosen in samples], [2.5, 97.5])
     same = sum(base[s]["actions"] == other[s]["actions"] and base[s]["picked"] == other[s]["picked"]
                and base[s]["attempts"] == other[s]["attempts"] for s in seeds)
     low, high = np.percentile(spread, [2.5, 97.5])
     print(f"{other_path} against {base_path}: {len(seeds)} seeds ({same} episodes alike in actions, picks "
           f"and attempts); grasp success change {change(seeds):+.1f} points, paired bootstrap 95 % interval "
-          f"{low:+.1f} to {high:+.1f} ({draws} draws)")
+          f"{low:+.1f} to {high:+.1f} ({draws} draws); completion change "
+          f"{completion_change(seeds):+.1f} points, interval {completion[0]:+.1f} to {completion[1]:+.1f}")
 
 
 def main(argv=None) -> int:
