@@ -213,20 +213,29 @@ def pushes_passing(point, size: int, radius_px: float, num_rotations: int = cell
     return passing
 
 
+def _push_edge_rooms(crop_origin, size: int, num_rotations: int, grid: HeightmapGrid, length: float):
+    """For each rotation r, (r, edges): edges holds, for the workspace edges +x, -x, +y, -y of `grid`,
+    (the push direction's component towards that edge, (S, S) room in m between the push's end and it),
+    for a push of `length` from every crop pixel along rotation r's yaw."""
+    rows, cols = np.mgrid[:size, :size].astype(np.float64)
+    x, y = grid.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]))
+    for r in range(num_rotations):
+        yaw = cell.rotation_yaw(r)
+        dx, dy = math.cos(yaw), math.sin(yaw)
+        end_x, end_y = x + length * dx, y + length * dy
+        yield r, ((dx, grid.x_max - end_x), (-dx, end_x - grid.x_min), (dy, grid.y_max - end_y),
+                  (-dy, end_y - grid.y_min))
+
+
 def pushes_ending_inside(crop_origin, size: int, margin: float, num_rotations: int = cell.NUM_ROTATIONS,
                          grid: HeightmapGrid = HeightmapGrid(),
                          length: float = cell.PUSH_LENGTH) -> np.ndarray:
     """(R, S, S) bool: True where a push from that crop pixel along rotation r's yaw ends at least
     `margin` (m) inside the workspace, the heightmap's `grid` (what the fingers shove ahead of them
     lands beyond the end)."""
-    rows, cols = np.mgrid[:size, :size].astype(np.float64)
-    x, y = grid.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]))
     inside = np.empty((num_rotations, size, size), dtype=bool)
-    for r in range(num_rotations):
-        yaw = cell.rotation_yaw(r)
-        end_x, end_y = x + length * math.cos(yaw), y + length * math.sin(yaw)
-        inside[r] = ((end_x >= grid.x_min + margin) & (end_x <= grid.x_max - margin)
-                     & (end_y >= grid.y_min + margin) & (end_y <= grid.y_max - margin))
+    for r, edges in _push_edge_rooms(crop_origin, size, num_rotations, grid, length):
+        inside[r] = np.logical_and.reduce([room >= margin for _, room in edges])
     return inside
 
 
@@ -243,19 +252,11 @@ def pushes_not_toward_near_edge(crop_origin, size: int, margin: float,
     workspace edge (the heightmap's `grid`; its direction's component towards the edge at least
     EDGE_APPROACH) and ends less than `margin` (m) from that edge. What a push drives through a pile
     travels on beyond its end, in its direction: a push along an edge, or away from it, keeps it."""
-    rows, cols = np.mgrid[:size, :size].astype(np.float64)
-    x, y = grid.pixel_to_base(rows + int(crop_origin[0]), cols + int(crop_origin[1]))
-    kept = np.empty((num_rotations, size, size), dtype=bool)
-    for r in range(num_rotations):
-        yaw = cell.rotation_yaw(r)
-        dx, dy = math.cos(yaw), math.sin(yaw)
-        end_x, end_y = x + length * dx, y + length * dy
-        near = np.zeros((size, size), dtype=bool)
-        for component, room in ((dx, grid.x_max - end_x), (-dx, end_x - grid.x_min),
-                                (dy, grid.y_max - end_y), (-dy, end_y - grid.y_min)):
+    kept = np.ones((num_rotations, size, size), dtype=bool)
+    for r, edges in _push_edge_rooms(crop_origin, size, num_rotations, grid, length):
+        for component, room in edges:
             if component >= EDGE_APPROACH:
-                near |= room < margin
-        kept[r] = ~near
+                kept[r] &= room >= margin
     return kept
 
 
