@@ -20,7 +20,7 @@ import rclpy
 from rclpy.signals import SignalHandlerOptions
 from unique_identifier_msgs.msg import UUID
 
-from impurity_common.clients import RaceFreeActionClient
+from impurity_common.clients import LOST_RESPONSE_GRACE, RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
@@ -29,9 +29,6 @@ from impurity_policy.core.episode import TERMINATION_CANCELED, is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 CANCEL_TIMEOUT = 30.0  # s for the episode node to confirm a cancel (the arm stops and leaves upwards)
-# s to wait for a goal response once the server has reported on the goal (feedback, status); after that
-# the goal is followed without it (impurity_common.clients: rmw_fastrtps can drop the response)
-LOST_RESPONSE_GRACE = 2.0
 
 
 @contextlib.contextmanager

@@ -16,14 +16,13 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
 from unique_identifier_msgs.msg import UUID
 
-from impurity_common.clients import RaceFreeActionClient
+from impurity_common.clients import LOST_RESPONSE_GRACE, RaceFreeActionClient
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
 LOG_DIR = ROOT / "ros2_ws" / "log" / "test-processes"
 CELL_CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 CALIBRATION = ROOT / "bringup" / "config" / "camera_calibration.yaml"  # the camera pose, read after cell.yaml
-LOST_RESPONSE_GRACE = 2.0  # s: a goal the server reports on waits this long for its response (episode_client)
 
 
 def executable_path(package: str, executable: str) -> pathlib.Path:

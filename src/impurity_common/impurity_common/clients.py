@@ -34,6 +34,10 @@ import weakref
 from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
 
+# s a client that has heard of its goal (heard_of) still waits for the goal response before it follows the
+# goal without it (adopt_accepted_goal): bringup/episode_client.py and the tests' ActionHelper
+LOST_RESPONSE_GRACE = 2.0
+
 # The request methods whose send-then-register window the lock closes (names in rclpy 7.1.x).
 GUARDED_METHODS = ("send_goal_async", "_cancel_goal_async", "_get_result_async")
 
