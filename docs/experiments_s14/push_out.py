@@ -12,6 +12,8 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
     python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     python docs/experiments_s14/push_out.py paired runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
+    # fifteenth session's second test, fresh seeds 99200-99599 (--start 200) and challenging 99600-99799
+    python docs/experiments_s14/push_out.py run invisible 400 runs/s15/inv_base.jsonl --start 200
 """
 import argparse
 import dataclasses
@@ -107,7 +109,7 @@ def run(args) -> None:
     if args.without:
         rule_params["without"] = args.without
     names = palettes(args.random_palettes)
-    ks = args.only or range(args.episodes)
+    ks = args.only or range(args.start, args.start + args.episodes)
     tasks = [(args.scenario, SEED_BASE + k, names[k % len(names)], rule_params) for k in ks]
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -181,6 +183,7 @@ def main(argv=None) -> int:
     r.add_argument("--without", nargs="*", default=[], help="rules of the cell preset left out")
     r.add_argument("--random-palettes", type=int, default=100)
     r.add_argument("--jobs", type=int, default=2)
+    r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     s = sub.add_parser("report")
     s.add_argument("files", nargs="+")
