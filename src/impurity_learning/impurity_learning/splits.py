@@ -11,6 +11,8 @@ Palettes are names for ur5_driver_sim.core.appearance.palette_named: named palet
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 DEFAULT_PALETTE = "blocks"
 # Named palettes: the tuning ones were chosen to span dark/light/multi-shade products before any
 # measurement.
@@ -114,6 +116,119 @@ def palette_group(name: str) -> str:
 
 
 # Seeds. Scene seeds for tuning (attention calibration, rules) are below 100 000; evaluation episodes
-# use EVAL_SEED_BASE + k (evaluate.EVAL_SEED_BASE); training scenes use run seed * 1 000 003 + index.
+# use EVAL_SEED_BASE + k (evaluate.EVAL_SEED_BASE); training scenes use run seed * 1 000 003 + index
+# (train.SCENE_SEED_STRIDE). The default run seed is 0 (train_cli --seed, scripts/train_baselines.sh), and
+# run seed 0's scenes are seeds 0, 1, 2, ...: inside TUNING_SEED_RANGE. The shipped network's first run
+# (docs/training/ours, seed 0) played scenes 0-1752 of the random scenario at its default counts (2 targets,
+# 20 objects), the seeds and counts of calibrate_attention's tuning rows 0-19 and acceptance rows 1000-1029;
+# its fine-tuning (docs/training/ours_palettes, --seed 1) played 1 000 003-1 000 743, outside. A run seed
+# from 1 to 898 keeps a run's scenes above TUNING_SEED_RANGE and below EVAL_SEED_BASE (TUNING_SEED_BLOCKS
+# lists seed 0's). Nothing here changes what training does.
 TUNING_SEED_RANGE = range(0, 100_000)
 EVAL_SEED_BASE = 900_000_000
+
+
+class SeedBlock(NamedTuple):
+    """Scene seeds start <= seed < stop, used by `user` (a repo-relative path) as `note` says."""
+    start: int
+    stop: int
+    user: str
+    note: str
+
+
+# Who uses which scene seeds of TUNING_SEED_RANGE (fifteenth session's census of scripts/ and docs/). A
+# block is the stretch from a plan's first seed to its last; a plan laid out in rows (base + stride x row
+# + i) holds the gaps between its rows too, for more palettes or scenes of the same plan. Counts are those
+# of the recorded runs (docs/*), or the script's defaults where no run is recorded. A new experiment takes
+# a stretch of free_tuning_seeds() and is added here (tests/unit/impurity_learning/test_splits.py checks
+# the scripts' seed bases against this table).
+_CA = "scripts/calibrate_attention.py"
+_S10 = "docs/experiments_s10/"
+TUNING_SEED_BLOCKS = (
+    SeedBlock(0, 606, _CA, "SEED_BASE['tuning']: PLAN's tuning rows, 100 x row + i (its docstring and the "
+              "README say 0..99); PALETTE_PLAN's tuning palettes share these layouts (rule-sweep, "
+              "verifier-fit, experiments_s12/fresh_tuning_palettes.py); the seeds 1-12 of the graph tests, "
+              "bringup/demo.py and scripts/record_test_bag.py"),
+    SeedBlock(0, 1753, "src/impurity_learning/impurity_learning/train.py",
+              "training run seed 0's scenes 0, 1, ... (docs/training/ours, the shipped network's first run, "
+              "played 0-1752; trial 0-1018, baselines at most 0-555): overlaps calibrate_attention's tuning "
+              "and acceptance blocks, not by design; a longer seed-0 run reaches further"),
+    SeedBlock(1000, 1615, _CA, "SEED_BASE['acceptance']: measured only, not tuning (the acceptance table, "
+              "1000 + 100 x row + i, 138 scenes; the retired held-out sets' PALETTE_PLAN layouts; gallery; "
+              "experiments_s13/acceptance_layouts.py; tests/integration/test_attention_sim.py)"),
+    SeedBlock(20_000, 26_101, _CA, "OWN_LAYOUT_SEED_BASE: collect_palettes(own_layouts=True), the 101 "
+              "tuning palettes on scenes of their own, 1000 x row + palette x count + i (1919 scenes)"),
+    SeedBlock(20_606, 26_197, "docs/experiments_s8/fresh_palettes.py",
+              "OWN_LAYOUT_SEED_BASE's scheme for random-96 ... 191 as palettes 101-196; its first row "
+              "(random) runs to 21 181, into the own layouts' second row (challenging, 21 000-21 403): "
+              "seeds 21 000-21 181 serve both, not by design (other scenario and palettes)"),
+    SeedBlock(30_000, 34_030, _CA, "EXPOSURE_CHECK_SEED_BASE: the default palette's EXPOSURE_PLAN, 1000 x "
+              "row + i, never fitted on (experiments_s11/exposure_wide.py's default; experiments_s12/"
+              "recovery.py, experiments_s13/trees_check.py)"),
+    SeedBlock(35_000, 39_030, _CA, "EXPOSURE_FIT_SEED_BASE: EXPOSURE_PLAN scenes verifier_fit("
+              "exposure_scenes=True) fits on (experiments_s11/refit.py)"),
+    SeedBlock(40_000, 44_060, "docs/experiments_s11/exposure_wide.py",
+              "--seed-base 40000 --count-scale 2: the second exposure check set (also previous_model.py)"),
+    SeedBlock(45_000, 49_060, "docs/experiments_s12/confirm.py",
+              "FRESH_SEED_BASE: EXPOSURE_PLAN at count_scale 2, a fresh default-palette exposure set"),
+    SeedBlock(50_000, 50_040, "scripts/calibrate_verdict.py",
+              "tuning split, 50 000 + k for k < --seeds (40 in docs/verdict/tuning_sweep.txt, default 12)"),
+    SeedBlock(60_000, 60_430, "scripts/calibrate_episode_end.py",
+              "SEED_BASE['tuning']: 100 x scene + k over its 5 SCENES, k < --seeds (30 in docs/episode_end)"),
+    SeedBlock(70_000, 70_020, "docs/experiments.md",
+              "sixth session's eval_cli --seed-base 70000, 20 invisible episodes (runs/s6_diag); the 70 000 "
+              "plan the seventh to ninth sessions re-ran on purpose"),
+    SeedBlock(70_000, 70_024, "docs/experiments_s7/last_look/run_truth_counted.sh",
+              "eval_cli --seed-base 70000: 20 default-palette and 24 tuning-group episodes per scenario, "
+              "seeds 70 000 + k; the same plan as the eighth and ninth sessions, on purpose"),
+    SeedBlock(70_000, 70_048, "docs/experiments_s8/episodes/run_truth_counted.sh",
+              "eval_cli --seed-base 70000, tuning group 48 per scenario; re-runs the seventh session's "
+              "seeds"),
+    SeedBlock(70_000, 70_048, "docs/experiments_s9/episodes/run_truth_counted.sh",
+              "eval_cli --seed-base 70000, tuning group 48 per scenario; re-runs the eighth session's "
+              "seeds"),
+    SeedBlock(70_000, 70_006, "scripts/check_rules.py",
+              "SEED_BASE, random: 70 000 + k, k < --episodes (6; docs/rules_check.md ran 4); the same "
+              "random scenes as the truth-counted runs' 70 000 + k (in part under the same palette)"),
+    SeedBlock(71_000, 71_006, "scripts/check_rules.py",
+              "SEED_BASE + 1000, challenging; overlaps experiments_s10/final_views.py's first seeds, "
+              "not by design"),
+    SeedBlock(72_000, 72_006, "scripts/check_rules.py",
+              "SEED_BASE + 2000, invisible; the same invisible scenes as experiments_s10/"
+              "last_look_episodes.py's first ones (other palettes), not by design"),
+    SeedBlock(71_000, 71_993, _S10 + "final_views.py",
+              "SEED_BASE + 10 x palette + scenario: 100 tuning palettes x 3 scenarios, one episode each"),
+    SeedBlock(71_000, 71_993, _S10 + "last_look_episodes.py",
+              "fresh: re-runs final_views.py's episodes that ended by NONE, on purpose"),
+    SeedBlock(72_000, 72_020, _S10 + "last_look_episodes.py",
+              "DEFAULT_SEED_BASE: default palette, 20 episodes per scenario"),
+    SeedBlock(80_000, 92_200, "docs/experiments_s12/more_palettes.py",
+              "SEED_BASE: random-192 ... 391 on layouts of their own, 2000 x row + palette x count + i"),
+    SeedBlock(94_000, 98_860, "docs/experiments_s13/fresh_layouts.py",
+              "LAYOUT_SEED_BASE: random-700 ... 759 on layouts of their own, 800 x row + palette x count "
+              "+ i"),
+    SeedBlock(99_000, 99_200, "docs/experiments_s14/push_out.py",
+              "SEED_BASE + k, k < 200: invisible, every variant on the same seeds (on purpose)"),
+    SeedBlock(99_200, 99_800, "docs/experiments_s14/push_out.py",
+              "--start 200: the fifteenth session's second test, invisible 99 200-99 599, challenging "
+              "99 600-99 799, with and without the rule on the same seeds"),
+)
+
+
+def tuning_seed_block(seed: int) -> list[SeedBlock]:
+    """The blocks of TUNING_SEED_BLOCKS holding `seed`, in the table's order ([] for a free seed or one
+    outside TUNING_SEED_RANGE)."""
+    return [block for block in TUNING_SEED_BLOCKS if block.start <= seed < block.stop]
+
+
+def free_tuning_seeds() -> list[range]:
+    """The stretches of TUNING_SEED_RANGE no block of TUNING_SEED_BLOCKS holds, as ranges in ascending
+    order, each as long as it can be (between two blocks, or a block and the range's ends)."""
+    free, start = [], TUNING_SEED_RANGE.start
+    for block in sorted(TUNING_SEED_BLOCKS):
+        if block.start > start:
+            free.append(range(start, block.start))
+        start = max(start, block.stop)
+    if start < TUNING_SEED_RANGE.stop:
+        free.append(range(start, TUNING_SEED_RANGE.stop))
+    return free

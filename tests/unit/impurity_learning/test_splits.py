@@ -1,6 +1,10 @@
 """The split that is kept (splits.py): tuning, held-out and retired palettes never overlap, and a rotated
 held-out set is retired, never returned to tuning."""
 
+import ast
+import pathlib
+import re
+
 import pytest
 
 from impurity_learning import splits
@@ -43,3 +47,221 @@ def test_held_out_perception_scenes_are_evaluation_seeds_of_their_own_below_the_
     assert min(seeds) == splits.HELD_OUT_LAYOUT_SEED_BASE >= splits.EVAL_SEED_BASE
     assert not any(seed in splits.TUNING_SEED_RANGE for seed in seeds)
     assert max(seeds) < splits.HELD_OUT_LAYOUT_SEED_BASE + 900_000
+
+
+
+# The table of tuning scene seed blocks (splits.TUNING_SEED_BLOCKS). The scripts are read as text with ast,
+# not imported (calibrate_attention and the experiments pull in the renderer): their seed bases and plans
+# are module-level literals.
+ROOT = pathlib.Path(__file__).resolve().parents[3]
+_NOT_LITERAL = object()
+
+
+def _literal(node):
+    if isinstance(node, ast.Dict):  # a dict keeps its literal entries (SEED_BASE's evaluation entry is not)
+        entries = {}
+        for key, value in zip(node.keys, node.values, strict=True):
+            key, value = _literal(key), _literal(value)
+            if key is not _NOT_LITERAL and value is not _NOT_LITERAL:
+                entries[key] = value
+        return entries
+    try:
+        return ast.literal_eval(node)
+    except ValueError:
+        return _NOT_LITERAL
+
+
+def module_constants(path: str) -> dict:
+    """The module-level NAME = <literal> (and A, B = <literal>, <literal>) assignments of a file."""
+    found = {}
+    for node in ast.parse((ROOT / path).read_text()).body:
+        if not isinstance(node, ast.Assign) or len(node.targets) != 1:
+            continue
+        target, value = node.targets[0], node.value
+        pairs = [(target, value)]
+        if isinstance(target, ast.Tuple) and isinstance(value, ast.Tuple):
+            pairs = list(zip(target.elts, value.elts, strict=True))
+        for name, item in pairs:
+            if isinstance(name, ast.Name) and (constant := _literal(item)) is not _NOT_LITERAL:
+                found[name.id] = constant
+    return found
+
+
+def option_default(path: str, option: str):
+    """The default of a script's argparse option `option`."""
+    for node in ast.walk(ast.parse((ROOT / path).read_text())):
+        if (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
+                and node.args[0].value == option):
+            return next(ast.literal_eval(k.value) for k in node.keywords if k.arg == "default")
+    raise AssertionError(f"{path} has no option {option}")
+
+
+def verdict_tuning_base() -> int:
+    """calibrate_verdict.seeds_of's tuning base (`base = 50_000 if split == "tuning" else ...`)."""
+    tree = ast.parse((ROOT / VERDICT).read_text())
+    seeds_of = next(n for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "seeds_of")
+    assign = next(n for n in ast.walk(seeds_of)
+                  if isinstance(n, ast.Assign) and isinstance(n.value, ast.IfExp))
+    return ast.literal_eval(assign.value.body)
+
+
+def shell_runs(path: str) -> list:
+    """(seed base, episodes per scenario) of every eval_cli command of a shell script."""
+    runs = []
+    for line in (ROOT / path).read_text().replace("\\\n", " ").splitlines():
+        if "--seed-base" in line:
+            counts = [int(n) for n in re.findall(r"--(?:group-)?episodes (\d+)", line)]
+            runs.append((int(re.search(r"--seed-base (\d+)", line).group(1)), max(counts, default=20)))
+    return runs
+
+
+CA, VERDICT = "scripts/calibrate_attention.py", "scripts/calibrate_verdict.py"
+RULES, EPISODE_END = "scripts/check_rules.py", "scripts/calibrate_episode_end.py"
+S7 = "docs/experiments_s7/last_look/run_truth_counted.sh"
+S8 = "docs/experiments_s8/episodes/run_truth_counted.sh"
+S9 = "docs/experiments_s9/episodes/run_truth_counted.sh"
+FINAL_VIEWS, LAST_LOOK = "docs/experiments_s10/final_views.py", "docs/experiments_s10/last_look_episodes.py"
+CONFIRM, MORE = "docs/experiments_s12/confirm.py", "docs/experiments_s12/more_palettes.py"
+FRESH_LAYOUTS, PUSH_OUT = "docs/experiments_s13/fresh_layouts.py", "docs/experiments_s14/push_out.py"
+
+
+def own_layout_seeds(base: int, palettes: int, row_stride: int, first: int = 0) -> list:
+    """Seeds of PALETTE_PLAN with scenes of each palette's own: base + stride x row + number x count + i
+    for palette numbers first ... first + palettes - 1."""
+    plan = module_constants(CA)["PALETTE_PLAN"]
+    return [base + row_stride * row + number * count + i for number in range(first, first + palettes)
+            for row, (_, _, count) in enumerate(plan) for i in range(count)]
+
+
+def exposure_seeds(base: int, scale: float) -> list:
+    """collect_exposure_scenes(base, scale)'s seeds: base + 1000 x row + i."""
+    plan = module_constants(CA)["EXPOSURE_PLAN"]
+    return [base + 1000 * row + i for row, (_, _, count) in enumerate(plan)
+            for i in range(int(count * scale))]
+
+
+def planned_seeds() -> list:
+    """(user, the seeds of one plan) for the plans of TUNING_SEED_BLOCKS, recomputed from the scripts'
+    constants and the recorded runs' counts (docs/*)."""
+    ca, rules, end = module_constants(CA), module_constants(RULES), module_constants(EPISODE_END)
+    plan = ca["PLAN"]
+    tuning_palettes = len(splits.tuning_palettes(ca["PALETTE_RANDOM_COUNT"]["tuning"]))
+    final_views = module_constants(FINAL_VIEWS)
+    push_out = module_constants(PUSH_OUT)["SEED_BASE"]
+    return [
+        (CA, [ca["SEED_BASE"]["tuning"] + 100 * row + i for row, (*_, tuning, _) in enumerate(plan)
+              for i in range(tuning)]),
+        (CA, [ca["SEED_BASE"]["acceptance"] + 100 * row + i for row, (*_, acceptance) in enumerate(plan)
+              for i in range(acceptance)]),
+        (CA, own_layout_seeds(ca["OWN_LAYOUT_SEED_BASE"], tuning_palettes, 1000)),
+        # experiments_s8/fresh_palettes.py: random-96 ... 191, numbered after the 101 tuning palettes
+        ("docs/experiments_s8/fresh_palettes.py",
+         own_layout_seeds(ca["OWN_LAYOUT_SEED_BASE"], 96, 1000, first=tuning_palettes)),
+        (CA, exposure_seeds(ca["EXPOSURE_CHECK_SEED_BASE"], 1)),
+        (CA, exposure_seeds(ca["EXPOSURE_FIT_SEED_BASE"], 1)),
+        # docs/experiments.md, eleventh session: exposure_wide.py report --seed-base 40000 --count-scale 2
+        ("docs/experiments_s11/exposure_wide.py", exposure_seeds(40_000, 2)),
+        (CONFIRM, exposure_seeds(module_constants(CONFIRM)["FRESH_SEED_BASE"], 2)),
+        (VERDICT, [verdict_tuning_base() + k for k in range(40)]),  # docs/verdict/tuning_sweep.txt
+        (EPISODE_END, [end["SEED_BASE"]["tuning"] + 100 * index + k  # docs/episode_end/*.txt: --seeds 30
+                       for index in range(len(end["SCENES"])) for k in range(30)]),
+        *((RULES, [rules["SEED_BASE"] + 1000 * index + k for k in range(option_default(RULES, "--episodes"))])
+          for index in range(len(rules["SCENARIOS"]))),
+        *((path, [base + k for k in range(episodes)])
+          for path in (S7, S8, S9) for base, episodes in shell_runs(path)),
+        ("docs/experiments.md", [70_000 + k for k in range(20)]),  # the sixth session's runs/s6_diag
+        (FINAL_VIEWS, [final_views["SEED_BASE"] + 10 * number + k  # named tuning palettes, random-96 ... 191
+                       for number in range(len(splits.TUNING_NAMED) + 96)
+                       for k in range(len(final_views["SCENARIOS"]))]),
+        (LAST_LOOK, [module_constants(LAST_LOOK)["DEFAULT_SEED_BASE"] + k for k in range(20)]),
+        # `more_palettes.py collect 200`: random-192 ... 391; fresh_layouts.py's default: random-700 ... 759
+        (MORE, own_layout_seeds(module_constants(MORE)["SEED_BASE"], 200, 2000)),
+        (FRESH_LAYOUTS, own_layout_seeds(module_constants(FRESH_LAYOUTS)["LAYOUT_SEED_BASE"], 60, 800)),
+        # push_out.py: the fourteenth session's 200 invisible episodes; the fifteenth's --start 200 (400
+        # invisible) and --start 600 (200 challenging), one block
+        (PUSH_OUT, [push_out + k for k in range(200)]),
+        (PUSH_OUT, [push_out + k for k in range(200, 800)]),
+    ]
+
+
+def test_every_tuning_seed_block_is_a_stretch_of_the_tuning_range_with_a_user():
+    assert splits.TUNING_SEED_BLOCKS
+    for block in splits.TUNING_SEED_BLOCKS:
+        assert splits.TUNING_SEED_RANGE.start <= block.start < block.stop <= splits.TUNING_SEED_RANGE.stop
+        assert (ROOT / block.user).is_file(), block.user
+        assert block.note
+
+
+@pytest.mark.parametrize(("user", "seeds"), planned_seeds(), ids=lambda v: v if isinstance(v, str) else "")
+def test_every_plan_is_a_block_of_its_user_from_its_first_seed_to_its_last(user, seeds):
+    extent = (min(seeds), max(seeds) + 1)
+    assert extent in [(b.start, b.stop) for b in splits.TUNING_SEED_BLOCKS if b.user == user]
+
+
+# (path, constant, key): the scripts' seed bases that are tuning seeds
+SEED_BASES = [(CA, "SEED_BASE", "tuning"), (CA, "SEED_BASE", "acceptance"),
+              (CA, "OWN_LAYOUT_SEED_BASE", None), (CA, "EXPOSURE_FIT_SEED_BASE", None),
+              (CA, "EXPOSURE_CHECK_SEED_BASE", None), (RULES, "SEED_BASE", None),
+              (EPISODE_END, "SEED_BASE", "tuning"), (FINAL_VIEWS, "SEED_BASE", None),
+              (LAST_LOOK, "DEFAULT_SEED_BASE", None), (CONFIRM, "FRESH_SEED_BASE", None),
+              (MORE, "SEED_BASE", None), (FRESH_LAYOUTS, "LAYOUT_SEED_BASE", None),
+              (PUSH_OUT, "SEED_BASE", None)]
+
+
+@pytest.mark.parametrize(("path", "name", "key"), SEED_BASES)
+def test_a_scripts_seed_base_starts_a_block_of_its_own(path, name, key):
+    base = module_constants(path)[name]
+    base = base if key is None else base[key]
+    assert base in splits.TUNING_SEED_RANGE
+    assert base in [b.start for b in splits.tuning_seed_block(base) if b.user == path]
+
+
+def test_the_verdict_calibrations_and_the_shell_scripts_seed_bases_start_blocks_of_their_own():
+    assert verdict_tuning_base() in [b.start for b in splits.TUNING_SEED_BLOCKS if b.user == VERDICT]
+    for path in (S7, S8, S9):
+        assert shell_runs(path)
+        for base, _ in shell_runs(path):
+            assert base in [b.start for b in splits.TUNING_SEED_BLOCKS if b.user == path]
+
+
+def test_every_script_with_a_tuning_seed_base_is_in_the_table():
+    # a new experiment's `..._SEED_BASE = <tuning seed>` or `--seed-base <tuning seed>` needs a block
+    found = set()
+    for path in sorted([*ROOT.glob("scripts/*.py"), *ROOT.glob("docs/**/*.py")]):
+        relative = str(path.relative_to(ROOT))
+        for name, value in module_constants(relative).items():
+            values = value.values() if isinstance(value, dict) else [value]
+            if name.endswith("SEED_BASE") and any(isinstance(v, int) and v in splits.TUNING_SEED_RANGE
+                                                  for v in values):
+                found.add(relative)
+    for path in sorted([*ROOT.glob("scripts/*.sh"), *ROOT.glob("docs/**/*.sh")]):
+        if any(int(base) in splits.TUNING_SEED_RANGE
+               for base in re.findall(r"--seed-base (\d+)", path.read_text())):
+            found.add(str(path.relative_to(ROOT)))
+    assert {CA, RULES, S7, PUSH_OUT} <= found
+    assert found - {b.user for b in splits.TUNING_SEED_BLOCKS} == set()
+
+
+def test_tuning_seed_block_gives_every_block_holding_the_seed():
+    for block in splits.TUNING_SEED_BLOCKS:
+        assert block in splits.tuning_seed_block(block.start)
+        assert block in splits.tuning_seed_block(block.stop - 1)
+        assert block not in splits.tuning_seed_block(block.stop)
+        assert block not in splits.tuning_seed_block(block.start - 1)
+    # the seventh to ninth sessions re-ran one plan on purpose; check_rules' first seeds are among them
+    assert {S7, S8, S9, RULES} <= {b.user for b in splits.tuning_seed_block(70_001)}
+    assert splits.tuning_seed_block(-1) == splits.tuning_seed_block(splits.TUNING_SEED_RANGE.stop) == []
+
+
+def test_free_tuning_seeds_and_the_blocks_cover_the_tuning_range_and_never_meet():
+    free = splits.free_tuning_seeds()
+    assert free and all(isinstance(stretch, range) and len(stretch) > 0 for stretch in free)
+    # ascending, and each as long as it can be: two free stretches never touch
+    assert all(a.stop < b.start for a, b in zip(free, free[1:], strict=False))
+    for stretch in free:
+        assert not any(b.start < stretch.stop and stretch.start < b.stop for b in splits.TUNING_SEED_BLOCKS)
+        assert splits.tuning_seed_block(stretch.start) == splits.tuning_seed_block(stretch.stop - 1) == []
+    used = {seed for block in splits.TUNING_SEED_BLOCKS for seed in range(block.start, block.stop)}
+    free_seeds = {seed for stretch in free for seed in stretch}
+    assert not free_seeds & used
+    assert free_seeds | used == set(splits.TUNING_SEED_RANGE)
