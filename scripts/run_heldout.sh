@@ -7,15 +7,17 @@
 #     scripts/run_heldout.sh OUT SEED_BASE GROUP_EPISODES [EPISODES [PALETTE_OFFSET]]
 #     scripts/run_heldout.sh runs/s13/heldout8 902900000 100     # the eighth set: its first 100 palettes
 #     scripts/run_heldout.sh runs/s14/heldout8b 904900000 100 20 100   # its other 100, on seeds of their own
+#     RULES=cell scripts/run_heldout.sh ...   # the rules presets measured (default: "cell none")
 #
 # The earlier sets' runs (docs/experiments_s*/run_heldout*.sh) call this script with their arguments.
 # OUT is taken relative to the caller's directory; an existing OUT's results are replaced (--no-resume).
 set -euo pipefail
-usage() { sed -n 2,12p "$0" >&2; exit 2; }
+usage() { sed -n 2,13p "$0" >&2; exit 2; }
 [ $# -ge 3 ] || usage
 for number in "$2" "$3" "${4:-20}" "${5:-0}"; do
   [[ $number =~ ^[0-9]+$ ]] || { echo "run_heldout.sh: '$number' is not a whole number" >&2; usage; }
 done
+read -r -a rules <<< "${RULES:-cell none}"
 out=$(realpath -m -- "$1") seed_base=$2 group_episodes=$3 episodes=${4:-20} palette_offset=${5:-0}
 cd "$(dirname "$0")/.."
 set +u
@@ -26,7 +28,7 @@ date; git rev-parse HEAD
 python -c "from impurity_attention.core.attention import AttentionParams as A; a = A(); print('decision', a.decision, 'verifier_last_look', a.verifier_last_look, 'verifier_clipped_threshold', a.verifier_clipped_threshold); from impurity_attention.core import verifier as v; print('verifier features', len(v.FEATURES), v.default_verifier().provenance)"
 python -c "from impurity_policy.core.rules import PRESETS, RuleParams; print('rules cell', ', '.join(PRESETS['cell'])); print(RuleParams())"
 cp README.md "$out/README.md"
-python -m impurity_learning.eval_cli --methods ours --rules cell none --episodes "$episodes" \
+python -m impurity_learning.eval_cli --methods ours --rules "${rules[@]}" --episodes "$episodes" \
   --palette-groups default held_out --group-episodes "$group_episodes" --group-palette-offset "$palette_offset" \
   --seed-base "$seed_base" \
   --markdown "$out/results.md" --chart "$out/results.png" --json "$out/results.json" --readme "$out/README.md" \
