@@ -238,7 +238,7 @@ def test_target_rules_do_nothing_without_a_target_in_view(name):
 def test_occluded_push_off_edge_prefers_pushes_that_do_not_head_for_a_near_edge():
     height = covered_heap()
     origin = (112, 112)  # the crop covers the map's bottom-right quarter; crop col c is map col 112 + c
-    on = RuleParams(occluded_push_edge_margin=0.12)  # off by default
+    on = RuleParams(occluded_push_edge_margin=0.12)
     obs = _observation(MODE_OCCLUDED_REGION, height, origin=origin)
     kept = _kept(["occluded_push_off_edge"], obs, params=on)
     # +x (rotation 0) from map col 112 + c (its centre) ends (61.5 - c) x 2 mm from the edge: 12 cm or more
@@ -249,7 +249,8 @@ def test_occluded_push_off_edge_prefers_pushes_that_do_not_head_for_a_near_edge(
     assert not kept[4, PUSH, 56, 56]  # +y towards the bottom edge, ending 1.1 cm from it
     assert not kept[3, PUSH, 56, 1]  # 67.5 degrees off +x: it approaches the bottom edge too
     assert kept[:, GRASP].all()
-    assert _kept(["occluded_push_off_edge"], _observation(MODE_OCCLUDED_REGION, height, origin=origin)).all()
+    off = RuleParams(occluded_push_edge_margin=0.0)  # a margin of 0 turns the rule off
+    assert _kept(["occluded_push_off_edge"], obs, params=off).all()
 
 
 def test_occluded_push_off_edge_gives_way_when_every_push_heads_for_an_edge():
@@ -268,7 +269,7 @@ def test_occluded_push_off_edge_gives_way_when_every_push_heads_for_an_edge():
                                   "occluded_push_start_on_flank"])
 def test_occluded_region_rules_do_nothing_with_a_target_in_view(name):
     height = covered_heap()
-    on = RuleParams(occluded_push_edge_margin=0.12)  # occluded_push_off_edge is off by default
+    on = RuleParams(occluded_push_edge_margin=0.12)
     assert not _kept([name], _observation(MODE_OCCLUDED_REGION, height), params=on).all()
     assert _kept([name], _observation(MODE_TARGET, height, _square_mask()), params=on).all()
 
