@@ -13,6 +13,8 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     python docs/experiments_s14/push_out.py paired runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     # fifteenth session's second test, fresh seeds 99200-99599 (--start 200) and challenging 99600-99799
+    # (--start 600); the rule was then adopted, so since then the defaults ("shipped" in the reports) hold
+    # it and the rules without it are --edge-margin 0
     python docs/experiments_s14/push_out.py run invisible 400 runs/s15/inv_base.jsonl --start 200
 """
 import argparse
