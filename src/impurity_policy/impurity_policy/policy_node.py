@@ -98,7 +98,7 @@ class PolicyParameters:
                                    "inside the workspace (m)", low=0.0, high=0.2)
     occluded_push_edge_margin: float = param(_RULES.occluded_push_edge_margin, "occluded_push_off_edge: "
                                              "pushes that head for a workspace edge end at least this "
-                                             "far from it (m; 0: off; docs/experiments.md, fifteenth section)",
+                                             "far from it (m; 0: off; docs/experiments.md, fifteenth)",
                                              low=0.0, high=0.3)
     occluded_push_start_band: tuple[float, ...] = param(
         _RULES.occluded_push_start_band, "occluded_push_start_on_flank: [low, high] local top at the push "
