@@ -50,8 +50,8 @@ HELD_OUT_RANDOM_COUNT = 196  # random palettes of the held-out set (held_out_pal
 # then a draw of 2000 layouts, not of ten.
 HELD_OUT_LAYOUT_SEED_BASE = 902_000_000
 # Its picking run (scripts/run_heldout.sh): palettes 0-99 of held_out_palettes() on seeds 902 900 000 + k
-# (thirteenth session). Palettes 100-199 have had no picking run: they are kept for the next change of the
-# rules, on seeds 904 900 000 + k (PALETTE_OFFSET 100). Exposure seeds 903 000 000 + 1000 x row + i.
+# (thirteenth session); palettes 100-199 on seeds 904 900 000 + k (PALETTE_OFFSET 100) measured the rules with
+# occluded_push_off_edge once (fifteenth session, `cell` only). Exposure seeds 903 000 000 + 1000 x row + i.
 # the retired sets, oldest first: (named palettes, random seeds); 8 random palettes of each were measured
 # (24 of the fourth, fifth and sixth sets, 56 of the seventh; retired_palettes measures 8 of every set)
 RETIRED_SETS = (
