@@ -1,8 +1,8 @@
 #!/bin/bash
 # Issue 17: measure the held-out set once with the shipped attention and network (only measured, never tuned
-# on): Ours under the `cell` and `none` rules presets on the default palette (--episodes per scenario) and on
-# the held-out group (splits.held_out_palettes, cycled: GROUP_EPISODES per scenario), on evaluation seeds fixed
-# before the set was rendered. Writes everything into OUT (nothing in README or docs/).
+# on): Ours under the `cell` and `none` rules presets (or those of $RULES) on the default palette (--episodes
+# per scenario) and on the held-out group (splits.held_out_palettes, cycled: GROUP_EPISODES per scenario), on
+# evaluation seeds fixed before the set was rendered. Writes everything into OUT (nothing in README or docs/).
 #
 #     scripts/run_heldout.sh OUT SEED_BASE GROUP_EPISODES [EPISODES [PALETTE_OFFSET]]
 #     scripts/run_heldout.sh runs/s13/heldout8 902900000 100     # the eighth set: its first 100 palettes

@@ -6,16 +6,17 @@ the count of targets outside the workspace rose: attention's mode, the primitive
 ended and how far that end lay inside the workspace. Variants of the rules (`--without`, `--edge-margin`,
 `--push-end-margin`) are run on the same seeds, so a change can be chosen on them.
 
-    # the shipped rules (push_out_base.jsonl was run before the new rule existed, so its params are {};
-    # today the rule is off by default and this command runs the same rules)
-    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl
+    # the rules then shipped (push_out_base.jsonl was run before the new rule existed, so its params are {};
+    # since the fifteenth session the rule is on by default: the same rules today are --edge-margin 0)
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_base.jsonl --edge-margin 0
     python docs/experiments_s14/push_out.py run invisible 200 runs/s14/push_out_e12.jsonl --edge-margin 0.12
     python docs/experiments_s14/push_out.py report runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     python docs/experiments_s14/push_out.py paired runs/s14/push_out_base.jsonl runs/s14/push_out_e12.jsonl
     # fifteenth session's second test, fresh seeds 99200-99599 (--start 200) and challenging 99600-99799
-    # (--start 600); the rule was then adopted, so since then the defaults ("shipped" in the reports) hold
-    # it and the rules without it are --edge-margin 0
-    python docs/experiments_s14/push_out.py run invisible 400 runs/s15/inv_base.jsonl --start 200
+    # (--start 600), run while the rule was off by default; the rule was then adopted, so the defaults
+    # ("shipped" in the reports: params {}) hold it since, and the base arm today is --edge-margin 0
+    python docs/experiments_s14/push_out.py run invisible 400 runs/s15/inv_base.jsonl --start 200 \
+        --edge-margin 0
 """
 import argparse
 import dataclasses
