@@ -6,6 +6,7 @@ import pathlib
 import re
 
 import pytest
+from source_scan import module_constants, option_default
 
 from impurity_learning import splits
 from ur5_driver_sim.core.appearance import PALETTES
@@ -54,48 +55,6 @@ def test_held_out_perception_scenes_are_evaluation_seeds_of_their_own_below_the_
 # not imported (calibrate_attention and the experiments pull in the renderer): their seed bases and plans
 # are module-level literals.
 ROOT = pathlib.Path(__file__).resolve().parents[3]
-_NOT_LITERAL = object()
-
-
-def _literal(node):
-    if isinstance(node, ast.Dict):  # a dict keeps its literal entries (SEED_BASE's evaluation entry is not)
-        entries = {}
-        for key, value in zip(node.keys, node.values, strict=True):
-            key, value = _literal(key), _literal(value)
-            if key is not _NOT_LITERAL and value is not _NOT_LITERAL:
-                entries[key] = value
-        return entries
-    try:
-        return ast.literal_eval(node)
-    except ValueError:
-        return _NOT_LITERAL
-
-
-def module_constants(path: str) -> dict:
-    """The module-level NAME = <literal> (and A, B = <literal>, <literal>) assignments of a file."""
-    found = {}
-    for node in ast.parse((ROOT / path).read_text()).body:
-        if not isinstance(node, ast.Assign) or len(node.targets) != 1:
-            continue
-        target, value = node.targets[0], node.value
-        pairs = [(target, value)]
-        if isinstance(target, ast.Tuple) and isinstance(value, ast.Tuple):
-            pairs = list(zip(target.elts, value.elts, strict=True))
-        for name, item in pairs:
-            if isinstance(name, ast.Name) and (constant := _literal(item)) is not _NOT_LITERAL:
-                found[name.id] = constant
-    return found
-
-
-def option_default(path: str, option: str):
-    """The default of a script's argparse option `option`."""
-    for node in ast.walk(ast.parse((ROOT / path).read_text())):
-        if (isinstance(node, ast.Call) and node.args and isinstance(node.args[0], ast.Constant)
-                and node.args[0].value == option):
-            return next(ast.literal_eval(k.value) for k in node.keywords if k.arg == "default")
-    raise AssertionError(f"{path} has no option {option}")
-
-
 def verdict_tuning_base() -> int:
     """calibrate_verdict.seeds_of's tuning base (`base = 50_000 if split == "tuning" else ...`)."""
     tree = ast.parse((ROOT / VERDICT).read_text())
@@ -128,14 +87,14 @@ FRESH_LAYOUTS, PUSH_OUT = "docs/experiments_s13/fresh_layouts.py", "docs/experim
 def own_layout_seeds(base: int, palettes: int, row_stride: int, first: int = 0) -> list:
     """Seeds of PALETTE_PLAN with scenes of each palette's own: base + stride x row + number x count + i
     for palette numbers first ... first + palettes - 1."""
-    plan = module_constants(CA)["PALETTE_PLAN"]
+    plan = module_constants(ROOT / CA)["PALETTE_PLAN"]
     return [base + row_stride * row + number * count + i for number in range(first, first + palettes)
             for row, (_, _, count) in enumerate(plan) for i in range(count)]
 
 
 def exposure_seeds(base: int, scale: float) -> list:
     """collect_exposure_scenes(base, scale)'s seeds: base + 1000 x row + i."""
-    plan = module_constants(CA)["EXPOSURE_PLAN"]
+    plan = module_constants(ROOT / CA)["EXPOSURE_PLAN"]
     return [base + 1000 * row + i for row, (_, _, count) in enumerate(plan)
             for i in range(int(count * scale))]
 
@@ -143,11 +102,13 @@ def exposure_seeds(base: int, scale: float) -> list:
 def planned_seeds() -> list:
     """(user, the seeds of one plan) for the plans of TUNING_SEED_BLOCKS, recomputed from the scripts'
     constants and the recorded runs' counts (docs/*)."""
-    ca, rules, end = module_constants(CA), module_constants(RULES), module_constants(EPISODE_END)
+    ca, rules = module_constants(ROOT / CA), module_constants(ROOT / RULES)
+    end = module_constants(ROOT / EPISODE_END)
+    rules_episodes = option_default(ROOT / RULES, "--episodes")
     plan = ca["PLAN"]
     tuning_palettes = len(splits.tuning_palettes(ca["PALETTE_RANDOM_COUNT"]["tuning"]))
-    final_views = module_constants(FINAL_VIEWS)
-    push_out = module_constants(PUSH_OUT)["SEED_BASE"]
+    final_views = module_constants(ROOT / FINAL_VIEWS)
+    push_out = module_constants(ROOT / PUSH_OUT)["SEED_BASE"]
     return [
         (CA, [ca["SEED_BASE"]["tuning"] + 100 * row + i for row, (*_, tuning, _) in enumerate(plan)
               for i in range(tuning)]),
@@ -161,11 +122,11 @@ def planned_seeds() -> list:
         (CA, exposure_seeds(ca["EXPOSURE_FIT_SEED_BASE"], 1)),
         # docs/experiments.md, eleventh session: exposure_wide.py report --seed-base 40000 --count-scale 2
         ("docs/experiments_s11/exposure_wide.py", exposure_seeds(40_000, 2)),
-        (CONFIRM, exposure_seeds(module_constants(CONFIRM)["FRESH_SEED_BASE"], 2)),
+        (CONFIRM, exposure_seeds(module_constants(ROOT / CONFIRM)["FRESH_SEED_BASE"], 2)),
         (VERDICT, [verdict_tuning_base() + k for k in range(40)]),  # docs/verdict/tuning_sweep.txt
         (EPISODE_END, [end["SEED_BASE"]["tuning"] + 100 * index + k  # docs/episode_end/*.txt: --seeds 30
                        for index in range(len(end["SCENES"])) for k in range(30)]),
-        *((RULES, [rules["SEED_BASE"] + 1000 * index + k for k in range(option_default(RULES, "--episodes"))])
+        *((RULES, [rules["SEED_BASE"] + 1000 * index + k for k in range(rules_episodes)])
           for index in range(len(rules["SCENARIOS"]))),
         *((path, [base + k for k in range(episodes)])
           for path in (S7, S8, S9) for base, episodes in shell_runs(path)),
@@ -173,10 +134,11 @@ def planned_seeds() -> list:
         (FINAL_VIEWS, [final_views["SEED_BASE"] + 10 * number + k  # named tuning palettes, random-96 ... 191
                        for number in range(len(splits.TUNING_NAMED) + 96)
                        for k in range(len(final_views["SCENARIOS"]))]),
-        (LAST_LOOK, [module_constants(LAST_LOOK)["DEFAULT_SEED_BASE"] + k for k in range(20)]),
+        (LAST_LOOK, [module_constants(ROOT / LAST_LOOK)["DEFAULT_SEED_BASE"] + k for k in range(20)]),
         # `more_palettes.py collect 200`: random-192 ... 391; fresh_layouts.py's default: random-700 ... 759
-        (MORE, own_layout_seeds(module_constants(MORE)["SEED_BASE"], 200, 2000)),
-        (FRESH_LAYOUTS, own_layout_seeds(module_constants(FRESH_LAYOUTS)["LAYOUT_SEED_BASE"], 60, 800)),
+        (MORE, own_layout_seeds(module_constants(ROOT / MORE)["SEED_BASE"], 200, 2000)),
+        (FRESH_LAYOUTS,
+         own_layout_seeds(module_constants(ROOT / FRESH_LAYOUTS)["LAYOUT_SEED_BASE"], 60, 800)),
         # push_out.py: the fourteenth session's 200 invisible episodes; the fifteenth's --start 200 (400
         # invisible) and --start 600 (200 challenging), one block
         (PUSH_OUT, [push_out + k for k in range(200)]),
@@ -210,7 +172,7 @@ SEED_BASES = [(CA, "SEED_BASE", "tuning"), (CA, "SEED_BASE", "acceptance"),
 
 @pytest.mark.parametrize(("path", "name", "key"), SEED_BASES)
 def test_a_scripts_seed_base_starts_a_block_of_its_own(path, name, key):
-    base = module_constants(path)[name]
+    base = module_constants(ROOT / path)[name]
     base = base if key is None else base[key]
     assert base in splits.TUNING_SEED_RANGE
     assert base in [b.start for b in splits.tuning_seed_block(base) if b.user == path]
@@ -229,7 +191,7 @@ def test_every_script_with_a_tuning_seed_base_is_in_the_table():
     found = set()
     for path in sorted([*ROOT.glob("scripts/*.py"), *ROOT.glob("docs/**/*.py")]):
         relative = str(path.relative_to(ROOT))
-        for name, value in module_constants(relative).items():
+        for name, value in module_constants(path).items():
             values = value.values() if isinstance(value, dict) else [value]
             if name.endswith("SEED_BASE") and any(isinstance(v, int) and v in splits.TUNING_SEED_RANGE
                                                   for v in values):
