@@ -215,7 +215,7 @@ TUNING_SEED_BLOCKS = (
 )
 
 
-def tuning_seed_block(seed: int) -> list[SeedBlock]:
+def tuning_seed_blocks(seed: int) -> list[SeedBlock]:
     """The blocks of TUNING_SEED_BLOCKS holding `seed`, in the table's order ([] for a free seed or one
     outside TUNING_SEED_RANGE)."""
     return [block for block in TUNING_SEED_BLOCKS if block.start <= seed < block.stop]

@@ -175,7 +175,7 @@ def test_a_scripts_seed_base_starts_a_block_of_its_own(path, name, key):
     base = module_constants(ROOT / path)[name]
     base = base if key is None else base[key]
     assert base in splits.TUNING_SEED_RANGE
-    assert base in [b.start for b in splits.tuning_seed_block(base) if b.user == path]
+    assert base in [b.start for b in splits.tuning_seed_blocks(base) if b.user == path]
 
 
 def test_the_verdict_calibrations_and_the_shell_scripts_seed_bases_start_blocks_of_their_own():
@@ -206,13 +206,13 @@ def test_every_script_with_a_tuning_seed_base_is_in_the_table():
 
 def test_tuning_seed_block_gives_every_block_holding_the_seed():
     for block in splits.TUNING_SEED_BLOCKS:
-        assert block in splits.tuning_seed_block(block.start)
-        assert block in splits.tuning_seed_block(block.stop - 1)
-        assert block not in splits.tuning_seed_block(block.stop)
-        assert block not in splits.tuning_seed_block(block.start - 1)
+        assert block in splits.tuning_seed_blocks(block.start)
+        assert block in splits.tuning_seed_blocks(block.stop - 1)
+        assert block not in splits.tuning_seed_blocks(block.stop)
+        assert block not in splits.tuning_seed_blocks(block.start - 1)
     # the seventh to ninth sessions re-ran one plan on purpose; check_rules' first seeds are among them
-    assert {S7, S8, S9, RULES} <= {b.user for b in splits.tuning_seed_block(70_001)}
-    assert splits.tuning_seed_block(-1) == splits.tuning_seed_block(splits.TUNING_SEED_RANGE.stop) == []
+    assert {S7, S8, S9, RULES} <= {b.user for b in splits.tuning_seed_blocks(70_001)}
+    assert splits.tuning_seed_blocks(-1) == splits.tuning_seed_blocks(splits.TUNING_SEED_RANGE.stop) == []
 
 
 def test_free_tuning_seeds_and_the_blocks_cover_the_tuning_range_and_never_meet():
@@ -222,7 +222,7 @@ def test_free_tuning_seeds_and_the_blocks_cover_the_tuning_range_and_never_meet(
     assert all(a.stop < b.start for a, b in zip(free, free[1:], strict=False))
     for stretch in free:
         assert not any(b.start < stretch.stop and stretch.start < b.stop for b in splits.TUNING_SEED_BLOCKS)
-        assert splits.tuning_seed_block(stretch.start) == splits.tuning_seed_block(stretch.stop - 1) == []
+        assert splits.tuning_seed_blocks(stretch.start) == splits.tuning_seed_blocks(stretch.stop - 1) == []
     used = {seed for block in splits.TUNING_SEED_BLOCKS for seed in range(block.start, block.stop)}
     free_seeds = {seed for stretch in free for seed in stretch}
     assert not free_seeds & used
