@@ -17,6 +17,12 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
     # ("shipped" in the reports: params {}) hold it since, and the base arm today is --edge-margin 0
     python docs/experiments_s14/push_out.py run invisible 400 runs/s15/inv_base.jsonl --start 200 \
         --edge-margin 0
+    # sixteenth session: every grasp recorded ("grasps"), tuning palettes and the default palette on the same
+    # fresh seeds 99800-99999 (--start 800), then `grasps` to sort the failed ones
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s16/grasps_tuning.jsonl --start 800
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s16/grasps_default.jsonl --start 800 \
+        --palette blocks
+    python docs/experiments_s14/push_out.py grasps runs/s16/grasps_tuning.jsonl runs/s16/grasps_default.jsonl
 """
 import argparse
 import dataclasses
@@ -46,6 +52,12 @@ def edge_distance(x: float, y: float) -> float:
     return min(x - x_min, x_max - x, y - y_min, y_max - y)
 
 
+def nearest(poses: dict, ids, x: float, y: float) -> float:
+    """m in the table plane from (x, y) to the nearest body of `ids` (inf when there is none)."""
+    return min((math.hypot(poses[b][0][0] - x, poses[b][0][1] - y) for b in ids if b in poses),
+               default=math.inf)
+
+
 def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
@@ -70,8 +82,21 @@ def run_one(task: tuple) -> dict:
         rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
-    steps, where = [], []
+    steps, where, decided = [], [], []
     world = _WORKER["world"]
+
+    class RecordingCell(SimCell):
+        """SimCell that keeps, for each decision, where the grasp point lay from the nearest target and the
+        nearest product object (truth at decision time) and attention's mode."""
+
+        def decide(self, view):
+            action = super().decide(view)
+            if action is not None:
+                truth, poses = world.ground_truth(), world.poses()
+                x, y, _ = action.position
+                decided.append({"target_m": nearest(poses, truth.target_ids, x, y),
+                                "object_m": nearest(poses, truth.object_ids, x, y)})
+            return action
 
     def targets_at() -> list:
         truth = world.ground_truth()
@@ -81,7 +106,7 @@ def run_one(task: tuple) -> dict:
         steps.append(step)
         where.append(targets_at())
 
-    summary = picking.run_episode(SimCell(_WORKER["world"], _WORKER["agent"]),
+    summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"]),
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
     events, outside = [], 0
@@ -96,11 +121,15 @@ def run_one(task: tuple) -> dict:
                            "targets_before": where[index - 1] if index else None,
                            "targets_after": where[index]})
         outside = step.targets_outside
+    grasps = [{"step": step.step, "mode": step.attention_mode, "lifted": step.success,
+               "target": step.target_grasped, "target_m": round(decided[index]["target_m"], 4),
+               "object_m": round(decided[index]["object_m"], 4)}
+              for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
             "termination": summary["termination_reason"], "completed": summary["completed"],
             "picked": summary["targets_picked"], "total": summary["targets_total"],
             "attempts": summary["grasp_attempts"], "actions": summary["actions"],
-            "outside": summary["targets_outside"], "events": events}
+            "outside": summary["targets_outside"], "events": events, "grasps": grasps}
 
 
 def run(args) -> None:
@@ -111,7 +140,7 @@ def run(args) -> None:
         rule_params["occluded_push_edge_margin"] = args.edge_margin
     if args.without:
         rule_params["without"] = args.without
-    names = palettes(args.random_palettes)
+    names = [args.palette] if args.palette else palettes(args.random_palettes)
     ks = args.only or range(args.start, args.start + args.episodes)
     tasks = [(args.scenario, SEED_BASE + k, names[k % len(names)], rule_params) for k in ks]
     out = pathlib.Path(args.out)
@@ -143,6 +172,38 @@ def report(args) -> None:
             end = f"{e['end_edge']:.3f}" if e["end_edge"] is not None else "-"
             print(f"    step {e['step']:2d} {e['mode']:16s} {e['kind']:5s} start {e['start_edge']:.3f} m "
                   f"from the edge, end {end} m")
+
+
+def grasps(paths: list) -> None:
+    """Each file's grasp success (the per-episode mean, as make eval, and pooled) and its failed grasps sorted
+    by attention's mode, what was lifted and which body the grasp point lay nearest at decision time."""
+    for path in paths:
+        rows = [json.loads(line) for line in open(path)]
+        rates = [r["picked"] / r["attempts"] for r in rows if r["attempts"]]
+        attempts = sum(r["attempts"] for r in rows)
+        print(f"{path}: {len(rows)} episodes, palettes {len({r['palette'] for r in rows})}; grasp success "
+              f"per-episode mean {100 * np.mean(rates):.1f} % ({len(rates)} episodes with a grasp), pooled "
+              f"{100 * sum(r['picked'] for r in rows) / max(attempts, 1):.1f} % ({attempts} attempts); "
+              f"completion {100 * np.mean([r['completed'] for r in rows]):.1f} %")
+        kinds = {}
+        for r in rows:
+            for g in r["grasps"]:
+                if g["target"]:
+                    continue
+                nearer = "target" if g["target_m"] < g["object_m"] else "product"
+                key = (g["mode"], "product lifted" if g["lifted"] else "nothing lifted", f"nearer a {nearer}")
+                kinds.setdefault(key, []).append(min(g["target_m"], g["object_m"]))
+        failed = sum(len(v) for v in kinds.values())
+        print(f"  failed grasps {failed}:")
+        for key, distances in sorted(kinds.items(), key=lambda kv: -len(kv[1])):
+            print(f"    {len(distances):4d}  {' / '.join(key)}, median "
+                  f"{100 * np.median(distances):.1f} cm from it")
+        worst = {}
+        for r in rows:
+            if r["attempts"]:
+                worst.setdefault(r["palette"], []).append(r["picked"] / r["attempts"])
+        low = sorted(worst.items(), key=lambda kv: np.mean(kv[1]))[:8]
+        print("  lowest palettes:", ", ".join(f"{k} {100 * np.mean(v):.0f} % ({len(v)})" for k, v in low))
 
 
 def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
@@ -188,8 +249,12 @@ def main(argv=None) -> int:
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
+    r.add_argument("--palette", default="",
+                   help="this palette for every episode (default: the tuning group's)")
     s = sub.add_parser("report")
     s.add_argument("files", nargs="+")
+    g = sub.add_parser("grasps", help="grasp success and the failed grasps sorted (files run with grasps)")
+    g.add_argument("files", nargs="+")
     c = sub.add_parser("paired", help="the change in grasp success from BASE to OTHER, paired over seeds")
     c.add_argument("base")
     c.add_argument("other")
@@ -198,6 +263,8 @@ def main(argv=None) -> int:
         run(args)
     elif args.command == "report":
         report(args)
+    elif args.command == "grasps":
+        grasps(args.files)
     else:
         paired(args.base, args.other)
     return 0

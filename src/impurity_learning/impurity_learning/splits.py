@@ -212,6 +212,9 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(99_200, 99_800, "docs/experiments_s14/push_out.py",
               "--start 200: the fifteenth session's second test, invisible 99 200-99 599, challenging "
               "99 600-99 799, with and without the rule on the same seeds"),
+    SeedBlock(99_800, 100_000, "docs/experiments_s14/push_out.py",
+              "--start 800: the sixteenth session's grasp records, invisible 99 800-99 999, tuning palettes "
+              "and the default palette (--palette blocks) on the same seeds"),
 )
 
 

@@ -140,9 +140,10 @@ def planned_seeds() -> list:
         (FRESH_LAYOUTS,
          own_layout_seeds(module_constants(ROOT / FRESH_LAYOUTS)["LAYOUT_SEED_BASE"], 60, 800)),
         # push_out.py: the fourteenth session's 200 invisible episodes; the fifteenth's --start 200 (400
-        # invisible) and --start 600 (200 challenging), one block
+        # invisible) and --start 600 (200 challenging), one block; the sixteenth's --start 800 (grasp records)
         (PUSH_OUT, [push_out + k for k in range(200)]),
         (PUSH_OUT, [push_out + k for k in range(200, 800)]),
+        (PUSH_OUT, [push_out + k for k in range(800, 1000)]),
     ]
 
 
