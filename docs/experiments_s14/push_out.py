@@ -29,6 +29,7 @@ import dataclasses
 import json
 import math
 import pathlib
+import re
 import sys
 from concurrent.futures import ProcessPoolExecutor
 
@@ -62,6 +63,7 @@ def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
 
+    from impurity_attention.core.density import find_clusters, select_occluded_region
     from impurity_common import cell
     from impurity_learning.agents import NetworkAgent
     from impurity_learning.evaluate import SimCell
@@ -94,8 +96,14 @@ def run_one(task: tuple) -> dict:
             if action is not None:
                 truth, poses = world.ground_truth(), world.poses()
                 x, y, _ = action.position
+                attention = self._sensed.attention
+                found = re.search(r"probability (\d+\.\d+)", attention.reason)
+                heap = select_occluded_region(find_clusters(self._sensed.maps.height, self.grid.resolution,
+                                                            self.attention_params.density))
                 decided.append({"target_m": nearest(poses, truth.target_ids, x, y),
-                                "object_m": nearest(poses, truth.object_ids, x, y)})
+                                "object_m": nearest(poses, truth.object_ids, x, y),
+                                "probability": float(found.group(1)) if found else None,
+                                "last_look": bool(attention.last_look), "heap": heap is not None})
             return action
 
     def targets_at() -> list:
@@ -123,7 +131,8 @@ def run_one(task: tuple) -> dict:
         outside = step.targets_outside
     grasps = [{"step": step.step, "mode": step.attention_mode, "lifted": step.success,
                "target": step.target_grasped, "target_m": round(decided[index]["target_m"], 4),
-               "object_m": round(decided[index]["object_m"], 4)}
+               "object_m": round(decided[index]["object_m"], 4), "probability": decided[index]["probability"],
+               "last_look": decided[index]["last_look"], "heap": decided[index]["heap"]}
               for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
             "termination": summary["termination_reason"], "completed": summary["completed"],
