@@ -23,6 +23,13 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
     python docs/experiments_s14/push_out.py run invisible 200 runs/s16/grasps_default.jsonl --start 800 \
         --palette blocks
     python docs/experiments_s14/push_out.py grasps runs/s16/grasps_tuning.jsonl runs/s16/grasps_default.jsonl
+    # sixteenth session's test of attention's verifier_heap_threshold, fresh seeds 19000+ (--seed-base 19000):
+    # invisible k < 200, challenging 200 <= k < 400, random 400 <= k < 600, with and without it, same seeds
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s16/heap_inv_base.jsonl --seed-base 19000
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s16/heap_inv_85.jsonl --seed-base 19000 \
+        --heap-threshold 0.85
+    python docs/experiments_s14/push_out.py run challenging 200 runs/s16/heap_chal_base.jsonl \
+        --seed-base 19000 --start 200     # and the same with --heap-threshold 0.85
 """
 import argparse
 import dataclasses
@@ -63,6 +70,7 @@ def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
 
+    from impurity_attention.core.attention import AttentionParams
     from impurity_attention.core.density import find_clusters, select_occluded_region
     from impurity_common import cell
     from impurity_learning.agents import NetworkAgent
@@ -79,7 +87,7 @@ def run_one(task: tuple) -> dict:
         _WORKER["world"] = CellWorld(mode="floating")
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
-        values = {k: v for k, v in rule_params.items() if k != "without"}
+        values = {k: v for k, v in rule_params.items() if k not in ("without", "verifier_heap_threshold")}
         params = dataclasses.replace(RuleParams(), **values)
         rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
@@ -114,7 +122,8 @@ def run_one(task: tuple) -> dict:
         steps.append(step)
         where.append(targets_at())
 
-    summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"]),
+    attention = AttentionParams(verifier_heap_threshold=rule_params.get("verifier_heap_threshold", 0.0))
+    summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"], attention),
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
     events, outside = [], 0
@@ -149,9 +158,11 @@ def run(args) -> None:
         rule_params["occluded_push_edge_margin"] = args.edge_margin
     if args.without:
         rule_params["without"] = args.without
+    if args.heap_threshold is not None:
+        rule_params["verifier_heap_threshold"] = args.heap_threshold
     names = [args.palette] if args.palette else palettes(args.random_palettes)
     ks = args.only or range(args.start, args.start + args.episodes)
-    tasks = [(args.scenario, SEED_BASE + k, names[k % len(names)], rule_params) for k in ks]
+    tasks = [(args.scenario, args.seed_base + k, names[k % len(names)], rule_params) for k in ks]
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     from tqdm import tqdm
@@ -258,6 +269,9 @@ def main(argv=None) -> int:
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
+    r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
+    r.add_argument("--heap-threshold", type=float, default=None,
+                   help="attention's verifier_heap_threshold (default: AttentionParams' own, off)")
     r.add_argument("--palette", default="",
                    help="this palette for every episode (default: the tuning group's)")
     s = sub.add_parser("report")

@@ -133,6 +133,10 @@ class AttentionNodeParameters:
                                               "clipped (half their cells at 250+ in one channel); 0, or a "
                                               "value at or below the threshold used elsewhere: no change. "
                                               "The last look is not affected", low=0.0, high=0.999)
+    verifier_heap_threshold: float = param(DEFAULTS.verifier_heap_threshold, "verifier: least impurity "
+                                           "probability of a target while a heap that could hide one is "
+                                           "left; 0, or a value at or below the threshold used elsewhere: no "
+                                           "change. With no heap left nothing changes", low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -160,6 +164,7 @@ class AttentionNodeParameters:
             decision=self.decision, verifier_threshold=self.verifier_threshold,
             verifier_last_look=self.verifier_last_look,
             verifier_clipped_threshold=self.verifier_clipped_threshold,
+            verifier_heap_threshold=self.verifier_heap_threshold,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 

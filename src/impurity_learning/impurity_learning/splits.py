@@ -156,6 +156,10 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(1000, 1615, _CA, "SEED_BASE['acceptance']: measured only, not tuning (the acceptance table, "
               "1000 + 100 x row + i, 138 scenes; the retired held-out sets' PALETTE_PLAN layouts; gallery; "
               "experiments_s13/acceptance_layouts.py; tests/integration/test_attention_sim.py)"),
+    SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
+              "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
+              "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
+              "without it on the same seeds"),
     SeedBlock(20_000, 26_101, _CA, "OWN_LAYOUT_SEED_BASE: collect_palettes(own_layouts=True), the 101 "
               "tuning palettes on scenes of their own, 1000 x row + palette x count + i (1919 scenes)"),
     SeedBlock(20_606, 26_197, "docs/experiments_s8/fresh_palettes.py",

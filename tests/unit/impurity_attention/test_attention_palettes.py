@@ -33,8 +33,10 @@ RULE = functools.partial(att.AttentionParams, decision="rule")  # the thresholds
 DECISIONS = {"rule": RULE(), "verifier": att.AttentionParams(decision="verifier")}
 
 
-def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0) -> tuple:
-    """(colour heightmap, height map, impurity cells) of 24 product boxes and one impurity on a grid."""
+def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0,
+          heap: bool = False) -> tuple:
+    """(colour heightmap, height map, impurity cells) of 24 product boxes and one impurity on a grid; heap:
+    and a 3 x 3 heap of product boxes one and two boxes high beside the grid, one that could hide a target."""
     shades, impurity = PALETTES[palette]
     rng = np.random.default_rng(seed)
     boxes = []
@@ -50,6 +52,9 @@ def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float
             jitter = rng.integers(-PRODUCT_JITTER, PRODUCT_JITTER + 1, 3)
             colour = tuple(int(v) for v in np.clip(base + jitter, 0, 255))
         boxes.append(Box(x, y, 0.032, 0.032, float(rng.uniform(0.025, 0.04)), colour, label))
+    if heap:
+        boxes += [Box(0.32 + 0.03 * i, 0.13 + 0.03 * j, 0.03, 0.03, 0.03 * (1 + (i + j) % 2), shades[0], 100)
+                  for i in range(3) for j in range(3)]
     frame = render_boxes(boxes)
     maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose,
                               labels=frame.labels)
@@ -296,3 +301,31 @@ def test_the_clipped_threshold_never_lowers_the_verifiers_and_is_a_probability()
     for bad in (-0.1, 1.0):
         with pytest.raises(ValueError, match="verifier_clipped_threshold"):
             att.AttentionParams(verifier_clipped_threshold=bad)
+
+
+def test_while_a_heap_is_left_a_target_needs_the_heap_threshold_and_without_one_it_does_not():
+    model = default_verifier()  # as sure of the order as the shipped model, less of the probabilities
+    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
+                                 intercept=0.2 * model.intercept)
+    lenient = att.AttentionParams(verifier=unsure, verifier_threshold=0.5, verifier_last_look=0.0)
+    strict_with_heap = dataclasses.replace(lenient, verifier_heap_threshold=0.999)
+    color, height, impurity = scene("blue_red", 0, heap=True)
+    found = att.attend(color, height, lenient)
+    assert found.mode == att.AttentionMode.TARGET and np.any(found.target_mask & impurity), found.reason
+    waited = att.attend(color, height, strict_with_heap)
+    assert waited.mode == att.AttentionMode.OCCLUDED_REGION and "(heap left)" in waited.reason
+    color, height, impurity = scene("blue_red", 0)  # no heap: the threshold is 0.5
+    kept = att.attend(color, height, strict_with_heap)
+    assert kept.mode == att.AttentionMode.TARGET and np.any(kept.target_mask & impurity)
+    assert "(heap left)" not in kept.reason
+
+
+def test_the_heap_threshold_never_lowers_the_verifiers_and_is_a_probability():
+    color, height, _ = scene("blue_red", 0, heap=True)
+    strict = att.AttentionParams(verifier_threshold=0.999, verifier_last_look=0.0)
+    alone = att.attend(color, height, strict)
+    lower = att.attend(color, height, dataclasses.replace(strict, verifier_heap_threshold=0.2))
+    assert (lower.mode, lower.reason) == (alone.mode, alone.reason)
+    for bad in (-0.1, 1.0):
+        with pytest.raises(ValueError, match="verifier_heap_threshold"):
+            att.AttentionParams(verifier_heap_threshold=bad)

@@ -144,6 +144,7 @@ def planned_seeds() -> list:
         (PUSH_OUT, [push_out + k for k in range(200)]),
         (PUSH_OUT, [push_out + k for k in range(200, 800)]),
         (PUSH_OUT, [push_out + k for k in range(800, 1000)]),
+        (PUSH_OUT, [19_000 + k for k in range(600)]),  # --seed-base 19000 (sixteenth session)
     ]
 
 

@@ -194,6 +194,16 @@ class AttentionParams:
     # region from verifier_last_look on. It reads the colours attention receives: with the heightmap node's
     # colour_adaptation on, the transferred colours are rarely clipped, so it seldom applies.
     verifier_clipped_threshold: float = 0.0
+    # verifier: while a heap that could hide a target is left (density.select_occluded_region), a target needs
+    # at least this probability; 0 = the same threshold as elsewhere. Off: on trial since the sixteenth
+    # session. In picking, a TARGET on a product object costs a grasp and throws the product away: in 43
+    # invisible tuning episodes on tuning palettes (seeds 99 800+, docs/experiments_s14/push_out.py) 8 of the
+    # 14 failed grasps were TARGETs at 0.70-0.85 more than 8 cm from any target, and 1 of the 86 grasps that
+    # lifted a target was under 0.85; on the default palette 4 of 12 and 0 of 86. First views hold few such
+    # regions (docs/experiments_s16/heap_probe.txt): the views after pushes do. With a heap left a push is the
+    # other choice, so an uncertain region can wait; with none left the threshold above and the last look
+    # apply as before. docs/experiments.md, sixteenth section.
+    verifier_heap_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
 
     def __post_init__(self):
@@ -211,6 +221,9 @@ class AttentionParams:
         if not 0.0 <= self.verifier_clipped_threshold < 1.0:
             raise ValueError(f"verifier_clipped_threshold must be a probability in [0, 1) (0 = off), got "
                              f"{self.verifier_clipped_threshold}")
+        if not 0.0 <= self.verifier_heap_threshold < 1.0:
+            raise ValueError(f"verifier_heap_threshold must be a probability in [0, 1) (0 = off), got "
+                             f"{self.verifier_heap_threshold}")
         if not 0.0 <= self.verifier_last_look < 1.0:
             raise ValueError(f"verifier_last_look must be a probability in [0, 1) (0 = off), got "
                              f"{self.verifier_last_look}")
@@ -426,6 +439,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                        mask_cells=target_cells, reason=reason, last_look=looked)
 
     last_look_region = None  # verifier: (the likeliest region, why), when a last look may take it
+    clusters = None  # the height map's dense clusters, once computed
     if params.decision == "verifier" and params.contrast == "relative":
         no_target = "no salient region"
         if regions:
@@ -435,6 +449,11 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
             if clipped:
                 least = params.verifier_clipped_threshold
             view = " (clipped view)" if clipped else ""
+            if params.verifier_heap_threshold > least:
+                clusters = find_clusters(height, grid.resolution, params.density)
+                if select_occluded_region(clusters) is not None:
+                    least = params.verifier_heap_threshold
+                    view += " (heap left)"
             candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions),
                                        strict=True)
             if features[0] is None:  # one region, every object in view: nothing to compare with, so
@@ -468,7 +487,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     else:
         no_target = (f"best region's colour contrast {colour():.2f} < {params.min_color_contrast:.2f} "
                      "(coloured like the other objects)")
-    clusters = find_clusters(height, grid.resolution, params.density)
+    if clusters is None:
+        clusters = find_clusters(height, grid.resolution, params.density)
     chosen = select_occluded_region(clusters)
     if chosen is None and last_look_region is not None:
         return target(*last_look_region, clusters, looked=True)
