@@ -321,9 +321,13 @@ def test_while_a_heap_is_left_a_target_needs_the_heap_threshold_and_without_one_
 
 
 def test_the_heap_threshold_never_lowers_the_verifiers_and_is_a_probability():
+    model = default_verifier()  # the impurity at 0.99 (see above): under 0.999, over 0.2
+    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
+                                 intercept=0.2 * model.intercept)
     color, height, _ = scene("blue_red", 0, heap=True)
-    strict = att.AttentionParams(verifier_threshold=0.999, verifier_last_look=0.0)
+    strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.999, verifier_last_look=0.0)
     alone = att.attend(color, height, strict)
+    assert alone.mode == att.AttentionMode.OCCLUDED_REGION, alone.reason
     lower = att.attend(color, height, dataclasses.replace(strict, verifier_heap_threshold=0.2))
     assert (lower.mode, lower.reason) == (alone.mode, alone.reason)
     for bad in (-0.1, 1.0):
