@@ -431,6 +431,12 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         once and only when a decision reads it (the verifier does not)."""
         return region_color_contrast(color, objects, best, params) if best is not None else float("inf")
 
+    @functools.cache
+    def dense_clusters() -> list:
+        """The height map's dense clusters (density.find_clusters), computed once: by the heap threshold's
+        test when it applies, and for an occluded region or NONE."""
+        return find_clusters(height, grid.resolution, params.density)
+
     def target(region: SalientRegion, reason: str, clusters=(), looked: bool = False) -> AttentionOutput:
         """TARGET on `region`, its mask grown to the whole object; looked: given as a last look."""
         target_cells = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
@@ -441,7 +447,6 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                        mask_cells=target_cells, reason=reason, last_look=looked)
 
     last_look_region = None  # verifier: (the likeliest region, why), when a last look may take it
-    clusters = None  # the height map's dense clusters, once computed
     if params.decision == "verifier" and params.contrast == "relative":
         no_target = "no salient region"
         if regions:
@@ -451,11 +456,10 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
             if clipped:
                 least = params.verifier_clipped_threshold
             view = " (clipped view)" if clipped else ""
-            if params.verifier_heap_threshold > least:
-                clusters = find_clusters(height, grid.resolution, params.density)
-                if select_occluded_region(clusters) is not None:
-                    least = params.verifier_heap_threshold
-                    view += " (heap left)"
+            if (params.verifier_heap_threshold > least
+                    and select_occluded_region(dense_clusters()) is not None):
+                least = params.verifier_heap_threshold
+                view += " (heap left)"
             candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions),
                                        strict=True)
             if features[0] is None:  # one region, every object in view: nothing to compare with, so
@@ -489,8 +493,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     else:
         no_target = (f"best region's colour contrast {colour():.2f} < {params.min_color_contrast:.2f} "
                      "(coloured like the other objects)")
-    if clusters is None:
-        clusters = find_clusters(height, grid.resolution, params.density)
+    clusters = dense_clusters()
     chosen = select_occluded_region(clusters)
     if chosen is None and last_look_region is not None:
         return target(*last_look_region, clusters, looked=True)
