@@ -33,6 +33,14 @@ RULE = functools.partial(att.AttentionParams, decision="rule")  # the thresholds
 DECISIONS = {"rule": RULE(), "verifier": att.AttentionParams(decision="verifier")}
 
 
+def unsure_verifier():
+    """The shipped verifier with its logit scaled by 0.2: as sure of the regions' order, less of their
+    probabilities (none of these scenes' regions reaches 0.999)."""
+    model = default_verifier()
+    return dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
+                               intercept=0.2 * model.intercept)
+
+
 def scene(palette: str, seed: int, with_impurity: bool = True, brightness: float = 1.0,
           heap: bool = False) -> tuple:
     """(colour heightmap, height map, impurity cells) of 24 product boxes and one impurity on a grid; heap:
@@ -252,9 +260,7 @@ def test_with_no_heap_left_the_verifiers_last_look_grasps_its_likeliest_region(p
     color, height, impurity = scene(palette, 0)
     # a model as sure of the order as the shipped one, far less of the probabilities: the impurity falls short
     # of the threshold, the way late views of an episode did on tuning palettes (docs/experiments.md, tenth)
-    model = default_verifier()
-    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
-                                 intercept=0.2 * model.intercept)
+    unsure = unsure_verifier()
     strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.99, verifier_last_look=0.0)
     missed = att.attend(color, height, strict)
     assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
@@ -274,9 +280,7 @@ def test_the_verifiers_last_look_leaves_a_clean_scene_clean_and_is_a_probability
 
 def test_on_a_clipped_view_a_target_needs_the_clipped_threshold_and_elsewhere_it_does_not():
     # a model as sure of the order as the shipped one, less of the probabilities (none reaches 0.999)
-    model = default_verifier()
-    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
-                                 intercept=0.2 * model.intercept)
+    unsure = unsure_verifier()
     lenient = att.AttentionParams(verifier=unsure, verifier_threshold=0.5, verifier_last_look=0.0)
     strict_when_clipped = dataclasses.replace(lenient, verifier_clipped_threshold=0.999)
     bright, height, impurity = scene("green_light", 0, brightness=2.0)
@@ -304,9 +308,7 @@ def test_the_clipped_threshold_never_lowers_the_verifiers_and_is_a_probability()
 
 
 def test_while_a_heap_is_left_a_target_needs_the_heap_threshold_and_without_one_it_does_not():
-    model = default_verifier()  # as sure of the order as the shipped model, less of the probabilities
-    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
-                                 intercept=0.2 * model.intercept)
+    unsure = unsure_verifier()
     lenient = att.AttentionParams(verifier=unsure, verifier_threshold=0.5, verifier_last_look=0.0)
     strict_with_heap = dataclasses.replace(lenient, verifier_heap_threshold=0.999)
     color, height, impurity = scene("blue_red", 0, heap=True)
@@ -321,9 +323,7 @@ def test_while_a_heap_is_left_a_target_needs_the_heap_threshold_and_without_one_
 
 
 def test_the_heap_threshold_never_lowers_the_verifiers_and_is_a_probability():
-    model = default_verifier()  # the impurity at 0.99 (see above): under 0.999, over 0.2
-    unsure = dataclasses.replace(model, coef=tuple(0.2 * c for c in model.coef),
-                                 intercept=0.2 * model.intercept)
+    unsure = unsure_verifier()
     color, height, _ = scene("blue_red", 0, heap=True)
     strict = att.AttentionParams(verifier=unsure, verifier_threshold=0.999, verifier_last_look=0.0)
     alone = att.attend(color, height, strict)
