@@ -156,6 +156,13 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(1000, 1615, _CA, "SEED_BASE['acceptance']: measured only, not tuning (the acceptance table, "
               "1000 + 100 x row + i, 138 scenes; the retired held-out sets' PALETTE_PLAN layouts; gallery; "
               "experiments_s13/acceptance_layouts.py; tests/integration/test_attention_sim.py)"),
+    SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
+              "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
+              "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
+    SeedBlock(11_000, 11_400, "docs/experiments_s14/push_out.py",
+              "--seed-base 11000: the seventeenth session's test of the verifier refitted with loop views, "
+              "invisible 11 000-11 199, challenging 11 200-11 399 (--start 200), with the shipped and the "
+              "refitted verifier on the same seeds"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "

@@ -82,6 +82,7 @@ S9 = "docs/experiments_s9/episodes/run_truth_counted.sh"
 FINAL_VIEWS, LAST_LOOK = "docs/experiments_s10/final_views.py", "docs/experiments_s10/last_look_episodes.py"
 CONFIRM, MORE = "docs/experiments_s12/confirm.py", "docs/experiments_s12/more_palettes.py"
 FRESH_LAYOUTS, PUSH_OUT = "docs/experiments_s13/fresh_layouts.py", "docs/experiments_s14/push_out.py"
+LOOP_VIEWS = "docs/experiments_s17/loop_views.py"
 
 
 def own_layout_seeds(base: int, palettes: int, row_stride: int, first: int = 0) -> list:
@@ -145,6 +146,10 @@ def planned_seeds() -> list:
         (PUSH_OUT, [push_out + k for k in range(200, 800)]),
         (PUSH_OUT, [push_out + k for k in range(800, 1000)]),
         (PUSH_OUT, [19_000 + k for k in range(600)]),  # --seed-base 19000 (sixteenth session)
+        (PUSH_OUT, [11_000 + k for k in range(400)]),  # --seed-base 11000 (seventeenth session)
+        # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
+        (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
+                      for k in [*range(160), *range(200, 280), *range(400, 480)]]),
     ]
 
 
@@ -169,7 +174,7 @@ SEED_BASES = [(CA, "SEED_BASE", "tuning"), (CA, "SEED_BASE", "acceptance"),
               (EPISODE_END, "SEED_BASE", "tuning"), (FINAL_VIEWS, "SEED_BASE", None),
               (LAST_LOOK, "DEFAULT_SEED_BASE", None), (CONFIRM, "FRESH_SEED_BASE", None),
               (MORE, "SEED_BASE", None), (FRESH_LAYOUTS, "LAYOUT_SEED_BASE", None),
-              (PUSH_OUT, "SEED_BASE", None)]
+              (PUSH_OUT, "SEED_BASE", None), (LOOP_VIEWS, "SEED_BASE", None)]
 
 
 @pytest.mark.parametrize(("path", "name", "key"), SEED_BASES)
