@@ -631,7 +631,8 @@ def model_source(verifier) -> str:
 
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
-                 exposure_scenes: bool = False):
+                 exposure_scenes: bool = False, loop_views: tuple = (),
+                 model_json: pathlib.Path | None = None):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -643,7 +644,9 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
     every EXPOSURE join them (tried in the eleventh session and not kept: docs/experiments.md; the shipped
-    model is fitted without). Returns the fitted RegionVerifier."""
+    model is fitted without). loop_views: .npz files of picking-loop views (scene records, e.g.
+    docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
+    model is also written there as JSON (RegionVerifier's fields). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
@@ -658,6 +661,9 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     if own_layouts:
         halves["own layouts"] = collect_palettes("tuning", own_layouts=True)
         records = records + halves["own layouts"]
+    if loop_views:
+        halves["picking-loop views"] = [r for path in loop_views for r in evaluation.load_records(path)]
+        records = records + halves["picking-loop views"]
     features, on, scene, group, visible = verifier_rows(records, params)
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
@@ -713,6 +719,10 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     verifier = dataclasses.replace(verifier, provenance=provenance)
     print(f"fitted on all: {provenance}")
     print(f"  {verifier}")
+    if model_json is not None:
+        model_json.parent.mkdir(parents=True, exist_ok=True)
+        model_json.write_text(json.dumps(dataclasses.asdict(verifier), indent=1))
+        print(f"wrote {model_json}")
     if write:
         VERIFIER_MODEL.write_text(model_source(verifier))
         print(f"wrote {VERIFIER_MODEL}")
@@ -794,6 +804,11 @@ def main() -> None:
                              "the shipped AttentionParams')")
     parser.add_argument("--own-layouts", action="store_true",
                         help="verifier-fit: also the tuning palettes' own-layout scenes (collect_palettes)")
+    parser.add_argument("--loop-views", type=pathlib.Path, nargs="*", default=(),
+                        help="verifier-fit: also these picking-loop views (.npz scene records, "
+                             "docs/experiments_s17/loop_views.py)")
+    parser.add_argument("--model-json", type=pathlib.Path, default=None,
+                        help="verifier-fit: also write the fitted model here as JSON")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -822,7 +837,8 @@ def main() -> None:
         palette_gallery(params)
         return
     if args.action == "verifier-fit":
-        verifier_fit(params, args.write_model, args.own_layouts)
+        verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
+                     model_json=args.model_json)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

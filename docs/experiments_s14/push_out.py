@@ -23,6 +23,11 @@ ended and how far that end lay inside the workspace. Variants of the rules (`--w
     python docs/experiments_s14/push_out.py run invisible 200 runs/s16/grasps_default.jsonl --start 800 \
         --palette blocks
     python docs/experiments_s14/push_out.py grasps runs/s16/grasps_tuning.jsonl runs/s16/grasps_default.jsonl
+    # seventeenth session: the verifier refitted with loop views (experiments_s17/loop_views.py), fresh seeds
+    # 11000+: invisible k < 200, challenging 200 <= k < 400, shipped and refitted verifier on the same seeds
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s17/pick_inv_base.jsonl --seed-base 11000
+    python docs/experiments_s14/push_out.py run invisible 200 runs/s17/pick_inv_loop.jsonl --seed-base 11000 \
+        --verifier runs/s17/verifier_loop.json
     # sixteenth session's test of attention's verifier_heap_threshold, fresh seeds 19000+ (--seed-base 19000):
     # invisible k < 200, challenging 200 <= k < 400, random 400 <= k < 600, with and without it, same seeds
     python docs/experiments_s14/push_out.py run invisible 200 runs/s16/heap_inv_base.jsonl --seed-base 19000
@@ -66,6 +71,13 @@ def nearest(poses: dict, ids, x: float, y: float) -> float:
                default=math.inf)
 
 
+def verifier_from_json(path):
+    """A RegionVerifier from calibrate_attention.py verifier-fit --model-json's file."""
+    from impurity_attention.core.verifier import RegionVerifier
+    fields = json.loads(pathlib.Path(path).read_text())
+    return RegionVerifier(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+
+
 def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
@@ -87,7 +99,8 @@ def run_one(task: tuple) -> dict:
         _WORKER["world"] = CellWorld(mode="floating")
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
-        values = {k: v for k, v in rule_params.items() if k not in ("without", "verifier_heap_threshold")}
+        values = {k: v for k, v in rule_params.items() if k not in ("without", "verifier_heap_threshold",
+                                                                "verifier")}
         params = dataclasses.replace(RuleParams(), **values)
         rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
@@ -122,7 +135,9 @@ def run_one(task: tuple) -> dict:
         steps.append(step)
         where.append(targets_at())
 
-    attention = AttentionParams(verifier_heap_threshold=rule_params.get("verifier_heap_threshold", 0.0))
+    verifier = verifier_from_json(rule_params["verifier"]) if "verifier" in rule_params else None
+    attention = AttentionParams(verifier_heap_threshold=rule_params.get("verifier_heap_threshold", 0.0),
+                                verifier=verifier)
     summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"], attention),
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
@@ -160,6 +175,8 @@ def run(args) -> None:
         rule_params["without"] = args.without
     if args.heap_threshold is not None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
+    if args.verifier is not None:
+        rule_params["verifier"] = args.verifier
     names = [args.palette] if args.palette else palettes(args.random_palettes)
     ks = args.only or range(args.start, args.start + args.episodes)
     tasks = [(args.scenario, args.seed_base + k, names[k % len(names)], rule_params) for k in ks]
@@ -272,6 +289,9 @@ def main(argv=None) -> int:
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
     r.add_argument("--heap-threshold", type=float, default=None,
                    help="attention's verifier_heap_threshold (default: AttentionParams' own, off)")
+    r.add_argument("--verifier", default=None,
+                   help="attention's region verifier from this JSON (calibrate_attention.py verifier-fit "
+                        "--model-json; default: the shipped model)")
     r.add_argument("--palette", default="",
                    help="this palette for every episode (default: the tuning group's)")
     s = sub.add_parser("report")

@@ -13,10 +13,17 @@ at least evaluation.MIN_VISIBLE_CELLS cells (visible), "invisible" when targets 
 no target ids when none is left (no_impurity). Its seed is 100 x the episode's seed + the view's index;
 the episode's own scenario, seed and palette go to the .jsonl beside the .npz.
 
-    python docs/experiments_s17/loop_views.py collect invisible 120 runs/s17/views_inv.npz
-    python docs/experiments_s17/loop_views.py collect challenging 60 runs/s17/views_chal.npz --start 200
-    python docs/experiments_s17/loop_views.py collect random 60 runs/s17/views_rand.npz --start 400
-    python docs/experiments_s17/loop_views.py decisions runs/s17/views_*.npz [--verifier model.json]
+    python docs/experiments_s17/loop_views.py collect invisible 160 runs/s17/views_inv.npz
+    python docs/experiments_s17/loop_views.py collect challenging 80 runs/s17/views_chal.npz --start 200
+    python docs/experiments_s17/loop_views.py collect random 80 runs/s17/views_rand.npz --start 400
+    # the screen: a model fitted with the even-index palettes' views, judged on the odd-index ones
+    python docs/experiments_s17/loop_views.py subset even runs/s17/views_even.npz \
+        runs/s17/views_inv.npz runs/s17/views_chal.npz runs/s17/views_rand.npz
+    python docs/experiments_s17/loop_views.py subset odd runs/s17/views_odd.npz \
+        runs/s17/views_inv.npz runs/s17/views_chal.npz runs/s17/views_rand.npz
+    python scripts/calibrate_attention.py verifier-fit --own-layouts --loop-views runs/s17/views_even.npz \
+        --model-json runs/s17/verifier_even.json
+    python docs/experiments_s17/loop_views.py decisions runs/s17/views_odd.npz [--verifier model.json]
 """
 import argparse
 import dataclasses
@@ -97,7 +104,7 @@ def collect(args) -> None:
     from tqdm import tqdm
 
     from impurity_attention.core import evaluation
-    names = push_out.palettes(args.random_palettes) + ["blocks"]
+    names = collection_palettes(args.random_palettes)
     tasks = [(args.scenario, args.seed_base + k, names[k % len(names)])
              for k in range(args.start, args.start + args.episodes)]
     out = pathlib.Path(args.out)
@@ -112,23 +119,31 @@ def collect(args) -> None:
     print(f"{len(records)} views of {len(tasks)} episodes -> {out}")
 
 
+def collection_palettes(random_palettes: int = 100) -> list:
+    """The palettes collect cycles through, episode k on entry k % len."""
+    return push_out.palettes(random_palettes) + ["blocks"]
+
+
+def subset(args) -> None:
+    """The views of the palettes at even (or odd) indices of collection_palettes(), for the screen."""
+    from impurity_attention.core import evaluation
+    keep = set(collection_palettes()[args.parity == "odd"::2])
+    records = [r for r in load_views(args.files) if r.palette in keep]
+    evaluation.save_records(args.out, records)
+    print(f"{len(records)} views of {len(keep)} {args.parity}-index palettes -> {args.out}")
+
+
 def load_views(paths) -> list:
     from impurity_attention.core import evaluation
     return [r for path in paths for r in evaluation.load_records(path)]
 
 
-def verifier_from_json(path):
-    from impurity_attention.core.verifier import RegionVerifier
-    fields = json.loads(pathlib.Path(path).read_text())
-    return RegionVerifier(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
-
-
 def decisions(records, params) -> dict:
-    """Counts of attention's decisions on loop views: TARGET on a target / TARGET off every target, over
-    views showing a target (visible) and views showing none (hidden: targets left but hidden, or none
-    left)."""
+    """Counts of attention's decisions on loop views, over views showing a target (visible: at least
+    evaluation.MIN_VISIBLE_CELLS cells) and views showing none (hidden: targets left but hidden, or none
+    left): [views, TARGET on a target's cells, TARGET off every target's cells]."""
     from impurity_attention.core.attention import AttentionMode, attend
-    counts = {"visible": [0, 0, 0], "hidden": [0, 0, 0]}  # views, TARGET on a target, TARGET off
+    counts = {"visible": [0, 0, 0], "hidden": [0, 0, 0]}
     for record in records:
         kind = "visible" if record.category() == "visible" else "hidden"
         output = attend(record.color, record.height, params)
@@ -140,10 +155,12 @@ def decisions(records, params) -> dict:
 
 
 def print_decisions(counts: dict, label: str) -> None:
-    (views, on, off), (hidden, _, false) = counts["visible"], counts["hidden"]
-    print(f"{label}: views showing a target {views}: TARGET on it {on} ({100 * on / max(views, 1):.1f} %), "
-          f"TARGET off it {off}; views showing none {hidden}: TARGET {false} "
-          f"({100 * false / max(hidden, 1):.1f} %)")
+    (views, on, off), (hidden, hidden_on, false) = counts["visible"], counts["hidden"]
+    print(f"{label}:\n  views showing a target {views}: TARGET on it {on} "
+          f"({100 * on / max(views, 1):.1f} %), "
+          f"TARGET off every target {off}\n  views showing none {hidden}: TARGET off every target {false} "
+          f"({100 * false / max(hidden, 1):.1f} %), on a target's few visible cells {hidden_on}\n"
+          f"  TARGETs off every target in all: {off + false}")
 
 
 def main(argv=None) -> int:
@@ -160,14 +177,20 @@ def main(argv=None) -> int:
     d = sub.add_parser("decisions", help="attention's decisions on collected views")
     d.add_argument("files", nargs="+")
     d.add_argument("--verifier", help="a RegionVerifier as JSON (default: the shipped model)")
+    s = sub.add_parser("subset", help="the views of the even- or odd-index palettes")
+    s.add_argument("parity", choices=("even", "odd"))
+    s.add_argument("out")
+    s.add_argument("files", nargs="+")
     args = p.parse_args(argv)
     if args.command == "collect":
         collect(args)
+    elif args.command == "subset":
+        subset(args)
     else:
         from impurity_attention.core.attention import AttentionParams
         params = AttentionParams()
         if args.verifier:
-            params = dataclasses.replace(params, verifier=verifier_from_json(args.verifier))
+            params = dataclasses.replace(params, verifier=push_out.verifier_from_json(args.verifier))
         print_decisions(decisions(load_views(args.files), params), args.verifier or "shipped verifier")
     return 0
 
