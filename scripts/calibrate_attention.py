@@ -632,7 +632,7 @@ def model_source(verifier) -> str:
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
                  exposure_scenes: bool = False, loop_views: tuple = (),
-                 model_json: pathlib.Path | None = None):
+                 model_json: pathlib.Path | None = None, threshold_on: str = "all"):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -646,7 +646,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     every EXPOSURE join them (tried in the eleventh session and not kept: docs/experiments.md; the shipped
     model is fitted without). loop_views: .npz files of picking-loop views (scene records, e.g.
     docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
-    model is also written there as JSON (RegionVerifier's fields). Returns the fitted RegionVerifier."""
+    model is also written there as JSON (RegionVerifier's fields). threshold_on: "all" scenes and views, or
+    "first-views" (the loop views left out of the threshold's count). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
@@ -661,9 +662,10 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     if own_layouts:
         halves["own layouts"] = collect_palettes("tuning", own_layouts=True)
         records = records + halves["own layouts"]
-    if loop_views:
-        halves["picking-loop views"] = [r for path in loop_views for r in evaluation.load_records(path)]
-        records = records + halves["picking-loop views"]
+    loop = [r for path in loop_views for r in evaluation.load_records(path)]
+    if loop:
+        halves["picking-loop views"] = loop
+        records = records + loop
     features, on, scene, group, visible = verifier_rows(records, params)
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
@@ -705,7 +707,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
               f"({100 * nested[k, 2] / nested[k, 3]:.1f} %)")
     fitted = fit(features, on)
     best, hit = scene_decisions(predict(fitted, features), on, scene, count)
-    least = threshold_at(best, visible, VERIFIER_FALSE_TARGET)
+    # threshold_on "first-views": the threshold from the scenes before the loop views (verifier_rows keeps
+    # a scene for every record of the three categories, in order)
+    first = count if threshold_on == "all" else sum(
+        r.category() in ("visible", "no_impurity", "invisible") for r in records[:len(records) - len(loop)])
+    least = threshold_at(best[:first], visible[:first], VERIFIER_FALSE_TARGET)
     scaler, model = fitted
     verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
@@ -809,6 +815,8 @@ def main() -> None:
                              "docs/experiments_s17/loop_views.py)")
     parser.add_argument("--model-json", type=pathlib.Path, default=None,
                         help="verifier-fit: also write the fitted model here as JSON")
+    parser.add_argument("--threshold-on", choices=("all", "first-views"), default="all",
+                        help="verifier-fit: the scenes the threshold's false-TARGET share is counted on")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -838,7 +846,7 @@ def main() -> None:
         return
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
-                     model_json=args.model_json)
+                     model_json=args.model_json, threshold_on=args.threshold_on)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"
