@@ -34,12 +34,12 @@ def test_the_held_out_set_is_held_out_and_every_earlier_set_is_retired():
 
 def test_a_palette_outside_the_split_is_refused():
     with pytest.raises(ValueError, match="no group"):
-        splits.palette_group("random-9000")
+        splits.palette_group("random-10000000")
 
 
 def test_held_out_perception_scenes_are_evaluation_seeds_of_their_own_below_the_picking_runs():
     # palette-evaluate's PALETTE_PLAN: 7 rows of at most 6 scenes. Every palette's scenes are its own, never a
-    # tuning seed, and below the eighth set's picking run (HELD_OUT_LAYOUT_SEED_BASE + 900 000 + k,
+    # tuning seed, and below the set's picking run (HELD_OUT_LAYOUT_SEED_BASE + 900 000 + k,
     # docs/experiments.md thirteenth section)
     palettes = len(splits.held_out_palettes())
     seeds = [splits.held_out_layout_seed(row, k, 6) + i for row in range(7) for k in range(palettes)

@@ -252,6 +252,17 @@ PALETTES = {p.name: p for p in (
     _palette("barley_stones", [(214, 186, 120), (200, 170, 104)], [(96, 92, 88), (150, 140, 128)],
              "golden barley with dark and light stones", product_jitter=0.02,
              light_direction=(-0.3, 0.5, 1.0)),
+    # Added 2026-12-02 (seventeenth session) as the ninth held-out set, fixed before any of them was rendered.
+    _palette("peanuts_stones", [(206, 160, 112), (194, 148, 100)], [(112, 108, 104)],
+             "blanched peanuts with grey stones", product_jitter=0.02, light_direction=(0.2, -0.4, 1.0)),
+    _palette("quinoa_stones", [(230, 218, 192), (220, 206, 178)], [(140, 124, 108), (92, 86, 80)],
+             "off-white quinoa with brown-grey and dark stones", product_jitter=0.015, exposure=0.95),
+    _palette("pecans_shells", [(124, 80, 50), (112, 72, 44), (136, 90, 58)], [(176, 136, 96)],
+             "brown pecan kernels of several shades with lighter shell pieces", product_jitter=0.02,
+             ambient=0.55, diffuse=0.5),
+    _palette("abs_flakes_metal", [(42, 42, 44), (54, 52, 52)], [(150, 152, 158)],
+             "black ABS flakes with grey aluminium pieces", product_jitter=0.015,
+             light_direction=(-0.2, -0.3, 1.0)),
 )}
 
 
