@@ -707,11 +707,12 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
               f"({100 * nested[k, 2] / nested[k, 3]:.1f} %)")
     fitted = fit(features, on)
     best, hit = scene_decisions(predict(fitted, features), on, scene, count)
-    # threshold_on "first-views": the threshold from the scenes before the loop views (verifier_rows keeps
-    # a scene for every record of the three categories, in order)
-    first = count if threshold_on == "all" else sum(
-        r.category() in ("visible", "no_impurity", "invisible") for r in records[:len(records) - len(loop)])
-    least = threshold_at(best[:first], visible[:first], VERIFIER_FALSE_TARGET)
+    # the first views are the scenes before the loop views (verifier_rows keeps a scene for every record of
+    # the three categories, in order); threshold_on "first-views" takes the threshold from them alone
+    first = sum(r.category() in ("visible", "no_impurity", "invisible")
+                for r in records[:len(records) - len(loop)])
+    counted = first if threshold_on == "first-views" else count
+    least = threshold_at(best[:counted], visible[:counted], VERIFIER_FALSE_TARGET)
     scaler, model = fitted
     verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
@@ -719,9 +720,19 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
                               intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
                               low=tuple(round(float(v), 6) for v in features.min(axis=0)),
                               high=tuple(round(float(v), 6) for v in features.max(axis=0)))
-    found, false = np.mean((best >= least)[visible] & hit[visible]), np.mean((best >= least)[~visible])
+
+    def rates(part: slice) -> str:
+        shown, taken = visible[part], (best >= least)[part]
+        return (f"{100 * np.mean(taken[shown] & hit[part][shown]):.1f} % found, "
+                f"{100 * np.mean(taken[~shown]):.1f} % false TARGET")
+
     provenance = (f"scripts/calibrate_attention.py verifier-fit: {count} tuning scenes, {len(set(group))} "
-                  f"palettes; on them {100 * found:.1f} % found, {100 * false:.1f} % false TARGET")
+                  f"palettes; on them {rates(slice(None))}")
+    if loop:
+        provenance = (f"scripts/calibrate_attention.py verifier-fit: {first} tuning scenes and "
+                      f"{count - first} picking-loop views, {len(set(group))} palettes, threshold on "
+                      f"{'the scenes' if threshold_on == 'first-views' else 'both'}; on the scenes "
+                      f"{rates(slice(None, first))}, on the loop views {rates(slice(first, None))}")
     verifier = dataclasses.replace(verifier, provenance=provenance)
     print(f"fitted on all: {provenance}")
     print(f"  {verifier}")

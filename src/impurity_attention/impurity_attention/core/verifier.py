@@ -1,5 +1,5 @@
 """Which salient regions are impurities: a learned region verifier (issue 17; eighth session, twelve
-features and the own-layout scenes from the ninth).
+features and the own-layout scenes from the ninth, the picking loop's own views from the seventeenth).
 
 The thresholds rule (attention.is_target) judges the best salient region alone, by its relative saliency and
 its colour contrast. On tuning palettes it misses impurities whose region is the best one but whose
@@ -39,7 +39,10 @@ Of the region among the others (CONTEXT_FEATURES, context_features):
   fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
-palettes and tuning seeds only; that script's docstring and the model file give its figures. Pure numpy: no
+palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
+the picking loop decided on after its pushes and grasps (docs/experiments_s17/loop_views.py), its threshold
+set on the first views. That script's docstring, the model file and docs/experiments.md (seventeenth
+section) give its figures. Pure numpy: no
 scikit-learn at run time.
 """
 
