@@ -576,7 +576,7 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
     rows, on, scene, group, visible = [], [], [], [], []
     for record in records:
         category = record.category()
-        if category not in ("visible", "no_impurity", "invisible"):
+        if category not in evaluation.CATEGORIES:
             continue
         index = len(visible)
         visible.append(category == "visible")
@@ -709,7 +709,7 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     best, hit = scene_decisions(predict(fitted, features), on, scene, count)
     # the first views are the scenes before the loop views (verifier_rows keeps a scene for every record of
     # the three categories, in order); threshold_on "first-views" takes the threshold from them alone
-    first = sum(r.category() in ("visible", "no_impurity", "invisible")
+    first = sum(r.category() in evaluation.CATEGORIES
                 for r in records[:len(records) - len(loop)])
     counted = first if threshold_on == "first-views" else count
     least = threshold_at(best[:counted], visible[:counted], VERIFIER_FALSE_TARGET)
