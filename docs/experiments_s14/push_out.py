@@ -52,10 +52,11 @@ RANDOM_FROM = 400
 _WORKER = {}
 
 
-def palettes(count: int) -> list:
+def palettes(count: int, start: int = RANDOM_FROM, named: bool = True) -> list:
+    """The named tuning palettes (unless not `named`), then random-<start> ... random-<start + count - 1>."""
     from impurity_learning import splits
-    seeds = splits.TUNING_RANDOM_SEEDS[RANDOM_FROM:RANDOM_FROM + count]
-    return list(splits.TUNING_NAMED) + [f"random-{s}" for s in seeds]
+    seeds = splits.TUNING_RANDOM_SEEDS[start:start + count]
+    return (list(splits.TUNING_NAMED) if named else []) + [f"random-{s}" for s in seeds]
 
 
 def edge_distance(x: float, y: float) -> float:
@@ -177,7 +178,8 @@ def run(args) -> None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
-    names = [args.palette] if args.palette else palettes(args.random_palettes)
+    names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
+                                                         not args.random_only)
     ks = args.only or range(args.start, args.start + args.episodes)
     tasks = [(args.scenario, args.seed_base + k, names[k % len(names)], rule_params) for k in ks]
     out = pathlib.Path(args.out)
@@ -283,6 +285,8 @@ def main(argv=None) -> int:
     r.add_argument("--edge-margin", type=float, default=None, help="occluded_push_edge_margin (m)")
     r.add_argument("--without", nargs="*", default=[], help="rules of the cell preset left out")
     r.add_argument("--random-palettes", type=int, default=100)
+    r.add_argument("--random-from", type=int, default=RANDOM_FROM, help="first random palette random-<N>")
+    r.add_argument("--random-only", action="store_true", help="leave the named tuning palettes out")
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")

@@ -169,6 +169,11 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 11000: the seventeenth session's test of the verifier refitted with loop views, "
               "invisible 11 000-11 199, challenging 11 200-11 399 (--start 200), with the shipped and the "
               "refitted verifier on the same seeds"),
+    SeedBlock(12_000, 12_300, "docs/experiments_s18/run_fresh.sh",
+              "push_out.py --seed-base 12000 --random-from 800 --random-only: the eighteenth session's "
+              "paired test of the seventeenth session's verifier against the sixteenth's on palettes neither "
+              "saw (random-800 ... 899), invisible 12 000-12 099, challenging 12 100-12 199 (--start 100), "
+              "random 12 200-12 299 (--start 200)"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
