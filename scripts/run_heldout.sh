@@ -23,6 +23,9 @@ cd "$(dirname "$0")/.."
 set +u
 source scripts/env.sh >/dev/null || { echo "run_heldout.sh: scripts/env.sh failed (run make setup)" >&2; exit 1; }
 set -u
+python -c "import sys; from impurity_policy.core.rules import PRESETS; bad = [r for r in sys.argv[1:] if r not in PRESETS]; \
+sys.exit(f'run_heldout.sh: RULES={sys.argv[1:]} names no preset or an unknown one {bad}; known: {sorted(PRESETS)}' \
+if bad or len(sys.argv) < 2 else 0)" "${rules[@]}"
 mkdir -p "$out/images"
 date; git rev-parse HEAD
 python -c "from impurity_attention.core.attention import AttentionParams as A; a = A(); print('decision', a.decision, 'verifier_last_look', a.verifier_last_look, 'verifier_clipped_threshold', a.verifier_clipped_threshold); from impurity_attention.core import verifier as v; print('verifier features', len(v.FEATURES), v.default_verifier().provenance)"
