@@ -83,11 +83,12 @@ def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
 
-    from impurity_attention.core.attention import AttentionParams
+    from impurity_attention.core.attention import AttentionMode, AttentionParams, attend
     from impurity_attention.core.density import find_clusters, select_occluded_region
     from impurity_common import cell
     from impurity_learning.agents import NetworkAgent
     from impurity_learning.evaluate import SimCell
+    from impurity_learning.train import Sensed, observe
     from impurity_policy.core import picking
     from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
     from impurity_policy.core.episode import EpisodeRequest
@@ -101,7 +102,7 @@ def run_one(task: tuple) -> dict:
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
         values = {k: v for k, v in rule_params.items() if k not in ("without", "verifier_heap_threshold",
-                                                                "verifier")}
+                                                                "verifier", "stall")}
         params = dataclasses.replace(RuleParams(), **values)
         rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
@@ -109,9 +110,38 @@ def run_one(task: tuple) -> dict:
     steps, where, decided = [], [], []
     world = _WORKER["world"]
 
+    stall = rule_params.get("stall")
+
     class RecordingCell(SimCell):
         """SimCell that keeps, for each decision, where the grasp point lay from the nearest target and the
-        nearest product object (truth at decision time) and attention's mode."""
+        nearest product object (truth at decision time) and attention's mode. With `stall` (K, t), an
+        experiment (eighteenth session): once attention has answered OCCLUDED_REGION for K views in a row,
+        the view is attended again with verifier_threshold t, and the count starts over."""
+
+        stalled = 0
+
+        def reset(self, request):
+            self.stalled = 0
+            return super().reset(request)
+
+        def _sense(self):
+            super()._sense()
+            self.fired = False  # this view's TARGET came from the stall-breaker
+            if stall is None:
+                return
+            if self._sensed.attention.mode != AttentionMode.OCCLUDED_REGION:
+                self.stalled = 0
+                return
+            self.stalled += 1
+            if self.stalled < stall[0]:
+                return
+            self.stalled = 0
+            maps, lowered = self._sensed.maps, dataclasses.replace(self.attention_params,
+                                                                   verifier_threshold=stall[1])
+            attention = attend(maps.color, maps.height, lowered, self.grid)
+            self.fired = attention.mode == AttentionMode.TARGET
+            self._sensed = Sensed(observe(self.agent.method, attention, maps.height, maps.color, self.grid),
+                                  self._sensed.truth, maps, attention)
 
         def decide(self, view):
             action = super().decide(view)
@@ -125,7 +155,8 @@ def run_one(task: tuple) -> dict:
                 decided.append({"target_m": nearest(poses, truth.target_ids, x, y),
                                 "object_m": nearest(poses, truth.object_ids, x, y),
                                 "probability": float(found.group(1)) if found else None,
-                                "last_look": bool(attention.last_look), "heap": heap is not None})
+                                "last_look": bool(attention.last_look), "heap": heap is not None,
+                                "stall": bool(getattr(self, "fired", False))})
             return action
 
     def targets_at() -> list:
@@ -157,7 +188,8 @@ def run_one(task: tuple) -> dict:
     grasps = [{"step": step.step, "mode": step.attention_mode, "lifted": step.success,
                "target": step.target_grasped, "target_m": round(decided[index]["target_m"], 4),
                "object_m": round(decided[index]["object_m"], 4), "probability": decided[index]["probability"],
-               "last_look": decided[index]["last_look"], "heap": decided[index]["heap"]}
+               "last_look": decided[index]["last_look"], "heap": decided[index]["heap"],
+               "stall": decided[index]["stall"]}
               for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
             "termination": summary["termination_reason"], "completed": summary["completed"],
@@ -178,6 +210,8 @@ def run(args) -> None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
+    if args.stall is not None:
+        rule_params["stall"] = [int(args.stall[0]), float(args.stall[1])]
     names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
                                                          not args.random_only)
     ks = args.only or range(args.start, args.start + args.episodes)
@@ -287,6 +321,9 @@ def main(argv=None) -> int:
     r.add_argument("--random-palettes", type=int, default=100)
     r.add_argument("--random-from", type=int, default=RANDOM_FROM, help="first random palette random-<N>")
     r.add_argument("--random-only", action="store_true", help="leave the named tuning palettes out")
+    r.add_argument("--stall", nargs=2, type=float, metavar=("K", "T"), default=None,
+                   help="after K OCCLUDED_REGION views in a row, attend with verifier_threshold T "
+                        "(experiment)")
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")

@@ -174,6 +174,10 @@ TUNING_SEED_BLOCKS = (
               "paired test of the seventeenth session's verifier against the sixteenth's on palettes neither "
               "saw (random-800 ... 899), invisible 12 000-12 099, challenging 12 100-12 199 (--start 100), "
               "random 12 200-12 299 (--start 200)"),
+    SeedBlock(13_000, 13_300, "docs/experiments_s18/run_stall.sh",
+              "push_out.py --seed-base 13000 --random-from 900 --random-only: the eighteenth session's test "
+              "of a stall-breaker (--stall) on random-900 ... 999, challenging 13 000-13 099, invisible "
+              "13 100-13 199 (--start 100), random 13 200-13 299 (--start 200), with and without it"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
