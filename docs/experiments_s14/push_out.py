@@ -119,6 +119,7 @@ def run_one(task: tuple) -> dict:
         the view is attended again with verifier_threshold t, and the count starts over."""
 
         stalled = 0
+        fired = False  # the current view's TARGET came from the stall-breaker
 
         def reset(self, request):
             self.stalled = 0
@@ -126,7 +127,7 @@ def run_one(task: tuple) -> dict:
 
         def _sense(self):
             super()._sense()
-            self.fired = False  # this view's TARGET came from the stall-breaker
+            self.fired = False
             if stall is None:
                 return
             if self._sensed.attention.mode != AttentionMode.OCCLUDED_REGION:
@@ -156,7 +157,7 @@ def run_one(task: tuple) -> dict:
                                 "object_m": nearest(poses, truth.object_ids, x, y),
                                 "probability": float(found.group(1)) if found else None,
                                 "last_look": bool(attention.last_look), "heap": heap is not None,
-                                "stall": bool(getattr(self, "fired", False))})
+                                "stall": self.fired})
             return action
 
     def targets_at() -> list:

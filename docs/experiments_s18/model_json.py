@@ -15,9 +15,8 @@ def main(source: str, out: str) -> None:
     namespace = {}
     exec(compile(text, source, "exec"), namespace)  # noqa: S102 - a model file of this repository's history
     model = namespace["MODEL"]
-    fields = {f.name: getattr(model, f.name) for f in dataclasses.fields(model)}
-    pathlib.Path(out).write_text(json.dumps({k: list(v) if isinstance(v, tuple) else v
-                                             for k, v in fields.items()}, indent=1))
+    # the form verifier-fit --model-json writes
+    pathlib.Path(out).write_text(json.dumps(dataclasses.asdict(model), indent=1))
     print(f"{out}: threshold {model.threshold}")
 
 

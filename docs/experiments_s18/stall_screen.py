@@ -15,32 +15,22 @@ firing per episode is counted.
     python docs/experiments_s18/stall_screen.py runs/s17/views_inv.npz runs/s17/views_chal.npz \
         runs/s17/views_rand.npz
 """
-import dataclasses
-import re
+import pathlib
 import sys
 from collections import defaultdict
 from concurrent.futures import ProcessPoolExecutor
 
-import numpy as np
+sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent))
+import stalls  # noqa: E402  (likeliest: the view's mode and the verifier's likeliest region)
 
 KS = (3, 5, 8, 12)
 TS = (0.3, 0.4, 0.5, 0.6)
 
 
 def view_row(record) -> tuple:
-    """(episode seed, view index, shipped mode name, likeliest probability or nan, on a target)."""
-    from impurity_attention.core.attention import AttentionMode, AttentionParams, attend
-    shipped = attend(record.color, record.height, AttentionParams())
-    mode = AttentionMode(int(shipped.mode)).name
-    probability, on = float("nan"), False
-    if mode != "TARGET":
-        low = attend(record.color, record.height,
-                     dataclasses.replace(AttentionParams(), verifier_threshold=0.001))
-        if int(low.mode) == AttentionMode.TARGET:
-            found = re.search(r"probability (\d+\.\d+)", low.reason)
-            probability = float(found.group(1)) if found else float("nan")
-            on = bool(np.any(low.target_mask & record.visible_target_cells))
-    return record.seed // 100, record.seed % 100, mode, probability, on
+    """(episode seed, view index, shipped mode name, likeliest probability or None, on a target):
+    stalls.likeliest of a loop view, keyed by its episode."""
+    return (record.seed // 100, record.seed % 100, *stalls.likeliest(record))
 
 
 def main(paths) -> None:
@@ -59,7 +49,7 @@ def main(paths) -> None:
                 run = 0
                 for _, mode, probability, on in sorted(views):
                     run = run + 1 if mode == "OCCLUDED_REGION" else 0
-                    if run >= k and probability >= t:
+                    if run >= k and probability is not None and probability >= t:
                         on_target += on
                         off_target += not on
                         break
