@@ -93,7 +93,7 @@ def run_one(task: tuple) -> dict:
     from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
     from impurity_policy.core.episode import EpisodeRequest
     from impurity_policy.core.policy import Policy
-    from impurity_policy.core.rules import RuleParams, RulePipeline
+    from impurity_policy.core.rules import PRESETS, RuleParams, RulePipeline
     from ur5_driver_sim.core.world import CellWorld
 
     if "world" not in _WORKER:
@@ -101,10 +101,12 @@ def run_one(task: tuple) -> dict:
         _WORKER["world"] = CellWorld(mode="floating")
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
-        values = {k: v for k, v in rule_params.items() if k not in ("without", "verifier_heap_threshold",
+        values = {k: v for k, v in rule_params.items() if k not in ("without", "with", "verifier_heap_threshold",
                                                                 "verifier", "stall")}
         params = dataclasses.replace(RuleParams(), **values)
-        rules = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
+        RulePipeline(rule_params.get("without", ()))  # an unknown name is refused with the known ones
+        names = [name for name in PRESETS["cell"] if name not in rule_params.get("without", ())]
+        rules = RulePipeline(names + list(rule_params.get("with", ())), params)
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
     steps, where, decided = [], [], []
@@ -207,6 +209,8 @@ def run(args) -> None:
         rule_params["occluded_push_edge_margin"] = args.edge_margin
     if args.without:
         rule_params["without"] = args.without
+    if args.with_rules:
+        rule_params["with"] = args.with_rules
     if args.heap_threshold is not None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
     if args.verifier is not None:
@@ -319,6 +323,8 @@ def main(argv=None) -> int:
     r.add_argument("--push-end-margin", type=float, default=None)
     r.add_argument("--edge-margin", type=float, default=None, help="occluded_push_edge_margin (m)")
     r.add_argument("--without", nargs="*", default=[], help="rules of the cell preset left out")
+    r.add_argument("--with", dest="with_rules", nargs="*", default=[],
+                   help="rules outside the cell preset added (rules.CANDIDATES), applied in RULE_ORDER")
     r.add_argument("--random-palettes", type=int, default=100)
     r.add_argument("--random-from", type=int, default=RANDOM_FROM, help="first random palette random-<N>")
     r.add_argument("--random-only", action="store_true", help="leave the named tuning palettes out")

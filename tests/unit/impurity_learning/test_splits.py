@@ -85,6 +85,7 @@ FRESH_LAYOUTS, PUSH_OUT = "docs/experiments_s13/fresh_layouts.py", "docs/experim
 LOOP_VIEWS = "docs/experiments_s17/loop_views.py"
 FRESH_S18 = "docs/experiments_s18/run_fresh.sh"
 STALL_S18 = "docs/experiments_s18/run_stall.sh"
+RIDGE_S19 = "docs/experiments_s19/run_ridge.sh"
 
 
 def own_layout_seeds(base: int, palettes: int, row_stride: int, first: int = 0) -> list:
@@ -151,6 +152,7 @@ def planned_seeds() -> list:
         (PUSH_OUT, [11_000 + k for k in range(400)]),  # --seed-base 11000 (seventeenth session)
         (FRESH_S18, [12_000 + k for k in range(300)]),  # push_out.py --seed-base 12000 (eighteenth session)
         (STALL_S18, [13_000 + k for k in range(300)]),  # push_out.py --seed-base 13000 (eighteenth session)
+        (RIDGE_S19, [14_000 + k for k in range(300)]),  # push_out.py --seed-base 14000 (nineteenth session)
         # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
         (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
                       for k in [*range(160), *range(200, 280), *range(400, 480)]]),

@@ -18,7 +18,7 @@ from impurity_policy.core.change import CHANGE_PIXELS_TAU
 from impurity_policy.core.network import GRASP, PUSH, NetworkConfig, QNetwork, valid_action_mask
 from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation, Policy
 from impurity_policy.core.pose import PoseRules, heap_top, pushes_passing
-from impurity_policy.core.rules import PRESETS, RULE_ORDER, RuleParams, RulePipeline
+from impurity_policy.core.rules import CANDIDATES, PRESETS, RULE_ORDER, RuleParams, RulePipeline
 
 torch.set_num_threads(1)
 SMALL = NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=16)
@@ -330,11 +330,11 @@ def test_preset_none_leaves_the_q_maps_untouched():
     assert Policy(QNetwork(SMALL)).rules.names == ()  # a policy's default: the paper's argmax
 
 
-def test_preset_cell_has_every_rule_and_can_leave_some_out():
-    assert RulePipeline.preset("cell").names == RULE_ORDER == PRESETS["cell"]
-    assert len(RULE_ORDER) == 10
+def test_preset_cell_has_every_rule_but_the_candidates_and_can_leave_some_out():
+    assert RulePipeline.preset("cell").names == PRESETS["cell"] == tuple(n for n in RULE_ORDER if n not in CANDIDATES)
+    assert len(RULE_ORDER) == 11 and set(CANDIDATES) <= set(RULE_ORDER)
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
-    assert without == tuple(n for n in RULE_ORDER if n not in ("finger_clearance", "grasp_at_target_core"))
+    assert without == tuple(n for n in PRESETS["cell"] if n not in ("finger_clearance", "grasp_at_target_core"))
 
 
 @pytest.mark.parametrize("make, known", [

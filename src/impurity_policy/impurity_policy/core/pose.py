@@ -187,6 +187,51 @@ def target_core(mask: np.ndarray, depth_px: float) -> np.ndarray:
     return (mask > 0) & (depth >= depth.max() - depth_px)
 
 
+RIDGE_ERODE_PX = 2  # ridge_direction: mask cells this close to its edge are left out (their slopes are steps)
+RIDGE_SMOOTHING_PX = 1.0  # ridge_direction: Gaussian sigma of the height crop before its slopes are taken
+RIDGE_MIN_CELLS = 10  # ridge_direction: fewer inner cells than this: no ridge read
+RIDGE_MIN_ANISOTROPY = 0.5  # ridge_direction: (l1 - l2) / (l1 + l2) of the slope tensor: slopes along one axis
+RIDGE_MAX_ONE_SIDED = 0.5  # ridge_direction: |mean slope| / mean |slope| along that axis: 1 = a tilted plane
+
+
+def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float, min_slope: float) -> float | None:
+    """The direction (rad in [0, pi), image = base_link yaw) of the crest of the target's top, or None when
+    its top has none. The target is the mask's cells (mask > 0; the crop's heights in m, `resolution` m per px).
+
+    A ridge is a top that slopes down on both sides of a line, as an upright prism's, a half cylinder's, a
+    cylinder lying on its side or a cube standing on an edge: over the mask's inner cells (RIDGE_ERODE_PX in
+    from its edge, heights smoothed by RIDGE_SMOOTHING_PX) the slope tensor J = mean(g g^T), g the height
+    gradient (m/m), has a dominant eigenvector e1 (the fall line) with
+      - root-mean-square slope sqrt(l1) >= min_slope (a flat top has about 0.1, a half cylinder 0.6, an
+        upright prism 1.3),
+      - anisotropy (l1 - l2) / (l1 + l2) >= RIDGE_MIN_ANISOTROPY (the slopes run along one axis), and
+      - |mean(g . e1)| / mean(|g . e1|) <= RIDGE_MAX_ONE_SIDED (they fall both ways: a tilted flat face falls
+        one way, and has no crest).
+    The crest runs across e1. Figures: docs/experiments.md, nineteenth section."""
+    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
+    if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
+        return None
+    smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), RIDGE_SMOOTHING_PX)
+    g_row, g_col = np.gradient(smooth)
+    gx, gy = g_col[inner] / resolution, g_row[inner] / resolution  # +col = +x, +row = +y (module docstring)
+    tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])
+    (low, high), vectors = np.linalg.eigh(tensor)
+    fall = vectors[:, 1]
+    along = gx * fall[0] + gy * fall[1]
+    if (math.sqrt(max(high, 0.0)) < min_slope or (high - low) < RIDGE_MIN_ANISOTROPY * (high + low)
+            or abs(along.mean()) > RIDGE_MAX_ONE_SIDED * np.abs(along).mean()):
+        return None
+    return (math.atan2(fall[1], fall[0]) + math.pi / 2) % math.pi
+
+
+def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
+    """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw, an axis: r and r + R/2
+    close alike) lies within `max_angle` (rad) of `direction` (rad)."""
+    yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
+    difference = np.abs((yaws - direction + math.pi / 2) % math.pi - math.pi / 2)
+    return difference <= max_angle + 1e-9
+
+
 def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:
     """(S, S) bool: within `radius_px` of the mask (mask > 0)."""
     region = (mask > 0).astype(np.uint8)

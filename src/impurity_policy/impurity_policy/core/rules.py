@@ -16,6 +16,8 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
   9. target_push_start_near        pref  with a target in view, pushes that start next to it
  10. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
                                          when no grasp is left there, the policy pushes)
+ 11. grasp_along_ridge             pref  with a target whose top has a crest (an upright prism), grasps
+                                         closing along the crest, not across it
 
 A *mask* always applies. A *preference* applies only where it leaves at least one action of its
 primitive (counting what the rules before it and -inf Q values already took away); otherwise it
@@ -33,6 +35,7 @@ array that broadcasts to (R, S, S) for one primitive.
 from __future__ import annotations
 
 import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -46,11 +49,13 @@ from .pose import (
     PoseRules,
     grasp_clearance,
     heap_top,
+    closing_along,
     pixels_near,
     pushes_ending_inside,
     pushes_not_toward_near_edge,
     pushes_passing,
     pushes_starting_on_flank,
+    ridge_direction,
     target_core,
     target_on_top,
 )
@@ -81,6 +86,11 @@ class RuleParams:
     target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
     target_push_radius_px: int = 12  # target_push_start_near: px from the target's mask
     grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
+    ridge_min_slope: float = 0.4  # grasp_along_ridge: root-mean-square slope (m/m) of a top with a crest
+    # (pose.ridge_direction; flat tops about 0.1, a half cylinder 0.6, an upright prism 1.3)
+    ridge_max_angle_deg: float = 45.0  # grasp_along_ridge: closing axes at most this far from the crest
+    # (nearer to it than to across it; in the simulator an upright prism held from 45 deg on, slipped out
+    # within 34 deg of across)
 
     def __post_init__(self):
         low, high = self.occluded_push_start_band
@@ -91,9 +101,12 @@ class RuleParams:
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
-                     "target_on_top_tolerance", "grasp_core_depth_px"):
+                     "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.ridge_max_angle_deg <= 90.0:
+            raise ValueError(f"ridge_max_angle_deg must be in [0, 90] (deg from the crest), got "
+                             f"{self.ridge_max_angle_deg}")
 
 
 class RuleContext:
@@ -321,11 +334,35 @@ class GraspAtTargetCore(Rule):
         return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
 
 
+class GraspAlongRidge(Rule):
+    """With a target in view whose top has a crest (pose.ridge_direction: an upright prism, a half cylinder,
+    a cylinder lying down, a cube on an edge), a grasp whose closing axis lies more than `ridge_max_angle_deg`
+    from the crest. Closing across the crest the fingers meet the two sloping faces and squeeze the block up
+    and out of the grip; along it they close on its upright ends. In the simulator an upright prism alone
+    slipped out of every grasp closing within 34 deg of across its crest and was held from 45 deg on
+    (docs/experiments.md, nineteenth section). A preference after grasp_at_target_core: where no grasp along
+    the crest is left at the target's middle it gives way."""
+
+    name = "grasp_along_ridge"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view:
+            return ()
+        crest = ridge_direction(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution, ctx.params.ridge_min_slope)
+        if crest is None:
+            return ()
+        along = closing_along(crest, math.radians(ctx.params.ridge_max_angle_deg), ctx.rotations)
+        return (Keep(GRASP, along[:, None, None]),)
+
+
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
                                       PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
-                                      GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore)}
+                                      GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore,
+                                      GraspAlongRidge)}
 RULE_ORDER = tuple(RULES)
-PRESETS = {"none": (), "cell": RULE_ORDER}
+CANDIDATES = ("grasp_along_ridge",)  # rules under test (docs/experiments.md), in no preset until adopted
+PRESETS = {"none": (), "cell": tuple(name for name in RULE_ORDER if name not in CANDIDATES)}
 
 
 class RulePipeline:
