@@ -187,16 +187,17 @@ def target_core(mask: np.ndarray, depth_px: float) -> np.ndarray:
     return (mask > 0) & (depth >= depth.max() - depth_px)
 
 
-RIDGE_ERODE_PX = 2  # ridge_direction: mask cells this close to its edge are left out (their slopes are steps)
+RIDGE_ERODE_PX = 2  # ridge_direction: mask cells this close to its edge are left out (slopes there are steps)
 RIDGE_SMOOTHING_PX = 1.0  # ridge_direction: Gaussian sigma of the height crop before its slopes are taken
 RIDGE_MIN_CELLS = 10  # ridge_direction: fewer inner cells than this: no ridge read
-RIDGE_MIN_ANISOTROPY = 0.5  # ridge_direction: (l1 - l2) / (l1 + l2) of the slope tensor: slopes along one axis
+RIDGE_MIN_ANISOTROPY = 0.5  # ridge_direction: least (l1 - l2) / (l1 + l2) of the slope tensor
 RIDGE_MAX_ONE_SIDED = 0.5  # ridge_direction: |mean slope| / mean |slope| along that axis: 1 = a tilted plane
 
 
-def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float, min_slope: float) -> float | None:
+def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
+                    min_slope: float) -> float | None:
     """The direction (rad in [0, pi), image = base_link yaw) of the crest of the target's top, or None when
-    its top has none. The target is the mask's cells (mask > 0; the crop's heights in m, `resolution` m per px).
+    its top has none. The target is the mask's cells (mask > 0); heights in m, `resolution` m per px.
 
     A ridge is a top that slopes down on both sides of a line, as an upright prism's, a half cylinder's, a
     cylinder lying on its side or a cube standing on an edge: over the mask's inner cells (RIDGE_ERODE_PX in
@@ -211,7 +212,8 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
     inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
     if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
         return None
-    smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), RIDGE_SMOOTHING_PX)
+    heights = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
+    smooth = cv2.GaussianBlur(heights, (0, 0), RIDGE_SMOOTHING_PX)
     g_row, g_col = np.gradient(smooth)
     gx, gy = g_col[inner] / resolution, g_row[inner] / resolution  # +col = +x, +row = +y (module docstring)
     tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])

@@ -47,9 +47,9 @@ from .change import CHANGE_PIXELS_TAU, changed_pixels
 from .network import GRASP, PUSH, valid_action_mask
 from .pose import (
     PoseRules,
+    closing_along,
     grasp_clearance,
     heap_top,
-    closing_along,
     pixels_near,
     pushes_ending_inside,
     pushes_not_toward_near_edge,
@@ -349,7 +349,8 @@ class GraspAlongRidge(Rule):
     def keeps(self, ctx: RuleContext) -> tuple:
         if not ctx.target_in_view:
             return ()
-        crest = ridge_direction(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution, ctx.params.ridge_min_slope)
+        crest = ridge_direction(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution,
+                                ctx.params.ridge_min_slope)
         if crest is None:
             return ()
         along = closing_along(crest, math.radians(ctx.params.ridge_max_angle_deg), ctx.rotations)
