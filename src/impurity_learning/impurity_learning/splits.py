@@ -181,7 +181,8 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(14_000, 14_300, "docs/experiments_s19/run_ridge.sh",
               "push_out.py --seed-base 14000 --random-from 700 --random-only: the nineteenth session's test "
               "of the rule grasp_along_ridge (--with) on random-700 ... 799, random 14 000-14 099, "
-              "challenging 14 100-14 199 (--start 100), invisible 14 200-14 299 (--start 200), with and without it"),
+              "challenging 14 100-14 199 (--start 100), invisible 14 200-14 299 (--start 200), with and "
+              "without it"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
