@@ -153,6 +153,7 @@ def planned_seeds() -> list:
         (FRESH_S18, [12_000 + k for k in range(300)]),  # push_out.py --seed-base 12000 (eighteenth session)
         (STALL_S18, [13_000 + k for k in range(300)]),  # push_out.py --seed-base 13000 (eighteenth session)
         (RIDGE_S19, [14_000 + k for k in range(300)]),  # push_out.py --seed-base 14000 (nineteenth session)
+        (RIDGE_S19, [15_000 + k for k in range(300)]),  # run_ridge.sh ... 2: --seed-base 15000 (the revision)
         # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
         (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
                       for k in [*range(160), *range(200, 280), *range(400, 480)]]),

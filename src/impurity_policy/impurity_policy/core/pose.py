@@ -192,6 +192,9 @@ RIDGE_SMOOTHING_PX = 1.0  # ridge_direction: Gaussian sigma of the height crop b
 RIDGE_MIN_CELLS = 10  # ridge_direction: fewer inner cells than this: no ridge read
 RIDGE_MIN_ANISOTROPY = 0.5  # ridge_direction: least (l1 - l2) / (l1 + l2) of the slope tensor
 RIDGE_MAX_ONE_SIDED = 0.5  # ridge_direction: |mean slope| / mean |slope| along that axis: 1 = a tilted plane
+RIDGE_MAX_CREST_OFFSET = 0.05  # ridge_direction: the crest's offset from the middle, a share of the block's
+# width across it (its 10th to 90th percentile): upright prisms in packed scenes 0-0.02, leaning slabs and
+# bars 0.04-0.13 (docs/experiments.md, nineteenth section)
 
 
 def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
@@ -207,7 +210,11 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
         upright prism 1.3),
       - anisotropy (l1 - l2) / (l1 + l2) >= RIDGE_MIN_ANISOTROPY (the slopes run along one axis), and
       - |mean(g . e1)| / mean(|g . e1|) <= RIDGE_MAX_ONE_SIDED (they fall both ways: a tilted flat face falls
-        one way, and has no crest).
+        one way, and has no crest), and
+      - the crest (the inner cells in the top 5 % of heights) lies over the middle: along e1 its mean is at
+        most RIDGE_MAX_CREST_OFFSET of the block's width (10th to 90th percentile) from the cells' mean. A
+        slab or bar leaning on a neighbour shows a broad face and a narrow one meeting in a crest off the
+        middle; an upright prism's or half cylinder's crest is central.
     The crest runs across e1. Figures: docs/experiments.md, nineteenth section."""
     inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
     if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
@@ -222,6 +229,13 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
     along = gx * fall[0] + gy * fall[1]
     if (math.sqrt(max(high, 0.0)) < min_slope or (high - low) < RIDGE_MIN_ANISOTROPY * (high + low)
             or abs(along.mean()) > RIDGE_MAX_ONE_SIDED * np.abs(along).mean()):
+        return None
+    rows, cols = np.nonzero(inner)
+    across = (cols - cols.mean()) * fall[0] + (rows - rows.mean()) * fall[1]  # px along the fall line
+    tops = smooth[rows, cols]
+    crest = across[tops >= np.percentile(tops, 95)].mean()
+    width = np.percentile(across, 90) - np.percentile(across, 10)
+    if width <= 0 or abs(crest) > RIDGE_MAX_CREST_OFFSET * width:
         return None
     return (math.atan2(fall[1], fall[0]) + math.pi / 2) % math.pi
 
