@@ -185,8 +185,8 @@ TUNING_SEED_BLOCKS = (
               "without it"),
     SeedBlock(15_000, 15_300, "docs/experiments_s19/run_ridge.sh",
               "its argument 2, push_out.py --seed-base 15000 --random-from 600 --random-only: the nineteenth "
-              "session's test of grasp_along_ridge's revision (a crest over the middle, 35 deg) on random-600 "
-              "... 699, random 15 000-15 099, challenging 15 100-15 199, invisible 15 200-15 299"),
+              "session's test of grasp_along_ridge's revision (a crest over the middle, 35 deg) on "
+              "random-600 ... 699, random 15 000-15 099, challenging 15 100-15 199, invisible 15 200-15 299"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
