@@ -5,7 +5,8 @@ cylinders: across a round body the fingers meet it at its widest, across a tent 
 upwards. This prints, for single rendered blocks and for every crest the rule read in the two tests' changed
 episodes (replayed with the rule on), the flank ratio: the mean |slope| along the fall line over the outer half
 of the block's width over that of the inner half (a tent's flanks are straight: about 1; a round top is flat at
-its crest and steep at its sides: well above 1), with the grasp outcomes of the episode.
+its crest and steep at its sides: well above 1) and the tilt along the crest (|mean slope| along it, m/m), with
+the grasp outcomes of the episode.
 
     python docs/experiments_s19/tent_screen.py blocks
     python docs/experiments_s19/tent_screen.py episodes
@@ -38,6 +39,16 @@ def flank_ratio(height_crop, mask, crest: float, erode: int = 2) -> float:
     return float(slope[outside].mean() / max(slope[inside].mean(), 1e-9))
 
 
+def crest_tilt(height_crop, mask, crest: float, erode: int = 2) -> float:
+    """|mean slope| (m/m) along the crest over the inner cells: about 0 for a block lying level, the tangent of
+    its tilt for one resting on a neighbour at one end."""
+    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * erode + 1,) * 2, np.uint8)) > 0
+    smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), 1.0)
+    g_row, g_col = np.gradient(smooth)
+    along = g_col[inner] * math.cos(crest) + g_row[inner] * math.sin(crest)
+    return float(abs(along.mean()) / 0.002)  # px -> m (the heightmap's 2 mm cells)
+
+
 def blocks() -> None:
     import pybullet
 
@@ -62,8 +73,9 @@ def blocks() -> None:
         mask = (height > 0.004).astype(np.uint8)
         crest = ridge_direction(height, mask, grid.resolution, 0.4)
         ratio = None if crest is None else round(flank_ratio(height, mask, crest), 2)
+        tilt = None if crest is None else round(crest_tilt(height, mask, crest), 2)
         print(f"{shape:14s} {dims} rpy {rpy}: crest {None if crest is None else round(math.degrees(crest), 1)}, "
-              f"flank ratio {ratio}")
+              f"flank ratio {ratio}, tilt along the crest {tilt}")
 
 
 def episodes() -> None:
@@ -80,7 +92,8 @@ def episodes() -> None:
             crest = ridge_direction(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution,
                                     ctx.params.ridge_min_slope)
             if crest is not None:
-                reads.append(round(flank_ratio(ctx.obs.height_crop, ctx.obs.mask, crest), 2))
+                reads.append((round(flank_ratio(ctx.obs.height_crop, ctx.obs.mask, crest), 2),
+                              round(crest_tilt(ctx.obs.height_crop, ctx.obs.mask, crest), 2)))
         return original(self, ctx)
 
     rules.GraspAlongRidge.keeps = keeps
@@ -95,7 +108,7 @@ def episodes() -> None:
             push_out.run_one((row["scenario"], row["seed"], row["palette"], {"with": ["grasp_along_ridge"]}))
             grasps = lambda r: "".join("T" if g["target"] else "x" for g in r["grasps"])  # noqa: E731
             print(f"{name:6s} {row['scenario'][:4]} {row['seed']}: shipped {grasps(base)}, with the rule "
-                  f"{grasps(row)}; flank ratios of its crest reads {reads}")
+                  f"{grasps(row)}; its crest reads (flank ratio, tilt along the crest) {reads}")
 
 
 if __name__ == "__main__":
