@@ -4,10 +4,13 @@
 # `source scripts/env.sh` (one arm per core):
 #   docs/experiments_s19/run_ridge.sh shipped|ridge      # first test: random-700 ... 799, seeds 14000-14299
 #   docs/experiments_s19/run_ridge.sh shipped|ridge 2    # the revision's test: random-600 ... 699, seeds 15000-15299
+#   docs/experiments_s19/run_ridge.sh shipped|ridge 3    # the second revision's: random-500 ... 599, seeds 16000-16299
 set -euo pipefail
 arm=$1
 if [ "${2:-1}" = 2 ]; then
     out=runs/s19/ridge2_$arm seed_base=15000 random_from=600
+elif [ "${2:-1}" = 3 ]; then
+    out=runs/s19/ridge3_$arm seed_base=16000 random_from=500
 else
     out=runs/s19/ridge_$arm seed_base=14000 random_from=700
 fi

@@ -6,7 +6,7 @@ upwards. This prints, for single rendered blocks and for every crest the rule re
 episodes (replayed with the rule on), the flank ratio: the mean |slope| along the fall line over the outer half
 of the block's width over that of the inner half (a tent's flanks are straight: about 1; a round top is flat at
 its crest and steep at its sides: well above 1) and the tilt along the crest (|mean slope| along it, m/m), with
-the grasp outcomes of the episode.
+the outline's step over what lies beside it (mm), with the grasp outcomes of the episode.
 
     python docs/experiments_s19/tent_screen.py blocks
     python docs/experiments_s19/tent_screen.py episodes
@@ -49,6 +49,29 @@ def crest_tilt(height_crop, mask, crest: float, erode: int = 2) -> float:
     return float(abs(along.mean()) / 0.002)  # px -> m (the heightmap's 2 mm cells)
 
 
+def outline_step(height_crop, mask, crest: float, ring: int = 3) -> float:
+    """m: how far the block's outline stands above what lies beside it across the crest: for each side, the
+    mask's outermost cells' median height minus the median height of the cells up to `ring` px beyond them
+    (clipped at 0: a taller neighbour is no step); the larger side's. A full cylinder lying down stands about a
+    radius above the table (its sides curve in under it); a half cylinder's or a prism's outline reaches it."""
+    inside = mask > 0
+    rows, cols = np.nonzero(inside)
+    fall = (math.cos(crest - math.pi / 2), math.sin(crest - math.pi / 2))
+    grid_rows, grid_cols = np.mgrid[:mask.shape[0], :mask.shape[1]]
+    across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
+    along = (grid_cols - cols.mean()) * -fall[1] + (grid_rows - rows.mean()) * fall[0]
+    low, high = across[inside].min(), across[inside].max()
+    core = np.abs(along) <= 0.5 * np.abs(along[inside]).max()  # the middle half along the crest
+    heights = np.nan_to_num(height_crop, nan=0.0)
+    steps = []
+    for edge, outward in ((low, -1.0), (high, 1.0)):
+        rim = inside & core & (np.abs(across - edge) <= 1.5)
+        beyond = ~inside & core & ((across - edge) * outward > 0) & ((across - edge) * outward <= ring + 0.5)
+        if rim.any() and beyond.any():
+            steps.append(max(0.0, float(np.median(heights[rim]) - np.median(heights[beyond]))))
+    return max(steps) if steps else float("nan")
+
+
 def blocks() -> None:
     import pybullet
 
@@ -74,8 +97,9 @@ def blocks() -> None:
         crest = ridge_direction(height, mask, grid.resolution, 0.4)
         ratio = None if crest is None else round(flank_ratio(height, mask, crest), 2)
         tilt = None if crest is None else round(crest_tilt(height, mask, crest), 2)
+        step = None if crest is None else round(1000 * outline_step(height, mask, crest))
         print(f"{shape:14s} {dims} rpy {rpy}: crest {None if crest is None else round(math.degrees(crest), 1)}, "
-              f"flank ratio {ratio}, tilt along the crest {tilt}")
+              f"flank ratio {ratio}, tilt along the crest {tilt}, outline step {step} mm")
 
 
 def episodes() -> None:
@@ -93,7 +117,8 @@ def episodes() -> None:
                                     ctx.params.ridge_min_slope)
             if crest is not None:
                 reads.append((round(flank_ratio(ctx.obs.height_crop, ctx.obs.mask, crest), 2),
-                              round(crest_tilt(ctx.obs.height_crop, ctx.obs.mask, crest), 2)))
+                              round(crest_tilt(ctx.obs.height_crop, ctx.obs.mask, crest), 2),
+                              round(1000 * outline_step(ctx.obs.height_crop, ctx.obs.mask, crest))))
         return original(self, ctx)
 
     rules.GraspAlongRidge.keeps = keeps
@@ -108,7 +133,7 @@ def episodes() -> None:
             push_out.run_one((row["scenario"], row["seed"], row["palette"], {"with": ["grasp_along_ridge"]}))
             grasps = lambda r: "".join("T" if g["target"] else "x" for g in r["grasps"])  # noqa: E731
             print(f"{name:6s} {row['scenario'][:4]} {row['seed']}: shipped {grasps(base)}, with the rule "
-                  f"{grasps(row)}; its crest reads (flank ratio, tilt along the crest) {reads}")
+                  f"{grasps(row)}; its crest reads (flank ratio, tilt along the crest, outline step mm) {reads}")
 
 
 if __name__ == "__main__":

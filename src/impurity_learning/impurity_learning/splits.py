@@ -187,6 +187,10 @@ TUNING_SEED_BLOCKS = (
               "its argument 2, push_out.py --seed-base 15000 --random-from 600 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's revision (a crest over the middle, 35 deg) on "
               "random-600 ... 699, random 15 000-15 099, challenging 15 100-15 199, invisible 15 200-15 299"),
+    SeedBlock(16_000, 16_300, "docs/experiments_s19/run_ridge.sh",
+              "its argument 3, push_out.py --seed-base 16000 --random-from 500 --random-only: the nineteenth "
+              "session's test of grasp_along_ridge's second revision (the outline's step) on random-500 ... "
+              "599, random 16 000-16 099, challenging 16 100-16 199, invisible 16 200-16 299"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "

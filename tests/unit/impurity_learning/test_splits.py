@@ -154,6 +154,7 @@ def planned_seeds() -> list:
         (STALL_S18, [13_000 + k for k in range(300)]),  # push_out.py --seed-base 13000 (eighteenth session)
         (RIDGE_S19, [14_000 + k for k in range(300)]),  # push_out.py --seed-base 14000 (nineteenth session)
         (RIDGE_S19, [15_000 + k for k in range(300)]),  # run_ridge.sh ... 2: --seed-base 15000 (the revision)
+        (RIDGE_S19, [16_000 + k for k in range(300)]),  # run_ridge.sh ... 3: --seed-base 16000 (the second)
         # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
         (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
                       for k in [*range(160), *range(200, 280), *range(400, 480)]]),

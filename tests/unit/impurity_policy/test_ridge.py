@@ -35,6 +35,10 @@ def half_cylinder(v):
     return np.sqrt(1.0 - v ** 2)
 
 
+def lying_cylinder(v):
+    return 0.5 + 0.5 * np.sqrt(1.0 - v ** 2)  # seen from above: its outline stands a radius up
+
+
 def flat(v):
     return np.ones_like(v)
 
@@ -60,9 +64,9 @@ def test_the_crest_of_a_prism_or_half_cylinder_is_found_in_any_direction(profile
     assert _angle(found, crest_yaw) < math.radians(3)
 
 
-@pytest.mark.parametrize("profile", [flat, tilted, leaning])
-def test_a_flat_or_tilted_face_or_a_crest_off_the_middle_has_no_crest(profile):
-    height, mask = _block_top(profile, 0.7)
+@pytest.mark.parametrize("profile", [flat, tilted, leaning, lying_cylinder])
+def test_a_flat_or_tilted_face_a_crest_off_the_middle_or_an_outline_standing_up_has_no_crest(profile):
+    height, mask = _block_top(profile, 0.7, height=0.045)  # a lying cylinder's outline 22.5 mm up
     assert ridge_direction(height, mask, RESOLUTION, min_slope=0.4) is None
 
 

@@ -195,6 +195,9 @@ RIDGE_MAX_ONE_SIDED = 0.5  # ridge_direction: |mean slope| / mean |slope| along 
 RIDGE_MAX_CREST_OFFSET = 0.05  # ridge_direction: the crest's offset from the middle, a share of the block's
 # width across it (its 10th to 90th percentile): upright prisms in packed scenes 0-0.02, leaning slabs and
 # bars 0.04-0.13 (docs/experiments.md, nineteenth section)
+RIDGE_MAX_OUTLINE_STEP = 0.018  # m, ridge_direction: the outline's step over what lies beside it across the
+# crest: prisms and half cylinders 6-12 mm, full cylinders lying down 23-29 mm (nineteenth section)
+RIDGE_OUTLINE_RING_PX = 3  # ridge_direction: cells beyond the outline compared with it
 
 
 def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
@@ -214,7 +217,12 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
       - the crest (the inner cells in the top 5 % of heights) lies over the middle: along e1 its mean is at
         most RIDGE_MAX_CREST_OFFSET of the block's width (10th to 90th percentile) from the cells' mean. A
         slab or bar leaning on a neighbour shows a broad face and a narrow one meeting in a crest off the
-        middle; an upright prism's or half cylinder's crest is central.
+        middle; an upright prism's or half cylinder's crest is central, and
+      - the outline reaches down to what the block rests on: over the middle half of its length, on neither
+        side across the crest does the mask's outermost row stand more than RIDGE_MAX_OUTLINE_STEP above the
+        RIDGE_OUTLINE_RING_PX cells beyond it (medians; a taller neighbour counts as no step). A full cylinder
+        lying down curves in under its widest line, so its outline stands about a radius up, and its round
+        ends slip from fingers closing along it; a half cylinder's or a prism's flanks reach the table.
     The crest runs across e1. Figures: docs/experiments.md, nineteenth section."""
     inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
     if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
@@ -237,7 +245,26 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
     width = np.percentile(across, 90) - np.percentile(across, 10)
     if width <= 0 or abs(crest) > RIDGE_MAX_CREST_OFFSET * width:
         return None
+    if _outline_step(heights, mask > 0, fall) > RIDGE_MAX_OUTLINE_STEP:
+        return None
     return (math.atan2(fall[1], fall[0]) + math.pi / 2) % math.pi
+
+
+def _outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
+    """m: the larger of the two sides' steps (ridge_direction's last condition); 0 where neither can be read."""
+    rows, cols = np.nonzero(inside)
+    grid_rows, grid_cols = np.mgrid[:inside.shape[0], :inside.shape[1]]
+    across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
+    along = (grid_cols - cols.mean()) * -fall[1] + (grid_rows - rows.mean()) * fall[0]
+    middle = np.abs(along) <= 0.5 * np.abs(along[inside]).max()
+    step = 0.0
+    for edge, outward in ((across[inside].min(), -1.0), (across[inside].max(), 1.0)):
+        beyond_edge = (across - edge) * outward
+        rim = inside & middle & (np.abs(across - edge) <= 1.5)
+        beyond = ~inside & middle & (beyond_edge > 0) & (beyond_edge <= RIDGE_OUTLINE_RING_PX + 0.5)
+        if rim.any() and beyond.any():
+            step = max(step, float(np.median(heights[rim]) - np.median(heights[beyond])))
+    return step
 
 
 def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
