@@ -251,7 +251,7 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
 
 
 def _outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
-    """m: the larger of the two sides' steps (ridge_direction's last condition); 0 where neither can be read."""
+    """m: the larger side's step (ridge_direction's last condition); 0 where neither side can be read."""
     rows, cols = np.nonzero(inside)
     grid_rows, grid_cols = np.mgrid[:inside.shape[0], :inside.shape[1]]
     across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
