@@ -93,7 +93,7 @@ def run_one(task: tuple) -> dict:
     from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
     from impurity_policy.core.episode import EpisodeRequest
     from impurity_policy.core.policy import Policy
-    from impurity_policy.core.rules import PRESETS, RuleParams, RulePipeline
+    from impurity_policy.core.rules import RuleParams, RulePipeline
     from ur5_driver_sim.core.world import CellWorld
 
     if "world" not in _WORKER:
@@ -104,9 +104,8 @@ def run_one(task: tuple) -> dict:
         values = {k: v for k, v in rule_params.items() if k not in ("without", "with", "verifier_heap_threshold",
                                                                 "verifier", "stall")}
         params = dataclasses.replace(RuleParams(), **values)
-        RulePipeline(rule_params.get("without", ()))  # an unknown name is refused with the known ones
-        names = [name for name in PRESETS["cell"] if name not in rule_params.get("without", ())]
-        rules = RulePipeline(names + list(rule_params.get("with", ())), params)
+        preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
+        rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())), params)
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
     steps, where, decided = [], [], []

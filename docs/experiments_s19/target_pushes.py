@@ -26,48 +26,44 @@ TRACE = []
 
 
 def traced_apply(self, q, obs, valid, pose_rules, grid):
-    """RulePipeline.apply, also noting (TARGET views) the first rule after which no grasp was left."""
+    """RulePipeline.apply, also noting the first rule after which no valid grasp kept a finite Q value: the
+    pipeline's own apply on its first i rules, for i = 1, 2, ... (the same rule objects, so tried_actions keeps
+    its memory; its keeps() only drops entries it would drop anyway)."""
+    import copy
+
     import numpy as np
 
     from impurity_policy.core.network import GRASP
-    from impurity_policy.core.rules import PREFERENCE, RuleContext
-    if not self.rules:
-        return q
-    ctx = RuleContext(obs, q.shape[0], pose_rules, self.params, grid)
-    ruled_out = np.zeros(q.shape, dtype=bool)
-    emptied = None
     finite = np.isfinite(q[:, GRASP]) & valid[GRASP]
-    for rule in self.rules:
-        for verdict in rule.keeps(ctx):
-            p = verdict.primitive
-            if rule.kind == PREFERENCE:
-                left = ~ruled_out[:, p] & np.isfinite(q[:, p])
-                if not (left & (verdict.actions & valid[p])).any():
-                    continue
-            ruled_out[:, p] |= ~verdict.actions
-        if emptied is None and finite.any() and not (finite & ~ruled_out[:, GRASP]).any():
-            emptied = rule.name
+    emptied = None
+    if finite.any():
+        partial = copy.copy(self)
+        for count, rule in enumerate(self.rules, start=1):
+            partial.rules = self.rules[:count]
+            left = ORIGINAL[0](partial, q, obs, valid, pose_rules, grid)[:, GRASP]
+            if not (np.isfinite(left) & valid[GRASP]).any():
+                emptied = rule.name
+                break
     TRACE.append({"mode": int(obs.mode), "grasps_valid": bool(finite.any()), "emptied": emptied})
-    return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
+    return ORIGINAL[0](self, q, obs, valid, pose_rules, grid)
 
 
 def traced_decide(self, obs, *args, **kwargs):
     """Policy.decide, also noting the primitive chosen (0 push, 1 grasp) on the decision's trace entry."""
-    choice = ORIGINAL_DECIDE[0](self, obs, *args, **kwargs)
+    choice = ORIGINAL[1](self, obs, *args, **kwargs)
     TRACE[-1]["primitive"] = int(choice.decision.primitive)
     return choice
 
 
-ORIGINAL_DECIDE = []
+ORIGINAL = []  # RulePipeline.apply, Policy.decide as they were
 
 
 def replay(task):
     from impurity_policy.core.policy import Policy
     from impurity_policy.core.rules import RulePipeline
-    RulePipeline.apply = traced_apply
-    if not ORIGINAL_DECIDE:
-        ORIGINAL_DECIDE.append(Policy.decide)
-        Policy.decide = traced_decide
+    if not ORIGINAL:
+        ORIGINAL.extend([RulePipeline.apply, Policy.decide])
+        RulePipeline.apply, Policy.decide = traced_apply, traced_decide
     TRACE.clear()
     push_out.run_one(task)  # rebuilds nothing it has: the worker keeps world and agent
     return list(TRACE)

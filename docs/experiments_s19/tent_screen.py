@@ -10,6 +10,10 @@ the outline's step over what lies beside it (mm), with the grasp outcomes of the
 
     python docs/experiments_s19/tent_screen.py blocks
     python docs/experiments_s19/tent_screen.py episodes
+
+tent_screen.txt was written just before aa1d1f4, the second revision, put the outline step into
+pose.ridge_direction: run now, the screen no longer sees the lying cylinders' and the cube's crests (the
+rule reads none there), and its episode replays follow the second revision.
 """
 import json
 import math
@@ -24,52 +28,43 @@ HERE = pathlib.Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "experiments_s14"))
 
 
-def flank_ratio(height_crop, mask, crest: float, erode: int = 2) -> float:
-    """Mean |slope| along the fall line (across `crest`, rad) over the outer half of the inner cells' span over
-    the inner half's."""
+def _slopes(height_crop, mask, erode: int = 2) -> tuple:
+    """(rows, cols, d/drow, d/dcol) of the mask's inner cells: ridge_direction's cells and smoothing."""
     inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * erode + 1,) * 2, np.uint8)) > 0
     smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), 1.0)
     g_row, g_col = np.gradient(smooth)
-    fall = (math.cos(crest - math.pi / 2), math.sin(crest - math.pi / 2))
     rows, cols = np.nonzero(inner)
+    return rows, cols, g_row[rows, cols], g_col[rows, cols]
+
+
+def _fall(crest: float) -> tuple:
+    return math.cos(crest - math.pi / 2), math.sin(crest - math.pi / 2)
+
+
+def flank_ratio(height_crop, mask, crest: float) -> float:
+    """Mean |slope| along the fall line (across `crest`, rad) over the outer half of the inner cells' span over
+    the inner half's."""
+    rows, cols, g_row, g_col = _slopes(height_crop, mask)
+    fall = _fall(crest)
     across = (cols - cols.mean()) * fall[0] + (rows - rows.mean()) * fall[1]
-    slope = np.abs(g_col[rows, cols] * fall[0] + g_row[rows, cols] * fall[1])
+    slope = np.abs(g_col * fall[0] + g_row * fall[1])
     half = (np.percentile(across, 90) - np.percentile(across, 10)) / 4
     inside, outside = np.abs(across) <= half, np.abs(across) > half
     return float(slope[outside].mean() / max(slope[inside].mean(), 1e-9))
 
 
-def crest_tilt(height_crop, mask, crest: float, erode: int = 2) -> float:
+def crest_tilt(height_crop, mask, crest: float) -> float:
     """|mean slope| (m/m) along the crest over the inner cells: about 0 for a block lying level, the tangent of
     its tilt for one resting on a neighbour at one end."""
-    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * erode + 1,) * 2, np.uint8)) > 0
-    smooth = cv2.GaussianBlur(np.nan_to_num(height_crop, nan=0.0).astype(np.float32), (0, 0), 1.0)
-    g_row, g_col = np.gradient(smooth)
-    along = g_col[inner] * math.cos(crest) + g_row[inner] * math.sin(crest)
+    _, _, g_row, g_col = _slopes(height_crop, mask)
+    along = g_col * math.cos(crest) + g_row * math.sin(crest)
     return float(abs(along.mean()) / 0.002)  # px -> m (the heightmap's 2 mm cells)
 
 
-def outline_step(height_crop, mask, crest: float, ring: int = 3) -> float:
-    """m: how far the block's outline stands above what lies beside it across the crest: for each side, the
-    mask's outermost cells' median height minus the median height of the cells up to `ring` px beyond them
-    (clipped at 0: a taller neighbour is no step); the larger side's. A full cylinder lying down stands about a
-    radius above the table (its sides curve in under it); a half cylinder's or a prism's outline reaches it."""
-    inside = mask > 0
-    rows, cols = np.nonzero(inside)
-    fall = (math.cos(crest - math.pi / 2), math.sin(crest - math.pi / 2))
-    grid_rows, grid_cols = np.mgrid[:mask.shape[0], :mask.shape[1]]
-    across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
-    along = (grid_cols - cols.mean()) * -fall[1] + (grid_rows - rows.mean()) * fall[0]
-    low, high = across[inside].min(), across[inside].max()
-    core = np.abs(along) <= 0.5 * np.abs(along[inside]).max()  # the middle half along the crest
-    heights = np.nan_to_num(height_crop, nan=0.0)
-    steps = []
-    for edge, outward in ((low, -1.0), (high, 1.0)):
-        rim = inside & core & (np.abs(across - edge) <= 1.5)
-        beyond = ~inside & core & ((across - edge) * outward > 0) & ((across - edge) * outward <= ring + 0.5)
-        if rim.any() and beyond.any():
-            steps.append(max(0.0, float(np.median(heights[rim]) - np.median(heights[beyond]))))
-    return max(steps) if steps else float("nan")
+def outline_step(height_crop, mask, crest: float) -> float:
+    """m: pose.outline_step (ridge_direction's condition since the second revision) across `crest`."""
+    from impurity_policy.core.pose import outline_step as step
+    return step(np.nan_to_num(height_crop, nan=0.0), mask > 0, _fall(crest))
 
 
 def blocks() -> None:

@@ -245,13 +245,15 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
     width = np.percentile(across, 90) - np.percentile(across, 10)
     if width <= 0 or abs(crest) > RIDGE_MAX_CREST_OFFSET * width:
         return None
-    if _outline_step(heights, mask > 0, fall) > RIDGE_MAX_OUTLINE_STEP:
+    if outline_step(heights, mask > 0, fall) > RIDGE_MAX_OUTLINE_STEP:
         return None
     return (math.atan2(fall[1], fall[0]) + math.pi / 2) % math.pi
 
 
-def _outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
-    """m: the larger side's step (ridge_direction's last condition); 0 where neither side can be read."""
+def outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
+    """m: how far the outline of `inside` (bool) stands above the cells beyond it across a crest whose fall
+    line is the unit vector `fall` (x = +col, y = +row): the larger side's step, ridge_direction's last
+    condition; 0 where neither side can be read."""
     rows, cols = np.nonzero(inside)
     grid_rows, grid_cols = np.mgrid[:inside.shape[0], :inside.shape[1]]
     across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
