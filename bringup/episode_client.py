@@ -14,13 +14,11 @@ import signal
 import subprocess
 import sys
 import time
-import uuid
 
 import rclpy
 from rclpy.signals import SignalHandlerOptions
-from unique_identifier_msgs.msg import UUID
 
-from impurity_common.clients import LOST_RESPONSE_GRACE, RaceFreeActionClient
+from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
@@ -139,28 +137,28 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
             if pressed():
                 raise KeyboardInterrupt
             raise TimeoutError(f"action server {RUN_EPISODE_ACTION} not available (is the cell running?)")
-        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
-        future = client.send_goal_async(goal, goal_uuid=goal_id,
-                                        feedback_callback=lambda fb: printer(format_step(fb.feedback.step)))
 
-        def answered() -> bool:  # the goal response, or the server's feedback / status about the goal
-            return future.done() or client.heard_of(goal_id)
+        def wait(predicate, seconds: float) -> bool:  # a first Ctrl-C waits on for the server's answer
+            nonlocal interrupted
+            if pressed(2):
+                return False
+            try:
+                return _spin_until(node, predicate, seconds, ctrl_c, presses=2)
+            except KeyboardInterrupt:
+                if interrupted:
+                    raise
+                interrupted = True  # an accepted goal is canceled below
+                return _spin_until(node, predicate, seconds, None)
 
-        try:
-            _spin_until(node, answered, 30.0, ctrl_c, presses=2)
-        except KeyboardInterrupt:
-            interrupted = True  # wait for the answer: an accepted goal is canceled below
-            _spin_until(node, answered, 30.0, None)
+        def adopted() -> None:
+            if not pressed(2):
+                printer(f"episode_client: the goal's acceptance was lost on the way (rmw: 'failed to send "
+                        f"response'), but {RUN_EPISODE_ACTION} reports on the goal: following it")
+
+        handle = client.send_goal_following(
+            goal, wait, feedback_callback=lambda fb: printer(format_step(fb.feedback.step)), on_adopt=adopted)
         if pressed(2):
             raise KeyboardInterrupt
-        if not future.done() and client.heard_of(goal_id):
-            # give the goal response a moment; the server runs the goal, so follow it without it
-            _spin_until(node, future.done, LOST_RESPONSE_GRACE, None)
-        handle = future.result() if future.done() else None
-        if handle is None and client.heard_of(goal_id):
-            printer(f"episode_client: the goal's acceptance was lost on the way (rmw: 'failed to send "
-                    f"response'), but {RUN_EPISODE_ACTION} reports on the goal: following it")
-            handle = client.adopt_accepted_goal(goal_id)
         if handle is None:
             if pressed():
                 raise KeyboardInterrupt

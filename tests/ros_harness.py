@@ -9,14 +9,12 @@ import pathlib
 import signal
 import subprocess
 import time
-import uuid
 
 import rclpy
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, qos_profile_sensor_data
-from unique_identifier_msgs.msg import UUID
 
-from impurity_common.clients import LOST_RESPONSE_GRACE, RaceFreeActionClient
+from impurity_common.clients import RaceFreeActionClient
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
@@ -106,13 +104,17 @@ class WaitTimeout(AssertionError):
     """A bounded wait ran out; the message says what was awaited."""
 
 
+class ProcessDied(WaitTimeout):
+    """A process the wait depended on died; the message has its last output."""
+
+
 def spin_until(node: Node, predicate, timeout: float, what: str, processes=()) -> None:
     """Spin `node` until predicate() is true; fail with `what` (and dead processes' output)."""
     deadline = time.monotonic() + timeout
     while not predicate():
         for proc in processes:
             if not proc.alive:
-                raise WaitTimeout(f"{proc.name} died while waiting for {what}:\n{proc.output()[-3000:]}")
+                raise ProcessDied(f"{proc.name} died while waiting for {what}:\n{proc.output()[-3000:]}")
         if time.monotonic() > deadline:
             raise WaitTimeout(f"timed out after {timeout:.0f} s waiting for {what}")
         rclpy.spin_once(node, timeout_sec=0.05)
@@ -162,24 +164,26 @@ class ActionHelper:
         self.feedback = []
 
     def send_goal(self, goal, timeout: float = 30.0):
-        """Returns the goal handle (check .accepted). When the goal response is lost below rclpy (Fast DDS:
-        "failed to send response (timeout)") but the server reports on the goal, the goal is followed
-        through RaceFreeActionClient.adopt_accepted_goal, as bringup/episode_client.py does: never sent
-        twice."""
-        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
-        future = self.client.send_goal_async(
-            goal, goal_uuid=goal_id, feedback_callback=lambda fb: self.feedback.append(fb.feedback))
-
-        def answered() -> bool:  # the goal response, or the server's feedback / status about the goal
-            return future.done() or self.client.heard_of(goal_id)
-
-        spin_until(self.node, answered, timeout, f"goal response from {self.name}", self.processes)
-        if not future.done():  # heard of: give the response a moment, then follow the goal without it
+        """Returns the goal handle (check .accepted); raises WaitTimeout when the server says nothing about
+        the goal within `timeout` s. A goal whose response is lost below rclpy is followed without it
+        (RaceFreeActionClient.send_goal_following, as bringup/episode_client.py does): never sent twice."""
+        def wait(predicate, seconds: float) -> bool:
             try:
-                spin_until(self.node, future.done, LOST_RESPONSE_GRACE, "goal response", self.processes)
+                spin_until(self.node, predicate, seconds, f"goal response from {self.name}", self.processes)
+                return True
+            except ProcessDied:
+                raise
             except WaitTimeout:
-                return self.client.adopt_accepted_goal(goal_id)
-        return future.result()
+                return False
+
+        def collect(feedback) -> None:
+            self.feedback.append(feedback.feedback)
+
+        handle = self.client.send_goal_following(goal, wait, feedback_callback=collect,
+                                                 answer_timeout=timeout)
+        if handle is None:
+            raise WaitTimeout(f"timed out after {timeout:.0f} s waiting for goal response from {self.name}")
+        return handle
 
     def get_result(self, goal_handle, timeout: float = 60.0):
         future = goal_handle.get_result_async()

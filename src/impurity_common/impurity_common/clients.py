@@ -24,18 +24,22 @@ race with a delayed registration).
 
     client = RaceFreeActionClient(node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION)
     future = client.send_goal_async(goal)   # as rclpy's
+    handle = client.send_goal_following(goal, wait)   # a goal whose response may be lost: see its docstring
 """
 
 from __future__ import annotations
 
 import threading
+import uuid
 import weakref
+from collections.abc import Callable
 
 from rclpy.action import ActionClient
 from rclpy.action.client import ClientGoalHandle
+from unique_identifier_msgs.msg import UUID
 
 # s a client that has heard of its goal (heard_of) still waits for the goal response before it follows the
-# goal without it (adopt_accepted_goal): bringup/episode_client.py and the tests' ActionHelper
+# goal without it (adopt_accepted_goal): RaceFreeActionClient.send_goal_following
 LOST_RESPONSE_GRACE = 2.0
 
 # The request methods whose send-then-register window the lock closes (names in rclpy 7.1.x).
@@ -95,3 +99,29 @@ class RaceFreeActionClient(ActionClient):
         with self._registration_lock:
             self._goal_handles.setdefault(key, weakref.ref(handle))
         return handle
+
+    def send_goal_following(self, goal, wait: Callable[[Callable[[], bool], float], bool],
+                            feedback_callback=None, answer_timeout: float = 30.0,
+                            on_adopt: Callable[[], None] | None = None) -> ClientGoalHandle | None:
+        """Send `goal` under a fresh goal id and wait for the server's answer: the goal handle (check
+        .accepted), or None when neither the goal response nor any feedback or status about the goal came
+        within answer_timeout s.
+
+        wait(predicate, seconds) -> bool is the caller's spin loop: it spins the client's node until
+        predicate() holds (True) or `seconds` pass (False), and may stop early for its own reasons
+        (Ctrl-C, a dead process). When the server reports on the goal (heard_of) but its goal response
+        has not come (lost below rclpy, see the module docstring), the response gets LOST_RESPONSE_GRACE
+        s more; then the goal is followed without it through adopt_accepted_goal, and on_adopt() is
+        called so the caller can say so. The goal is never sent twice."""
+        goal_id = UUID(uuid=list(uuid.uuid4().bytes))
+        future = self.send_goal_async(goal, goal_uuid=goal_id, feedback_callback=feedback_callback)
+        wait(lambda: future.done() or self.heard_of(goal_id), answer_timeout)
+        if not future.done() and self.heard_of(goal_id):
+            wait(future.done, LOST_RESPONSE_GRACE)
+        if future.done():
+            return future.result()
+        if not self.heard_of(goal_id):
+            return None
+        if on_adopt is not None:
+            on_adopt()
+        return self.adopt_accepted_goal(goal_id)

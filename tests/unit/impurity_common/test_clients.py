@@ -12,7 +12,7 @@ import warnings
 
 import pytest
 import rclpy
-from rclpy.action import ActionClient, ActionServer
+from rclpy.action import ActionClient, ActionServer, GoalResponse
 from rclpy.executors import MultiThreadedExecutor
 from unique_identifier_msgs.msg import UUID
 
@@ -171,3 +171,75 @@ def test_a_goal_the_server_never_mentioned_is_not_adopted(spinning):
     client = RaceFreeActionClient(add("unheard_client"), ExecutePrimitive, "/test_clients/nobody")
     with pytest.raises(ValueError, match="may not have accepted"):
         client.adopt_accepted_goal(UUID(uuid=list(uuid.uuid4().bytes)))
+
+
+def polling_wait(predicate, seconds: float) -> bool:
+    """send_goal_following's wait for nodes an executor thread already spins: poll until true or timed out."""
+    deadline = time.monotonic() + seconds
+    while not predicate():
+        if time.monotonic() > deadline:
+            return False
+        threading.Event().wait(0.02)
+    return True
+
+
+def test_send_goal_following_returns_the_accepted_handle_when_the_response_comes(spinning):
+    add, thread = spinning
+    server_node, client_node = add("following_server"), add("following_client")
+    action = "/test_clients/following"
+    ActionServer(server_node, ExecutePrimitive, action,
+                 lambda goal_handle: (goal_handle.succeed(), ExecutePrimitive.Result(success=True))[1])
+    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
+    thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    adopted = []
+    handle = client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=ANSWER_TIMEOUT,
+                                        on_adopt=lambda: adopted.append(True))
+    assert handle is not None and handle.accepted
+    assert adopted == []  # the response came: nothing was adopted
+
+
+def test_send_goal_following_follows_a_goal_whose_response_was_lost_and_says_so(spinning):
+    add, thread = spinning
+    server_node, client_node = add("following_lost_server"), add("following_lost_client")
+    action = "/test_clients/following_lost"
+    runs = []
+
+    def execute(goal_handle):
+        runs.append(True)
+        goal_handle.publish_feedback(ExecutePrimitive.Feedback())
+        goal_handle.succeed()
+        return ExecutePrimitive.Result(success=True, message="done once")
+
+    server = ActionServer(server_node, ExecutePrimitive, action, execute)
+    server._handle = DroppedGoalResponses(server._handle)
+    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
+    thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    adopted, feedback = [], []
+    handle = client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=ANSWER_TIMEOUT,
+                                        feedback_callback=feedback.append,
+                                        on_adopt=lambda: adopted.append(True))
+    assert handle is not None and handle.accepted
+    assert adopted == [True]
+    result = handle.get_result_async()
+    assert polling_wait(result.done, ANSWER_TIMEOUT), "the result of the followed goal never came"
+    assert result.result().result.message == "done once"
+    assert runs == [True]  # sent once, run once
+    assert len(feedback) == 1  # the feedback that told the client of the goal reached the caller too
+
+
+def test_send_goal_following_gives_none_when_the_server_says_nothing(spinning):
+    add, thread = spinning
+    server_node, client_node = add("silent_server"), add("silent_client")
+    action = "/test_clients/silent"
+    server = ActionServer(server_node, ExecutePrimitive, action, lambda handle: ExecutePrimitive.Result(),
+                          goal_callback=lambda goal: GoalResponse.REJECT)
+    server._handle = DroppedGoalResponses(server._handle)  # rejection lost; a rejected goal has no status
+    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
+    thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    adopted = []
+    assert client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=1.0,
+                                      on_adopt=lambda: adopted.append(True)) is None
+    assert adopted == []
