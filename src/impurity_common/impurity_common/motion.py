@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import enum
 import math
+import threading
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
@@ -156,6 +157,38 @@ def goal_refusal(kind: int, x: float, y: float, z: float, yaw: float, frame_id: 
         reason = f"position must be in {names.BASE_FRAME}, got frame '{frame_id}'"
     return reason
 
+
+
+class ArmClaim:
+    """A driver's hold on the arm: one primitive at a time, whichever thread asks (both drivers' goal
+    callbacks). `refuse_or_claim` runs goal_refusal, then the driver's own check, then takes the arm;
+    `release` gives it back when the primitive has ended, however it ended."""
+
+    BUSY = "busy: another primitive is running"
+
+    def __init__(self):
+        self._lock = threading.Lock()
+        self._busy = False
+
+    def refuse_or_claim(self, kind: int, x: float, y: float, z: float, yaw: float, frame_id: str,
+                        unavailable: Callable[[], str | None] | None = None) -> str | None:
+        """Why the goal is refused (goal_refusal's reason; else unavailable()'s, e.g. a lost controller;
+        else BUSY while another primitive holds the arm), or None: the arm is now claimed for this goal and
+        must be released."""
+        reason = goal_refusal(kind, x, y, z, yaw, frame_id)
+        if reason is None and unavailable is not None:
+            reason = unavailable()
+        if reason is not None:
+            return reason
+        with self._lock:
+            if self._busy:
+                return self.BUSY
+            self._busy = True
+        return None
+
+    def release(self) -> None:
+        with self._lock:
+            self._busy = False
 
 def validate_primitive(kind: str, x: float, y: float, z: float, yaw: float, *,
                        workspace_x=cell.WORKSPACE_X, workspace_y=cell.WORKSPACE_Y,

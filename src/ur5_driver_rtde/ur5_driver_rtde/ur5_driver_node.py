@@ -13,7 +13,6 @@ lost mid-motion aborts the goal with a message starting "driver_lost:" after tel
 
 from __future__ import annotations
 
-import threading
 from dataclasses import dataclass
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
@@ -84,8 +83,7 @@ class Ur5DriverNode(Node):
             raise ParameterError(self.get_name(), f"the controller does not answer: {error}", "robot_ip",
                                  params.robot_ip) from None
         self._executor = PlanExecutor(self._arm, gripper, self._log, params.speed_scale, params.bin_position)
-        self._busy_lock = threading.Lock()
-        self._busy = False
+        self._claim = motion.ArmClaim()  # one primitive at a time
         self._goals = 0
         self._lost_reported = False
 
@@ -161,15 +159,12 @@ class Ur5DriverNode(Node):
         """Accept one valid primitive at a time; reject anything else with its reason in the log."""
         primitive = goal.primitive
         p = primitive.position
-        reason = motion.goal_refusal(primitive.kind, p.x, p.y, p.z, primitive.yaw, primitive.header.frame_id)
-        if reason is None and not self._arm.connected():
-            reason = "driver_lost: the UR controller does not answer"
-        if reason is None:
-            with self._busy_lock:
-                if self._busy:
-                    reason = "busy: another primitive is running"
-                else:
-                    self._busy = True
+
+        def unavailable() -> str | None:
+            return None if self._arm.connected() else "driver_lost: the UR controller does not answer"
+
+        reason = self._claim.refuse_or_claim(primitive.kind, p.x, p.y, p.z, primitive.yaw,
+                                             primitive.header.frame_id, unavailable)
         if reason is not None:
             self.get_logger().warning(f"goal rejected: {reason}")
             return GoalResponse.REJECT
@@ -193,8 +188,7 @@ class Ur5DriverNode(Node):
             outcome = self._executor.execute(plan, self._goals, phase,
                                              lambda: goal_handle.is_cancel_requested)
         finally:
-            with self._busy_lock:
-                self._busy = False
+            self._claim.release()
         result = ExecutePrimitive.Result(
             success=outcome.success, motion_completed=outcome.motion_completed,
             gripper_opening=float(outcome.gripper_opening), holding=outcome.holding, target_grasped=False,

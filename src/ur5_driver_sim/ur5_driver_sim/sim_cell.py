@@ -112,8 +112,7 @@ class SimCellNode(Node):
         self._real_time_factor = params.real_time_factor
         self._pace_start, self._pace_steps = time.monotonic(), 0
         self._world_lock = threading.Lock()
-        self._busy_lock = threading.Lock()  # guards _busy: one primitive at a time
-        self._busy = False
+        self._claim = motion.ArmClaim()  # one primitive at a time
         self._world = CellWorld(mode=mode, camera=camera, depth_noise_std=params.depth_noise_std,
                                 solver_iterations=params.solver_iterations)
         self._joint_snapshot = self._world.joint_positions()
@@ -210,13 +209,8 @@ class SimCellNode(Node):
     def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:
         primitive = goal.primitive
         p = primitive.position
-        reason = motion.goal_refusal(primitive.kind, p.x, p.y, p.z, primitive.yaw, primitive.header.frame_id)
-        if reason is None:
-            with self._busy_lock:
-                if self._busy:
-                    reason = "busy: another primitive is running"
-                else:
-                    self._busy = True
+        reason = self._claim.refuse_or_claim(primitive.kind, p.x, p.y, p.z, primitive.yaw,
+                                             primitive.header.frame_id)
         if reason is not None:
             self.get_logger().warning(f"goal rejected: {reason}")
             return GoalResponse.REJECT
@@ -249,8 +243,7 @@ class SimCellNode(Node):
                                            grasped_object_id=-1, message=f"error: {error}",
                                            finished=self.get_clock().now().to_msg())
         finally:
-            with self._busy_lock:
-                self._busy = False
+            self._claim.release()
         result = ExecutePrimitive.Result(
             success=bool(outcome.success), motion_completed=bool(outcome.motion_completed),
             gripper_opening=float(outcome.gripper_opening), holding=bool(outcome.holding),

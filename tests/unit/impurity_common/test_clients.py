@@ -133,10 +133,20 @@ class DroppedGoalResponses:
         return self._handle.__exit__(*exc)
 
 
-def test_a_goal_whose_response_was_lost_is_followed_by_its_feedback_and_its_result_arrives(spinning):
+
+def client_of_a_server_dropping_goal_responses(spinning, name: str, execute, **server_options):
+    """A RaceFreeActionClient of a fresh ExecutePrimitive server (nodes `name`_server / `name`_client on
+    /test_clients/`name`) whose goal responses are all lost; the executor is started and the server found."""
     add, thread = spinning
-    server_node, client_node = add("lost_response_server"), add("lost_response_client")
-    action = "/test_clients/lost_response"
+    action = f"/test_clients/{name}"
+    server = ActionServer(add(f"{name}_server"), ExecutePrimitive, action, execute, **server_options)
+    server._handle = DroppedGoalResponses(server._handle)
+    client = RaceFreeActionClient(add(f"{name}_client"), ExecutePrimitive, action)
+    thread.start()
+    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    return client
+
+def test_a_goal_whose_response_was_lost_is_followed_by_its_feedback_and_its_result_arrives(spinning):
     go_on = threading.Event()
 
     def execute(goal_handle):
@@ -145,11 +155,7 @@ def test_a_goal_whose_response_was_lost_is_followed_by_its_feedback_and_its_resu
         goal_handle.succeed()
         return ExecutePrimitive.Result(success=True, message="done once")
 
-    server = ActionServer(server_node, ExecutePrimitive, action, execute)
-    server._handle = DroppedGoalResponses(server._handle)
-    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
-    thread.start()
-    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    client = client_of_a_server_dropping_goal_responses(spinning, "lost_response", execute)
     goal_id = UUID(uuid=list(uuid.uuid4().bytes))
     future = client.send_goal_async(ExecutePrimitive.Goal(), goal_uuid=goal_id)
     deadline = time.monotonic() + ANSWER_TIMEOUT
@@ -200,9 +206,6 @@ def test_send_goal_following_returns_the_accepted_handle_when_the_response_comes
 
 
 def test_send_goal_following_follows_a_goal_whose_response_was_lost_and_says_so(spinning):
-    add, thread = spinning
-    server_node, client_node = add("following_lost_server"), add("following_lost_client")
-    action = "/test_clients/following_lost"
     runs = []
 
     def execute(goal_handle):
@@ -211,11 +214,7 @@ def test_send_goal_following_follows_a_goal_whose_response_was_lost_and_says_so(
         goal_handle.succeed()
         return ExecutePrimitive.Result(success=True, message="done once")
 
-    server = ActionServer(server_node, ExecutePrimitive, action, execute)
-    server._handle = DroppedGoalResponses(server._handle)
-    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
-    thread.start()
-    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    client = client_of_a_server_dropping_goal_responses(spinning, "following_lost", execute)
     adopted, feedback = [], []
     handle = client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=ANSWER_TIMEOUT,
                                         feedback_callback=feedback.append,
@@ -230,15 +229,9 @@ def test_send_goal_following_follows_a_goal_whose_response_was_lost_and_says_so(
 
 
 def test_send_goal_following_gives_none_when_the_server_says_nothing(spinning):
-    add, thread = spinning
-    server_node, client_node = add("silent_server"), add("silent_client")
-    action = "/test_clients/silent"
-    server = ActionServer(server_node, ExecutePrimitive, action, lambda handle: ExecutePrimitive.Result(),
-                          goal_callback=lambda goal: GoalResponse.REJECT)
-    server._handle = DroppedGoalResponses(server._handle)  # rejection lost; a rejected goal has no status
-    client = RaceFreeActionClient(client_node, ExecutePrimitive, action)
-    thread.start()
-    assert client.wait_for_server(timeout_sec=ANSWER_TIMEOUT)
+    # the rejection is lost, and a rejected goal has no status or feedback
+    client = client_of_a_server_dropping_goal_responses(
+        spinning, "silent", lambda handle: ExecutePrimitive.Result(), goal_callback=lambda goal: GoalResponse.REJECT)
     adopted = []
     assert client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=1.0,
                                       on_adopt=lambda: adopted.append(True)) is None

@@ -128,3 +128,51 @@ def test_a_driver_refuses_a_goal_in_another_frame_or_of_an_unknown_kind():
     assert "kind 7" in motion.goal_refusal(7, 0.5, 0.0, 0.02, 0.0, "")
     assert motion.goal_refusal(grasp, 0.9, 0.0, 0.02, 0.0, "") == motion.validate_primitive(
         "grasp", 0.9, 0.0, 0.02, 0.0)
+
+
+def test_the_arm_is_claimed_by_one_valid_goal_at_a_time_and_released_after_it():
+    from impurity_common.enums import PrimitiveKind
+
+    grasp = int(PrimitiveKind.GRASP)
+    claim = motion.ArmClaim()
+    assert "camera_link" in claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "camera_link")
+    assert claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "") is None  # a refused goal claimed nothing
+    assert claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "") == motion.ArmClaim.BUSY
+    claim.release()
+    assert claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "") is None
+
+
+def test_the_drivers_own_check_comes_after_the_goal_check_and_claims_nothing():
+    from impurity_common.enums import PrimitiveKind
+
+    grasp = int(PrimitiveKind.GRASP)
+    asked = []
+
+    def lost() -> str:
+        asked.append(True)
+        return "driver_lost: the UR controller does not answer"
+
+    claim = motion.ArmClaim()
+    assert "workspace" in claim.refuse_or_claim(grasp, 9.0, 0.0, 0.02, 0.0, "", lost)
+    assert asked == []  # an invalid goal is refused for itself, without asking the controller
+    assert claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "", lost).startswith("driver_lost")
+    assert claim.refuse_or_claim(grasp, 0.5, 0.0, 0.02, 0.0, "", lambda: None) is None
+
+
+def test_of_many_threads_asking_at_once_exactly_one_claims_the_arm():
+    import threading
+
+    from impurity_common.enums import PrimitiveKind
+
+    claim, start, answers = motion.ArmClaim(), threading.Barrier(8), []
+
+    def ask() -> None:
+        start.wait()
+        answers.append(claim.refuse_or_claim(int(PrimitiveKind.PUSH), 0.5, 0.0, 0.02, 0.0, ""))
+
+    threads = [threading.Thread(target=ask) for _ in range(8)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join(timeout=10)
+    assert sorted(answers, key=str) == [None] + [motion.ArmClaim.BUSY] * 7
