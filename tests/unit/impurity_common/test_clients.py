@@ -231,7 +231,8 @@ def test_send_goal_following_follows_a_goal_whose_response_was_lost_and_says_so(
 def test_send_goal_following_gives_none_when_the_server_says_nothing(spinning):
     # the rejection is lost, and a rejected goal has no status or feedback
     client = client_of_a_server_dropping_goal_responses(
-        spinning, "silent", lambda handle: ExecutePrimitive.Result(), goal_callback=lambda goal: GoalResponse.REJECT)
+        spinning, "silent", lambda handle: ExecutePrimitive.Result(),
+        goal_callback=lambda goal: GoalResponse.REJECT)
     adopted = []
     assert client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=1.0,
                                       on_adopt=lambda: adopted.append(True)) is None
