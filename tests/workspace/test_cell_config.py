@@ -13,6 +13,7 @@ import sys
 import pytest
 import rclpy
 import yaml
+from parameter_files import flatten
 
 from impurity_common.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
@@ -69,16 +70,6 @@ def parameter_as_read(node_name: str, name: str, default, *overrides: str, cell=
             node.destroy_node()
     finally:
         rclpy.shutdown(context=context)
-
-
-def flatten(section: dict, prefix: str = "") -> dict:
-    flat = {}
-    for key, value in section.items():
-        if isinstance(value, dict):
-            flat.update(flatten(value, f"{prefix}{key}."))
-        else:
-            flat[prefix + key] = value
-    return flat
 
 
 def sections(config: pathlib.Path) -> dict:

@@ -9,6 +9,7 @@ from dataclasses import dataclass
 
 import pytest
 import yaml
+from parameter_files import flatten
 from rcl_interfaces.msg import ParameterType
 
 from impurity_common.parameters import (
@@ -263,16 +264,6 @@ def node_parameter_classes():
     return {"heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
             "sim_cell": SimCellParameters, "bag_recorder": BagRecorderParameters,
             "bag_replay": BagReplayParameters}
-
-
-def flatten(section: dict, prefix: str = "") -> dict:
-    flat = {}
-    for key, value in section.items():
-        if isinstance(value, dict):
-            flat.update(flatten(value, f"{prefix}{key}."))
-        else:
-            flat[prefix + key] = value
-    return flat
 
 
 @pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell", "bag_recorder", "bag_replay"])
