@@ -32,6 +32,21 @@ def test_the_held_out_set_is_held_out_and_every_earlier_set_is_retired():
     assert splits.palette_group(f"{splits.HELD_OUT_NAMED[1]}@x2") == "held_out"  # exposure suffix ignored
 
 
+
+def test_the_readme_names_the_current_held_out_set_and_every_retired_one():
+    """README "Appearance": the split paragraph lists the held-out and retired palettes by hand; it must
+    follow splits.py when a set is rotated."""
+    text = (pathlib.Path(__file__).resolve().parents[3] / "README.md").read_text()
+    paragraph = text[text.index("**The split**"):text.index("<!-- appearance:start -->")]
+    held_out, retired = paragraph.split('now "retired"', 1)
+    for name in splits.HELD_OUT_NAMED:
+        assert f"`{name}`" in held_out and f"`{name}`" not in retired
+    first, last = splits.HELD_OUT_RANDOM_SEEDS[0], splits.HELD_OUT_RANDOM_SEEDS[-1]
+    assert f"`random-{first}…{last}`" in held_out
+    for names, seeds in splits.RETIRED_SETS:
+        assert all(f"`{name}`" in retired for name in names)
+        assert f"`random-{seeds[0]}…{seeds[-1]}`" in retired
+
 def test_a_palette_outside_the_split_is_refused():
     with pytest.raises(ValueError, match="no group"):
         splits.palette_group("random-10000000")
