@@ -143,6 +143,19 @@ def tool0_distance_from_shoulder(position) -> float:
     return math.dist((x, y, z + cell.FLANGE_TO_TCP), (0.0, 0.0, SHOULDER_HEIGHT))
 
 
+
+def reach_problem(position, reach: float = cell.UR5_REACH) -> str | None:
+    """check= for a fixed TCP position (m, base_link) the arm must move to, e.g. the driver's bin: None, or
+    what is wrong with it (below the table, or tool0 farther than `reach` m from the shoulder: the
+    distance validate_primitive refuses a primitive's waypoints beyond)."""
+    x, y, z = position
+    if z < 0.0:
+        return f"is below the table (z {z:.3f} m < 0)"
+    distance = tool0_distance_from_shoulder(position)
+    if distance > reach:
+        return f"is out of the UR5's reach: tool0 {distance:.2f} m from the shoulder (at most {reach})"
+    return None
+
 def goal_refusal(kind: int, x: float, y: float, z: float, yaw: float, frame_id: str) -> str | None:
     """Why a driver refuses an ExecutePrimitive goal (Primitive.kind as its integer, position in m,
     yaw in rad, header.frame_id), or None: validate_primitive, and the position must be in

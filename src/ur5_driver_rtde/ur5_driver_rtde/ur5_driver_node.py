@@ -61,7 +61,8 @@ class Ur5DriverParameters:
                                         "+z exceeds the plan's threshold (besides the controller's contact "
                                         "detection); the UR5's force estimate is noisy without an F/T sensor")
     bin_position: tuple[float, ...] = param(BIN_POSITION, "TCP position in base_link (m) where a held object "
-                                            "is released after a grasp", length=3, low=-2.0, high=2.0)
+                                            "is released after a grasp; within the UR5's reach",
+                                            length=3, low=-2.0, high=2.0, check=motion.reach_problem)
     joint_state_rate: float = param(50.0, f"{names.JOINT_STATES_TOPIC} messages per second",
                                     low=0.1, high=500.0)
 

@@ -176,3 +176,9 @@ def test_of_many_threads_asking_at_once_exactly_one_claims_the_arm():
     for thread in threads:
         thread.join(timeout=10)
     assert sorted(answers, key=str) == [None] + [motion.ArmClaim.BUSY] * 7
+
+
+def test_a_fixed_position_out_of_reach_or_below_the_table_is_named_as_such():
+    assert motion.reach_problem((0.25, -0.35, 0.20)) is None  # the real driver's default bin
+    assert "reach" in motion.reach_problem((1.5, 1.5, 0.2))
+    assert "below the table" in motion.reach_problem((0.3, 0.0, -0.1))

@@ -11,7 +11,7 @@ import pytest
 from impurity_common import cell, motion, ur5_kinematics
 from impurity_common.motion import StepKind
 from ur5_driver_rtde.core.arm import UrArm
-from ur5_driver_rtde.core.executor import PlanExecutor
+from ur5_driver_rtde.core.executor import BIN_POSITION, PlanExecutor
 from ur5_driver_rtde.core.poses import tcp_from_ur_pose
 from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunRobot
 
@@ -229,3 +229,13 @@ def test_a_cancel_during_the_descent_stops_opens_and_leaves_home():
     assert not any(r.get("phase") == "descend" and r["command"] in MOTIONS for r in records)
     after = [r["command"] for r in records if r.get("phase") == "abort"]
     assert after[0] == "stopL" and after[1] == "open" and after[-1] == "moveJ"
+
+
+def test_a_bin_out_of_reach_is_refused_at_start_naming_the_parameter():
+    from impurity_common.parameters import ParameterError, build, parameter_specs
+    from ur5_driver_rtde.ur5_driver_node import Ur5DriverParameters
+
+    defaults = {spec.name: spec.default for spec in parameter_specs(Ur5DriverParameters)}
+    assert build("ur5_driver", Ur5DriverParameters, defaults).bin_position == BIN_POSITION
+    with pytest.raises(ParameterError, match=r"bin_position:=\[1.5, 1.5, 0.2\] is out of the UR5's reach"):
+        build("ur5_driver", Ur5DriverParameters, {**defaults, "bin_position": [1.5, 1.5, 0.2]})
