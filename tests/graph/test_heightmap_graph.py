@@ -215,3 +215,15 @@ def test_an_overexposed_camera_is_warned_with_the_exposure_to_lower(ros_node, he
     logged(ros_node, process, "colour badly exposed: the colour image is clipped")
     assert "rgb_camera.exposure" in process.output()
     heightmaps.wait_for(1, WAIT, processes=(process,))
+
+
+def test_a_silent_camera_is_warned_naming_its_topics(ros_node, heightmap_graph):
+    """No camera running: the node says which topics are silent and what to check, and keeps saying it."""
+    start, _camera = heightmap_graph
+    process, heightmaps = start({"frame_timeout": 0.5})
+    logged(ros_node, process, "no camera messages on " + names.COLOR_TOPIC)
+    line = next(line for line in process.output().splitlines() if "no camera messages" in line)
+    assert names.DEPTH_TOPIC in line and names.CAMERA_INFO_TOPIC in line and "align_depth.enable" in line
+    spin_until(ros_node, lambda: process.output().count("no camera messages") >= 2, WAIT,
+               "the warning repeated while the camera stays silent", (process,))
+    assert not heightmaps.messages

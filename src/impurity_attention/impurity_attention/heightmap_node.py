@@ -10,9 +10,11 @@ and the parameter to change: frames that go unpaired (rate-limited, with the mea
 `sync_tolerance`), depth that does not fit the table and the camera pose (rate-limited: `depth_scale`,
 `camera_position`, `camera_orientation`), pixels coarser than the cells (once: the gaps between
 samples are filled), frames stamped on another clock than the node's (once: `use_sim_time`, the
-driver's timestamp setting).
+driver's timestamp setting), a camera topic with no message for `frame_timeout` s (rate-limited, naming the
+topics: the camera driver is not running or publishes other names).
 """
 
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -31,7 +33,7 @@ from impurity_attention.core.heightmap import (
     exposure_problem,
     pose_matrix,
 )
-from impurity_attention.core.sync import StampPairer, UnpairedFrame
+from impurity_attention.core.sync import StampPairer, StreamWatch, UnpairedFrame
 from impurity_common import cell, names
 from impurity_common.conversions import (
     RGB_ENCODINGS,
@@ -90,6 +92,9 @@ class HeightmapParameters:
     colour_reference_std: tuple[float, ...] = param(SIM_LAB_STD, "Reference Lab standard deviation [L, a, b] "
                                                     "for colour adaptation", length=3, low=0.001, high=128.0)
     log_throttle: float = param(5.0, "s between repeated warnings about bad frames", low=0.0, high=3600.0)
+    frame_timeout: float = param(5.0, "s without a message on a camera topic (colour, depth, camera_info) "
+                                 "before the node warns, every frame_timeout s while it lasts; 0 = never",
+                                 low=0.0, high=3600.0)
 
     def __post_init__(self):
         extent = min(self.workspace_x[1] - self.workspace_x[0], self.workspace_y[1] - self.workspace_y[0])
@@ -122,6 +127,10 @@ class HeightmapNode(Node):
         self.create_subscription(Image, names.COLOR_TOPIC, self._on_color, sensor)
         self.create_subscription(Image, names.DEPTH_TOPIC, self._on_depth, sensor)
         self.create_subscription(CameraInfo, names.CAMERA_INFO_TOPIC, self._on_info, sensor)
+        self._watch = StreamWatch((names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC),
+                                  time.monotonic())
+        if params.frame_timeout > 0:
+            self.create_timer(params.frame_timeout, self._check_streams)
         self._publisher = self.create_publisher(
             Heightmap, names.HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
         grid = self._grid
@@ -134,18 +143,30 @@ class HeightmapNode(Node):
         self.get_logger().warning(f"frame dropped: {reason}",
                                   throttle_duration_sec=self.params.log_throttle)
 
+    def _check_streams(self) -> None:
+        silent = self._watch.silent(time.monotonic(), self.params.frame_timeout)
+        if silent:
+            topics = ", ".join(f"{topic} ({seconds:.0f} s)" for topic, seconds in silent.items())
+            self.get_logger().warning(
+                f"no camera messages on {topics}: is the camera driver running, and does it publish these "
+                "names (realsense-ros: camera_namespace / camera_name 'camera', align_depth.enable true for "
+                "the aligned depth; or remap them)? No heightmap is published without all three")
+
     def _on_info(self, msg: CameraInfo) -> None:
+        self._watch.seen(names.CAMERA_INFO_TOPIC, time.monotonic())
         if msg.k[0] <= 0 or msg.k[4] <= 0 or msg.width == 0 or msg.height == 0:
             self._drop(f"camera_info with unusable intrinsics k={list(msg.k)} size {msg.width}x{msg.height}")
             return
         self._camera_info = msg
 
     def _on_color(self, msg: Image) -> None:
+        self._watch.seen(names.COLOR_TOPIC, time.monotonic())
         stamp = time_to_ns(msg.header.stamp)
         self._check_clock(stamp)
         self._pairs(self._pairer.add_color(stamp, msg))
 
     def _on_depth(self, msg: Image) -> None:
+        self._watch.seen(names.DEPTH_TOPIC, time.monotonic())
         self._pairs(self._pairer.add_depth(time_to_ns(msg.header.stamp), msg))
 
     def _pairs(self, pairs: list) -> None:

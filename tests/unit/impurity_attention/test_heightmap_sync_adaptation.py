@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from impurity_attention.core.colour_adaptation import LabStatistics, lab_statistics, reinhard_transfer
-from impurity_attention.core.sync import StampPairer
+from impurity_attention.core.sync import StampPairer, StreamWatch
 
 
 def test_exact_stamps_pair_in_either_order():
@@ -117,6 +117,27 @@ def test_the_automatic_tolerance_never_pairs_a_frame_with_its_neighbours_partner
     assert pairs and all(depth - color == 5_000_000 for color, depth in pairs)
     assert all(frame.side == "color" for frame in pairer.take_unpaired())
 
+
+
+def test_a_stream_that_never_delivered_is_silent_once_the_timeout_has_passed_since_the_start():
+    watch = StreamWatch(("color", "depth", "info"), now=100.0)
+    assert watch.silent(104.0, timeout=5.0) == {}
+    assert watch.silent(106.0, timeout=5.0) == {"color": 6.0, "depth": 6.0, "info": 6.0}
+
+
+def test_a_message_makes_its_stream_heard_and_leaves_the_others_silent():
+    watch = StreamWatch(("color", "depth", "info"), now=0.0)
+    watch.seen("color", 8.0)
+    watch.seen("info", 9.0)
+    assert watch.silent(10.0, timeout=5.0) == {"depth": 10.0}
+    assert watch.silent(20.0, timeout=5.0) == {"color": 12.0, "depth": 20.0, "info": 11.0}
+
+
+def test_the_watch_is_off_at_timeout_zero_and_refuses_an_unknown_stream():
+    watch = StreamWatch(("color",), now=0.0)
+    assert watch.silent(1000.0, timeout=0.0) == {}
+    with pytest.raises(KeyError, match="unknown stream 'depth'; watched: color"):
+        watch.seen("depth", 1.0)
 
 def test_reinhard_transfer_matches_reference_statistics():
     rng = np.random.default_rng(0)

@@ -158,3 +158,26 @@ class StampPairer:
     def clear(self):
         for queue in self._waiting.values():
             queue.clear()
+
+
+class StreamWatch:
+    """When each of a node's input streams last delivered a message, to say which ones went silent.
+
+    Times are seconds on any monotonic clock (the node passes time.monotonic()). A stream counts from the
+    watch's start, so one that never delivered is silent once `timeout` has passed since then."""
+
+    def __init__(self, streams, now: float):
+        self._last = dict.fromkeys(streams, now)
+
+    def seen(self, stream, now: float) -> None:
+        """A message arrived on `stream` (one of the streams given at construction; KeyError otherwise)."""
+        if stream not in self._last:
+            raise KeyError(f"unknown stream {stream!r}; watched: {', '.join(map(str, self._last))}")
+        self._last[stream] = now
+
+    def silent(self, now: float, timeout: float) -> dict:
+        """{stream: seconds since its last message} for the streams silent longer than `timeout` s, in the
+        order given at construction; {} when timeout <= 0 (the watch is off)."""
+        if timeout <= 0:
+            return {}
+        return {stream: now - last for stream, last in self._last.items() if now - last > timeout}
