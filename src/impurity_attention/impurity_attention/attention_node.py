@@ -20,6 +20,7 @@ from impurity_attention.core.attention import (
 )
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.saliency import SaliencyParams
+from impurity_attention.core.verifier import default_verifier
 from impurity_common import cell, names
 from impurity_common.conversions import ImageFormatError, grid_from_heightmap, image_to_numpy, numpy_to_image
 from impurity_common.node_main import spin_node
@@ -180,7 +181,13 @@ class AttentionNode(Node):
         self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
-        self.get_logger().info(f"ready: {self._params}")
+        p = self._params
+        threshold = p.verifier_threshold or (p.verifier or default_verifier()).threshold
+        decided = (f"verifier, threshold {threshold:.2f}, last look {p.verifier_last_look:.2f}"
+                   if p.decision == "verifier" else f"{p.decision} thresholds")
+        self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; contrast "
+                               f"{p.contrast}, decision {decided} (every setting: ros2 param dump "
+                               f"/{self.get_name()})")
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"heightmap dropped: {reason}",

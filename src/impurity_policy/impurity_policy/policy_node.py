@@ -34,6 +34,7 @@ from impurity_policy.core.pose import PoseRules
 from impurity_policy.core.rules import PRESETS, RULE_ORDER, RuleParams, RulePipeline
 
 DECISIONS_KEPT = 16  # answered attention results whose height maps wait for their episode step
+DECISION_LOG_PERIOD = 10.0  # s between info lines about the latest decision (debug logs every one)
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[1]  # src/impurity_policy with --symlink-install
 _RULES, _POSE = RuleParams(), PoseRules()
 
@@ -255,9 +256,11 @@ class PolicyNode(Node):
         while len(self._decided_on) > DECISIONS_KEPT:
             del self._decided_on[next(iter(self._decided_on))]  # oldest first (insertion order)
         kind = "grasp" if out.kind == Primitive.GRASP else "push"
-        self.get_logger().info(
-            f"{kind} at ({pose.x:.3f}, {pose.y:.3f}, {pose.z:.3f}) yaw {np.degrees(pose.yaw):.1f} deg, "
-            f"Q {out.q_value:.3f} ({(time.perf_counter() - started) * 1000:.0f} ms)")
+        # it answers every view, episode or not: at most a line per DECISION_LOG_PERIOD (debug: every one)
+        text = (f"{kind} at ({pose.x:.3f}, {pose.y:.3f}, {pose.z:.3f}) yaw {np.degrees(pose.yaw):.1f} deg, "
+                f"Q {out.q_value:.3f} ({(time.perf_counter() - started) * 1000:.0f} ms)")
+        self.get_logger().debug(text)
+        self.get_logger().info(f"latest decision: {text}", throttle_duration_sec=DECISION_LOG_PERIOD)
         if self.params.publish_q_maps:
             picture = q_maps_picture(choice.q_maps, choice.masks, choice.decision)
             self._q_maps_pub.publish(numpy_to_image(picture, "rgb8", out.header))
