@@ -5,13 +5,17 @@ Writes runs/demo/<episode>/ (steps.jsonl, summary.json, episode.png) and node lo
 """
 
 import argparse
+import os
 import pathlib
 import shutil
 import sys
+import time
 
 import rclpy
+from rclpy.action import ActionClient
 
 from impurity_common.enums import EPISODE_SCENARIOS, Scenario
+from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
 from impurity_policy.core.episode import is_failure
 
@@ -30,13 +34,42 @@ def main(argv=None) -> int:
     parser.add_argument("--objects", type=int, default=20)
     parser.add_argument("--timeout", type=float, default=900.0)
     parser.add_argument("--out", type=pathlib.Path, default=ROOT / "runs" / "demo")
+    parser.add_argument("--probe", type=float, default=3.0,
+                        help="s to look for another cell on this ROS domain first (0 = do not look)")
     args = parser.parse_args(argv)
 
+    domain = os.environ.get("ROS_DOMAIN_ID", "0")
+    if args.probe > 0 and another_cell(args.probe):
+        print(f"demo: another cell is running on ROS_DOMAIN_ID={domain} (its {RUN_EPISODE_ACTION} answers): "
+              "stop it, or run the demo on a domain of its own, e.g. ROS_DOMAIN_ID=42 make demo",
+              file=sys.stderr)
+        return 1
     with running_cell(args.out) as launcher:
-        print(f"demo: cell starting (node logs in {args.out / 'logs'})", flush=True)
+        print(f"demo: cell starting on ROS_DOMAIN_ID={domain} (node logs in {args.out / 'logs'})",
+              flush=True)
         code = run_demo_episode(args, launcher)
     print("demo: cell stopped", flush=True)
     return code
+
+
+def another_cell(seconds: float) -> bool:
+    """Whether an episode action server already answers on this ROS domain within `seconds` (discovery
+    takes a moment): a second cell would share its topics, and its busy episode node would refuse the
+    demo's goal."""
+    rclpy.init()
+    node = rclpy.create_node("demo_probe")
+    client = ActionClient(node, RunEpisode, RUN_EPISODE_ACTION)
+    try:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            if client.server_is_ready():
+                return True
+            rclpy.spin_once(node, timeout_sec=0.1)
+        return False
+    finally:
+        client.destroy()
+        node.destroy_node()
+        rclpy.try_shutdown()
 
 
 def run_demo_episode(args, launcher) -> int:
