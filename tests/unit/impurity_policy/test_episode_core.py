@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from impurity_policy.core.episode import (
+    FIELD_RANGES,
     TERMINATION_ACTION_LIMIT,
     TERMINATION_ALL_PICKED,
     TERMINATION_REACHABLE_PICKED,
@@ -16,6 +17,7 @@ from impurity_policy.core.episode import (
     EpisodeTracker,
     StepRecord,
     action_limit,
+    describe_request,
     draw_episode,
     is_failure,
     read_steps,
@@ -38,9 +40,37 @@ def step(index, kind="grasp", success=False, target=False, remaining=2, pixel=(1
     (dict(max_actions=-5), "max_actions"),
     (dict(scenario="file"), "scene_file"),
     (dict(scenario="file", scene_file="/nonexistent/scene.json"), "does not exist"),
+    # more impurities than product (episode_client --targets 50 --objects 5 was accepted: 750 actions)
+    (dict(num_targets=50, num_objects=5), "num_targets (50) must not exceed num_objects (5)"),
+    (dict(scenario="invisible", num_targets=3, num_objects=2), "must not exceed num_objects"),
+    # outside the messages' fields (seed: uint32; counts: int32): a negative seed used to reach rclpy
+    (dict(seed=-3), "seed must be >= 0"),
+    (dict(seed=2**32), "seed must be <= 4294967295"),
+    (dict(num_objects=2**31), "num_objects must be <= 2147483647"),
+    (dict(max_actions=2**31), "max_actions must be <= 2147483647"),
 ])
 def test_bad_requests_are_refused_with_a_reason(request_fields, fragment):
     assert fragment in validate_request(EpisodeRequest(**request_fields))
+
+
+def test_the_field_ranges_hold_what_the_messages_carry():
+    assert FIELD_RANGES["seed"] == (0, 2**32 - 1)
+    assert all(high == 2**31 - 1 for name, (_, high) in FIELD_RANGES.items() if name != "seed")
+    assert validate_request(EpisodeRequest(seed=2**32 - 1, num_targets=20, num_objects=20)) is None
+
+
+def test_a_scene_file_brings_its_own_counts(tmp_path):
+    scene = tmp_path / "scene.json"
+    scene.write_text("{}")
+    assert validate_request(EpisodeRequest(scenario="file", scene_file=str(scene), num_targets=3,
+                                           num_objects=0)) is None
+
+
+def test_a_request_is_described_with_its_palette():
+    assert describe_request(EpisodeRequest("random", seed=3, palette="coal_slate")) == (
+        "random seed 3, palette coal_slate, 2 target(s) among 20 object(s)")
+    assert "palette default" in describe_request(EpisodeRequest())
+    assert describe_request(EpisodeRequest(max_actions=7)).endswith("at most 7 actions")
 
 
 def test_good_request_passes_and_action_limit_scales_with_targets():
@@ -168,6 +198,23 @@ def test_summary_is_written_to_the_episode_and_the_index(tmp_path):
     assert json.loads(recorder.summary_path.read_text()) == summary
     index = [json.loads(line) for line in (tmp_path / "episodes.jsonl").read_text().splitlines()]
     assert index[0]["episode_id"] == "ep2" and index[0]["termination_reason"] == TERMINATION_ALL_PICKED
+
+
+def test_the_summary_keeps_the_request_with_its_palette(tmp_path):
+    request = EpisodeRequest("random", seed=3, palette="coal_slate")
+    recorder = EpisodeRecorder(tmp_path, "ep3", request)
+    recorder.write_summary(EpisodeTracker("ep3", request, 2, 30).metrics(), "canceled")
+    summary = json.loads(recorder.summary_path.read_text())
+    assert summary["request"]["palette"] == "coal_slate" and summary["request"]["seed"] == 3
+
+
+def test_a_discarded_record_leaves_no_folder_and_its_index_line(tmp_path):
+    recorder = EpisodeRecorder(tmp_path, "refused", EpisodeRequest(palette="teal"))
+    recorder.write_summary(EpisodeTracker("refused", EpisodeRequest(), 2, 30).metrics(),
+                           "error: scene reset failed: unknown palette 'teal'")
+    recorder.discard()
+    assert [path.name for path in tmp_path.iterdir()] == ["episodes.jsonl"]
+    assert "unknown palette" in read_steps(tmp_path / "episodes.jsonl")[0]["termination_reason"]
 
 
 def test_episode_picture_draws_each_primitive():

@@ -9,6 +9,7 @@ import dataclasses
 import json
 import os
 import pathlib
+import shutil
 import time
 
 import numpy as np
@@ -16,6 +17,11 @@ import numpy as np
 from impurity_common.enums import EPISODE_SCENARIOS
 
 SCENARIOS = tuple(scenario.value for scenario in EPISODE_SCENARIOS)  # what an episode request may ask
+# The episode node's services beside /episode/start and /episode/run (impurity_common.names), both
+# std_srvs/srv/Trigger: stop the running episode (it ends "canceled", as a cancel of /episode/run), and
+# whether an episode could start now (success false: the reason, e.g. busy).
+STOP_EPISODE_SERVICE = "/episode/stop"
+EPISODE_STATUS_SERVICE = "/episode/status"
 # Paper section 6.4 caps real-world runs at 15 steps per group; we scale it with the target count
 # so invisible scenes (more exploratory pushes) still have room: 15 actions per target.
 DEFAULT_ACTIONS_PER_TARGET = 15
@@ -65,22 +71,52 @@ class EpisodeRequest:
     palette: str = ""  # simulated cell only: the scene's appearance ("" = default palette)
 
 
+# The range of each numeric request field, as the messages carry it (StartEpisode, RunEpisode: seed is a
+# uint32, the counts int32), narrowed to what an episode can use: (lowest, highest).
+UINT32_MAX = 2**32 - 1
+INT32_MAX = 2**31 - 1
+FIELD_RANGES = {"seed": (0, UINT32_MAX), "num_targets": (1, INT32_MAX), "num_objects": (0, INT32_MAX),
+                "max_actions": (0, INT32_MAX)}
+_RANGE_NOTES = {"max_actions": "; 0 means the default"}
+
+
 def validate_request(request: EpisodeRequest) -> str | None:
-    """None when the request can run, else the reason it is refused."""
+    """None when the request can run, else the reason it is refused (one line, naming the field).
+
+    The one check of an episode request: the episode node applies it to /episode/start and /episode/run
+    alike, and bringup/episode_client.py before it sends one. Refused: an unknown scenario; a numeric
+    field outside FIELD_RANGES; more targets than product blocks (num_targets > num_objects: a scene of
+    impurities among a few blocks of product is not a sorting job; the scenario 'file' takes its counts
+    from the file and is exempt); scenario 'file' without an existing scene_file (a path on the episode
+    node's machine). Limits of one cell (a simulated cell's block count, the heaps of 'invisible') are
+    that cell's to refuse at the scene reset."""
     if request.scenario not in SCENARIOS:
         return f"unknown scenario '{request.scenario}' (expected one of {', '.join(SCENARIOS)})"
-    if request.num_targets < 1:
-        return f"num_targets must be >= 1 (got {request.num_targets})"
-    if request.num_objects < 0:
-        return f"num_objects must be >= 0 (got {request.num_objects})"
-    if request.max_actions < 0:
-        return f"max_actions must be >= 0 (got {request.max_actions}; 0 means the default)"
+    for name, (low, high) in FIELD_RANGES.items():
+        value = getattr(request, name)
+        if value < low:
+            return f"{name} must be >= {low} (got {value}{_RANGE_NOTES.get(name, '')})"
+        if value > high:
+            return f"{name} must be <= {high} (got {value})"
+    if request.scenario != "file" and request.num_targets > request.num_objects:
+        return (f"num_targets ({request.num_targets}) must not exceed num_objects ({request.num_objects}): "
+                "an episode picks a few impurities out of the product")
     if request.scenario == "file":
         if not request.scene_file:
             return "scenario 'file' needs scene_file"
         if not pathlib.Path(request.scene_file).is_file():
             return f"scene_file '{request.scene_file}' does not exist"
     return None
+
+
+def describe_request(request: EpisodeRequest) -> str:
+    """The request in one line for logs and consoles, e.g. "random seed 3, palette coal_slate, 2 target(s)
+    among 20 object(s)"; the palette always shown ("default" when empty), a scene file instead of counts."""
+    palette = request.palette or "default"
+    what = (f"scene {request.scene_file}" if request.scenario == "file" else
+            f"{request.num_targets} target(s) among {request.num_objects} object(s)")
+    limit = f", at most {request.max_actions} actions" if request.max_actions else ""
+    return f"{request.scenario} seed {request.seed}, palette {palette}, {what}{limit}"
 
 
 def action_limit(request: EpisodeRequest, targets_total: int,
@@ -243,14 +279,25 @@ def truth_audit(steps: list[StepRecord], truth_targets_total: int | None = None)
 
 class EpisodeRecorder:
     """Appends every step and the summary to disk as they happen (flushed and fsynced), so a crash
-    of any node loses nothing already done."""
+    of any node loses nothing already done.
 
-    def __init__(self, record_root: str | os.PathLike, episode_id: str):
+    Layout: <record_root>/<episode_id>/ holds steps.jsonl (start, steps, end) and summary.json;
+    <record_root>/episodes.jsonl indexes every summary. With `request`, the summary carries it (scenario,
+    seed, palette, counts) under "request"."""
+
+    def __init__(self, record_root: str | os.PathLike, episode_id: str,
+                 request: EpisodeRequest | None = None):
         self.root = pathlib.Path(record_root)
         self.directory = self.root / episode_id
         self.directory.mkdir(parents=True, exist_ok=True)
         self.steps_path = self.directory / "steps.jsonl"
         self.summary_path = self.directory / "summary.json"
+        self.request = request
+
+    def discard(self) -> None:
+        """Remove the episode's folder (an episode refused at its start: it never ran). Its line in the
+        index, if written, stays: the refusal's reason, with a record_path that no longer exists."""
+        shutil.rmtree(self.directory, ignore_errors=True)
 
     @staticmethod
     def _append_line(path: pathlib.Path, record: dict) -> None:
@@ -295,6 +342,8 @@ class EpisodeRecorder:
     def write_summary(self, metrics: dict, termination_reason: str) -> dict:
         summary = {**metrics, "termination_reason": termination_reason, "wall_time": time.time(),
                    "record_path": str(self.directory)}
+        if self.request is not None:
+            summary["request"] = dataclasses.asdict(self.request)
         self._append_line(self.steps_path, {"event": "end", **summary})
         tmp = self.summary_path.with_suffix(".tmp")
         tmp.write_text(json.dumps(summary, indent=2, sort_keys=True) + "\n")
