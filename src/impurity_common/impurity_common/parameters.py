@@ -4,6 +4,9 @@ with a FloatingPointRange/IntegerRange where a range is given), reads the values
 returns a populated instance. A bad value (wrong type, out of range, not a choice, failing a check)
 raises ParameterError, whose text is ONE line naming the node, the parameter, the value and what is
 allowed; `node_main.spin_node` prints that line to stderr and exits with status 2, never a traceback.
+An override (yaml or -p) for a name the node does not declare, usually a misspelling, is a ParameterError
+too (UnknownParameter: the name and the closest declared names), but for the names ROS gives every node
+and the camera pose the calibration file gives every node (ros_given).
 
     @dataclass(frozen=True)
     class HeightmapParameters:
@@ -25,18 +28,20 @@ choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arra
 `saliency: {center_sigma: 2.0}` in a yaml). Ranges are inclusive, as ROS's. Rules between fields go
 in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`.
 
-The pure part (parameter_specs, check_value, build, ParameterError's line, descriptor) needs no rclpy;
-only declare_parameters talks to a node.
+The pure part (parameter_specs, check_value, build, ParameterError's line, descriptor, unknown_parameters,
+parameters_help) needs no rclpy; only declare_parameters talks to a node.
 """
 
 from __future__ import annotations
 
 import array
 import dataclasses
+import difflib
 import enum
 import math
+import textwrap
 import typing
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
@@ -62,6 +67,16 @@ _ARRAYS = {
 }
 _PLURALS = {"double": "doubles", "integer": "integers", "bool": "bools", "string": "strings"}
 _TYPE_WORDS = {float: "double", int: "integer", bool: "bool", str: "string"}
+
+# Names a node may be given without declaring them in its dataclass (unknown_parameters lets them pass).
+# rclpy declares these on every node (TimeSource, TypeDescriptionService); launch files set use_sim_time.
+ROS_PARAMETERS = frozenset({"use_sim_time", "start_type_description_service"})
+# rclpy's per-topic QoS overrides (QoSOverridingOptions), declared when a publisher or subscription that
+# takes them is created, which may be after declare_parameters.
+ROS_PARAMETER_PREFIXES = ("qos_overrides.",)
+# The camera pose: bringup/config/camera_calibration.yaml gives it to every node in a `/**` section; only
+# the nodes that read it declare it (camera_position_param, camera_orientation_param).
+SHARED_PARAMETERS = frozenset({"camera_position", "camera_orientation"})
 
 
 @dataclass(frozen=True)
@@ -112,6 +127,35 @@ class ParameterError(Exception):
             if allowed:
                 line += f"; expected {allowed}"
         super().__init__(" ".join(line.split()))  # one line, whatever a check's text holds
+
+
+class UnknownParameter(ParameterError):
+    """Overrides (yaml or -p) for names the node declares no parameter of, usually misspellings. str() is
+    one line: the node, each unknown name with its value and the closest declared names, and how to list
+    the node's parameters:
+
+        policy: unknown parameter push_end_margn:=0.1 (did you mean push_end_margin?); the node's
+        parameters: --help on its executable, or `ros2 param list /policy` while it runs
+
+    `unknown` is {name: value} of the unknown names, `suggestions` {name: [closest declared names]}."""
+
+    def __init__(self, node: str, unknown: dict, declared: Iterable[str], fully_qualified_name: str = ""):
+        declared = list(declared)
+        self.unknown = dict(sorted(unknown.items()))
+        self.suggestions = {name: close_names(name, declared) for name in self.unknown}
+        words = []
+        for name, value in self.unknown.items():
+            close = self.suggestions[name]
+            hint = f"did you mean {' or '.join(close)}?" if close else "no declared name is close"
+            words.append(f"{name}:={format_value(value)} ({hint})")
+        plural = "s" if len(words) > 1 else ""
+        listing = f"`ros2 param list {fully_qualified_name or '/' + node}` while it runs"
+        problem = (f"unknown parameter{plural} {', '.join(words)}; the node's parameters: --help on its "
+                   f"executable, or {listing}")
+        Exception.__init__(self, " ".join(f"{node}: {problem}".split()))
+        self.node, self.problem, self.parameter = node, problem, next(iter(self.unknown), None)
+        self.value = self.unknown.get(self.parameter)
+        self.allowed = None
 
 
 @dataclass(frozen=True)
@@ -368,12 +412,48 @@ def _construct(node_name: str, cls, values: dict, specs: list, path: tuple):
         raise ParameterError(node_name, str(failure)) from None
 
 
+# ------------------------------------------------------------------------------------ unknown names
+def ros_given(name: str) -> bool:
+    """True for a name a node may be given without declaring it: ROS_PARAMETERS, a ROS_PARAMETER_PREFIXES
+    name, or SHARED_PARAMETERS (given to every node by the calibration file's `/**` section)."""
+    return name in ROS_PARAMETERS or name in SHARED_PARAMETERS or name.startswith(ROS_PARAMETER_PREFIXES)
+
+
+def unknown_parameters(given: Iterable[str], declared: Iterable[str]) -> list[str]:
+    """The names of `given` (the overrides a node was started with) that are neither `declared` nor
+    ros_given, sorted: the ones a node refuses."""
+    declared = set(declared)
+    return sorted(name for name in set(given) if name not in declared and not ros_given(name))
+
+
+def close_names(name: str, declared: Iterable[str], count: int = 3) -> list[str]:
+    """Up to `count` names of `declared` closest to `name`, closest first (difflib.get_close_matches, its
+    default cutoff 0.6); [] when none is close."""
+    return difflib.get_close_matches(name, sorted(set(declared)), n=count)
+
+
+def parameters_help(cls, width: int = 100) -> str:
+    """The parameters of the dataclass `cls` for a --help text, in declaration order: the name, its
+    default as `-p` takes it and what it allows, then the description wrapped to `width` columns:
+
+          resolution:=0.002  (a double in [0.0005, 0.05])
+              Heightmap cell size (m)
+    """
+    lines = []
+    for spec in parameter_specs(cls):
+        lines.append(f"  {spec.name}:={format_value(spec.default)}  ({allowed(spec)})")
+        lines += textwrap.wrap(spec.description, width, initial_indent=" " * 6, subsequent_indent=" " * 6)
+    return "\n".join(lines)
+
+
 # ------------------------------------------------------------------------------------ the node side
 def declare_parameters(node, cls):
     """Declare every parameter of the dataclass `cls` on `node` (read-only, typed, described, ranged),
     read the values (defaults, yaml, -p) back and return the `cls` instance. ParameterError (one line:
     node, parameter, value, what is allowed) for a value of the wrong type, out of range, not a choice,
-    or refused by a check or by the dataclass's rules."""
+    or refused by a check or by the dataclass's rules; UnknownParameter (a ParameterError: the names and the
+    closest declared ones) for an override of a name the node has not declared by then, unless ros_given.
+    Call it once per node, after any parameter the node declares itself with node.declare_parameter."""
     from rclpy.exceptions import ParameterException, ParameterUninitializedException
     from rclpy.parameter import Parameter
 
@@ -391,7 +471,20 @@ def declare_parameters(node, cls):
             values[spec.name] = node.get_parameter(spec.name).value
         except ParameterUninitializedException:  # declared by type, not overridden
             values[spec.name] = spec.default
+    _refuse_unknown(node)
     return build(node.get_name(), cls, values)
+
+
+def _refuse_unknown(node) -> None:
+    """UnknownParameter for the overrides (yaml, -p) the node started with whose names it has not declared.
+    rclpy keeps them all in `_parameter_overrides` (see _override); with allow_undeclared_parameters
+    False, the ones of undeclared names are never looked at again."""
+    overrides = getattr(node, "_parameter_overrides", {})
+    declared = node.list_parameters([], 0).names  # depth 0: every name (DEPTH_RECURSIVE)
+    unknown = unknown_parameters(overrides, declared)
+    if unknown:
+        raise UnknownParameter(node.get_name(), {name: overrides[name].value for name in unknown}, declared,
+                               node.get_fully_qualified_name())
 
 
 def _override(node, name: str):

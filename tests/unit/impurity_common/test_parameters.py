@@ -13,16 +13,23 @@ from parameter_files import flatten
 from rcl_interfaces.msg import ParameterType
 
 from impurity_common.parameters import (
+    ROS_PARAMETERS,
+    SHARED_PARAMETERS,
     InvalidParameter,
     ParameterError,
+    UnknownParameter,
     allowed,
     build,
     check_value,
+    close_names,
     descriptor,
     format_value,
     increasing,
     param,
     parameter_specs,
+    parameters_help,
+    ros_given,
+    unknown_parameters,
 )
 
 ROOT = pathlib.Path(__file__).resolve().parents[3]
@@ -251,6 +258,77 @@ def test_values_are_shown_as_written_after_colon_equals():
     assert format_value("abc") == "'abc'"
     assert format_value(array.array("d", [0.5, 1.0])) == "[0.5, 1.0]"
     assert format_value(Colour.RED) == "'red'"
+
+
+# ------------------------------------------------------------------------------------ unknown names
+DECLARED = ["resolution", "group.low_sigma", "group.high_sigma", "push_end_margin", "push_depth", "rules",
+            "rules_disabled"]
+
+
+def test_an_override_of_a_name_not_declared_is_unknown():
+    assert unknown_parameters(["resolution", "resolutoin", "rulez"], DECLARED) == ["resolutoin", "rulez"]
+    assert unknown_parameters(["resolution", "group.low_sigma"], DECLARED) == []
+
+
+def test_the_names_ros_gives_every_node_are_never_unknown():
+    given = ["use_sim_time", "start_type_description_service",
+             "qos_overrides./heightmap.publisher.reliability", "qos_overrides./clock.subscription.depth"]
+    assert unknown_parameters(given, DECLARED) == []
+    assert ROS_PARAMETERS == {"use_sim_time", "start_type_description_service"}
+    assert ros_given("qos_overrides./a.publisher.depth") and not ros_given("qos_override")
+
+
+def test_the_camera_pose_is_shared_as_the_calibration_file_gives_it_to_every_node():
+    assert unknown_parameters(["camera_position", "camera_orientation"], DECLARED) == []
+    calibration = yaml.safe_load((ROOT / "bringup" / "config" / "camera_calibration.yaml").read_text())
+    every_node = set(flatten(calibration["/**"]["ros__parameters"]))
+    assert every_node and every_node <= SHARED_PARAMETERS
+
+
+def test_the_closest_declared_names_come_first_and_none_when_nothing_is_close():
+    assert close_names("push_end_margn", DECLARED)[0] == "push_end_margin"
+    assert close_names("rulez", DECLARED)[0] == "rules"
+    assert close_names("low_sigma", DECLARED) == ["group.low_sigma"]  # the group prefix forgotten
+    assert close_names("zzz", DECLARED) == []
+
+
+def test_an_unknown_parameter_is_one_line_naming_node_name_value_closest_names_and_how_to_list_them():
+    error = UnknownParameter("policy", {"push_end_margn": 0.1}, DECLARED, "/cell/policy")
+    assert str(error) == ("policy: unknown parameter push_end_margn:=0.1 (did you mean push_end_margin?); "
+                          "the node's parameters: --help on its executable, or `ros2 param list "
+                          "/cell/policy` while it runs")
+    assert isinstance(error, ParameterError)  # spin_node: exit status 2
+    assert error.parameter == "push_end_margn" and error.value == 0.1
+    assert error.suggestions == {"push_end_margn": ["push_end_margin"]}
+
+
+def test_several_unknown_parameters_are_named_in_one_line_sorted():
+    error = UnknownParameter("policy", {"zzz": "x", "rulez": "none", "group.mid_sigma": 3.0}, DECLARED)
+    assert "\n" not in str(error)
+    assert str(error).startswith("policy: unknown parameters group.mid_sigma:=3.0 (did you mean "
+                                 "group.high_sigma or group.low_sigma?), rulez:='none' (did you mean "
+                                 "rules?), zzz:='x' (no declared name is close); ")
+    assert "`ros2 param list /policy`" in str(error)
+
+
+def test_parameters_help_gives_each_name_with_its_default_what_it_allows_and_its_description():
+    text = parameters_help(Example, width=40)
+    lines = text.splitlines()
+    assert lines[:2] == ["  resolution:=0.002  (a double in [0.0005, 0.05])", "      Heightmap cell size (m)"]
+    assert "  mode:='arm'  (one of: arm, floating)" in lines
+    assert "  bounds:=[0.2, 0.7]  (a list of 2 doubles, each in [-5.0, 5.0])" in lines
+    assert "  group.high_sigma:=6.0  (a double in [0.1, 100.0])" in lines
+    assert all(len(line) <= 40 for line in lines if line.startswith("      "))
+
+
+def test_a_long_description_is_wrapped_under_its_parameter():
+    @dataclass(frozen=True)
+    class Long:
+        rate: float = param(1.0, "word " * 30)
+
+    lines = parameters_help(Long, width=50).splitlines()
+    assert lines[0] == "  rate:=1.0  (a double)"
+    assert len(lines) > 2 and all(line.startswith("      word") and len(line) <= 50 for line in lines[1:])
 
 
 # ------------------------------------------------------------------------------------ the cell's nodes
