@@ -119,3 +119,18 @@ def test_help_prints_the_usage_and_parameters_and_exits_0_before_rclpy_starts(ro
     assert "Heightmap node: camera colour + aligned depth" in output
     assert "  resolution:=0.002  (a double in [0.0005, 0.05])\n      Heightmap cell size" in output
     assert not log_dir.exists(), "rclpy was initialised"
+
+
+@pytest.mark.parametrize("executable, parameter", [("bag_recorder", "output"), ("bag_replay", "bag")])
+def test_help_on_the_bag_tools_starts_no_recording_or_replay(ros_node, launch, tmp_path, executable,
+                                                             parameter):
+    """Their main() does not go through spin_node: they ask exit_if_help themselves, first."""
+    log_dir, target = tmp_path / "ros_log", tmp_path / "bag"
+    proc = launch("impurity_common", executable, ["--help", "--ros-args", "-p", f"{parameter}:={target}"],
+                  env={"ROS_LOG_DIR": str(log_dir)})
+    spin_until(ros_node, lambda: not proc.alive, 60.0, f"{executable} --help to exit")
+    output = proc.output()
+    assert proc.process.returncode == 0, output
+    assert output.startswith(f"usage: {executable} "), output
+    assert f"  {parameter}:=" in output
+    assert not log_dir.exists() and not target.exists()

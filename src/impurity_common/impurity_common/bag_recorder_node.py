@@ -43,7 +43,7 @@ from impurity_common.bags import (
     subscription_request,
     weakened_request,
 )
-from impurity_common.node_main import bound_malloc_arenas
+from impurity_common.node_main import bound_malloc_arenas, exit_if_help
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
     ParameterError,
@@ -193,6 +193,7 @@ class BagRecorderNode(Node):
 
 def main(args=None) -> int:
     """Signals only set `stop`; the loop then leaves spin_once and the bag is closed in `finally`."""
+    exit_if_help(args, BagRecorderParameters, __doc__.split("\n\n")[0])
     bound_malloc_arenas()  # as spin_node: flat memory over long recordings
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()

@@ -59,7 +59,7 @@ from impurity_common.bags import (
     run_replay,
     select_topics,
 )
-from impurity_common.node_main import bound_malloc_arenas
+from impurity_common.node_main import bound_malloc_arenas, exit_if_help
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
 FASTDDS_LARGE_SHM_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
@@ -273,6 +273,7 @@ class BagReplayNode(Node):
 
 
 def main(args=None) -> int:
+    exit_if_help(args, BagReplayParameters, __doc__.split("\n\n")[0])
     use_large_shm_segment()
     bound_malloc_arenas()  # as spin_node: flat memory over long recordings
     rclpy.init(args=args)
