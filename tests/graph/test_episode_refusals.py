@@ -1,11 +1,14 @@
 """Episode node on its own: bad requests and a second start are refused with a reason, and an episode
 whose cell does not answer ends with a clear reason and an intact record; against a scripted cell in
-this process: a cancel in every wait, inputs stamped on another clock, a motion the driver refuses."""
+this process: a cancel in every wait, inputs stamped on another clock, a motion the driver refuses, a
+scene reset the cell refuses (no folder left), two drivers on one action (refused), /episode/stop and a
+node stopped mid-episode (the record closed either way)."""
 
 import json
 import os
 import pathlib
 import re
+import signal
 import threading
 
 import pytest
@@ -17,13 +20,14 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Header
+from std_srvs.srv import Trigger
 
 from impurity_common import names
 from impurity_common.conversions import ns_to_time
 from impurity_interfaces.action import ExecutePrimitive, RunEpisode
 from impurity_interfaces.msg import AttentionResult, Primitive
-from impurity_interfaces.srv import StartEpisode
-from impurity_policy.core.episode import read_steps
+from impurity_interfaces.srv import ResetScene, StartEpisode
+from impurity_policy.core.episode import EPISODE_STATUS_SERVICE, STOP_EPISODE_SERVICE, read_steps
 from ros_harness import ActionHelper, call_service, ros_args, spin_until
 
 
@@ -39,6 +43,14 @@ def test_refusals_and_a_missing_cell(ros_node, launch, tmp_path):
     negative = call_service(ros_node, StartEpisode, "/episode/start",
                             StartEpisode.Request(num_objects=-4), processes=[episode], resend_after=5.0)
     assert not negative.accepted and "num_objects must be >= 0" in negative.reason
+    # more targets than product blocks: refused on both routes, with its reason on the service's
+    crowded = dict(scenario="random", num_targets=50, num_objects=5)
+    too_many = call_service(ros_node, StartEpisode, "/episode/start", StartEpisode.Request(**crowded),
+                            processes=[episode], resend_after=5.0)
+    assert not too_many.accepted and "num_targets (50) must not exceed num_objects (5)" in too_many.reason
+    assert not ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode]).send_goal(
+        RunEpisode.Goal(**crowded)).accepted
+    assert not any(tmp_path.iterdir())  # no refusal made a folder
 
     first = call_service(ros_node, StartEpisode, "/episode/start",
                          StartEpisode.Request(scenario="random", seed=1), processes=[episode])
@@ -74,11 +86,16 @@ class ScriptedCell:
     """Stands in for attention, policy and driver, in this test process on its own executor thread:
     publishes attention results (stamped `stamp_offset` s from this clock) and, with `decide`, a push
     decision on each; serves /ur5/execute_primitive as `driver` says: "reject" every goal, leave it
-    "silent" (never answered), or "hold" the motion until it is canceled."""
+    "silent" (never answered), or "hold" the motion until it is canceled; with `reset_refusal`, serves
+    /cell/reset_scene refusing every scene with that message."""
 
-    def __init__(self, stamp_offset: float = 0.0, decide: bool = True, driver: str = "reject"):
+    made: list = []  # every cell made in this process: each node gets a name of its own
+
+    def __init__(self, stamp_offset: float = 0.0, decide: bool = True, driver: str = "reject",
+                 reset_refusal: str | None = None):
         self.stamp_offset, self.decide, self.driver = stamp_offset, decide, driver
-        self.node = rclpy.create_node(f"scripted_cell_{os.getpid()}")
+        self.node = rclpy.create_node(f"scripted_cell_{os.getpid()}_{len(ScriptedCell.made)}")
+        ScriptedCell.made.append(self)
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         self._attention = self.node.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
         self._primitive = self.node.create_publisher(Primitive, names.PRIMITIVE_TOPIC, reliable)
@@ -88,6 +105,10 @@ class ScriptedCell:
         self._server = ActionServer(self.node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION,
                                     execute_callback=self._execute, goal_callback=self._on_goal,
                                     cancel_callback=lambda _: CancelResponse.ACCEPT, callback_group=group)
+        if reset_refusal is not None:  # a simulated cell that refuses every scene, e.g. an unknown palette
+            refusal = ResetScene.Response(success=False, message=reset_refusal)
+            self.node.create_service(ResetScene, names.RESET_SCENE_SERVICE,
+                                     lambda _request, _response: refusal, callback_group=group)
         self.node.create_timer(0.2, self._publish, callback_group=group)
         self._executor = MultiThreadedExecutor(num_threads=4)
         self._executor.add_node(self.node)
@@ -234,3 +255,114 @@ def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal(
     assert wrapped.result.termination_reason.startswith("error: driver rejected the primitive")
     assert wrapped.result.actions == 0 and len(cell.goals) == 1
     action.destroy()
+
+
+# ---- refusals that used to leave traces, two drivers, stopping an episode (issue: newcomer's list) --------
+def test_a_start_the_cell_refuses_at_its_scene_reset_leaves_no_folder(ros_node, launch, tmp_path,
+                                                                        scripted_cell):
+    """Every unknown-palette refusal used to get a folder under runs/episodes/. The refusal stays in the
+    answer, the node's log and the index (episodes.jsonl); the folder goes."""
+    episode = episode_node(launch, tmp_path, use_ground_truth=True)
+    scripted_cell(reset_refusal="unknown palette 'teal'; known: blocks, coal_slate")
+    refused = call_service(ros_node, StartEpisode, "/episode/start",
+                           StartEpisode.Request(scenario="random", seed=1, palette="teal"),
+                           processes=[episode])
+    assert not refused.accepted and "unknown palette 'teal'" in refused.reason
+    assert [path.name for path in tmp_path.iterdir()] == ["episodes.jsonl"]
+    index = read_steps(tmp_path / "episodes.jsonl")
+    assert index[-1]["episode_id"] == refused.episode_id
+    assert "unknown palette" in index[-1]["termination_reason"]
+    spin_until(ros_node, lambda: f"start refused: episode {refused.episode_id}" in episode.output(), 10.0,
+               "the refusal in the node's log", [episode])
+
+
+def trigger(ros_node, name: str, episode):
+    return call_service(ros_node, Trigger, name, Trigger.Request(), processes=[episode], timeout=60.0)
+
+
+def test_two_drivers_on_the_arms_action_refuse_every_episode(ros_node, launch, tmp_path, scripted_cell):
+    """A sim_cell run with `-r /ur5/execute_primitive:=...` beside the real driver still served the action
+    (ros2/ros2#1312): both executed every primitive. The episode node refuses to start while two serve it."""
+    episode = episode_node(launch, tmp_path, decision_timeout=60.0)
+    scripted_cell(driver="hold")
+    scripted_cell(driver="hold")
+    statuses = []
+    spin_until(ros_node, lambda: statuses.append(trigger(ros_node, EPISODE_STATUS_SERVICE, episode))
+               or not statuses[-1].success, 30.0, "the episode node counting two drivers", [episode])
+    assert statuses[-1].message.startswith("2 action servers serve /ur5/execute_primitive")
+    start = call_service(ros_node, StartEpisode, "/episode/start", StartEpisode.Request(scenario="random"),
+                         processes=[episode])
+    assert not start.accepted and start.reason == statuses[-1].message
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
+    assert not action.send_goal(RunEpisode.Goal(scenario="random")).accepted
+    action.destroy()
+    assert not any(tmp_path.iterdir())
+    spin_until(ros_node, lambda: "start refused: 2 action servers serve" in episode.output(), 10.0,
+               "the refusal in the node's log", [episode])
+
+
+@pytest.mark.parametrize("wait", ["decision", "motion"])
+def test_episode_stop_ends_a_started_episode_canceled_with_its_records(ros_node, launch, tmp_path,
+                                                                       scripted_cell, wait):
+    """An episode started with /episode/start could not be stopped but by stopping the cell, which left
+    its record without an end. /episode/stop ends it as a cancel of /episode/run does: no new motion, the
+    one under way stopped by the driver; the summary keeps the palette asked for."""
+    episode = episode_node(launch, tmp_path, decision_timeout=120.0, motion_timeout=120.0)
+    cell = scripted_cell(driver="hold") if wait == "motion" else None  # else: no decision ever comes
+    nothing = trigger(ros_node, STOP_EPISODE_SERVICE, episode)
+    assert not nothing.success and nothing.message == "no episode is running"
+    start = call_service(ros_node, StartEpisode, "/episode/start",
+                         StartEpisode.Request(scenario="random", seed=4, palette="coal_slate"),
+                         processes=[episode])
+    assert start.accepted
+    if wait == "motion":
+        spin_until(ros_node, lambda: cell.motions, 60.0, "the motion under way", [episode])
+    else:
+        spin_until(ros_node, lambda: any(r["event"] == "start" for r in steps_in(tmp_path)), 60.0,
+                   "the episode waiting for a decision", [episode])
+    busy = trigger(ros_node, EPISODE_STATUS_SERVICE, episode)
+    assert not busy.success
+    assert busy.message.startswith(f"busy: an episode is already running ({start.episode_id}")
+    stopped = trigger(ros_node, STOP_EPISODE_SERVICE, episode)
+    assert stopped.success and stopped.message.startswith(f"episode {start.episode_id} ended: canceled")
+    record = tmp_path / start.episode_id
+    summary = json.loads((record / "summary.json").read_text())
+    assert summary["termination_reason"] == "canceled" and summary["request"]["palette"] == "coal_slate"
+    events = [r["event"] for r in read_steps(record / "steps.jsonl")]
+    if wait == "motion":  # stopped by the driver, and recorded
+        assert cell.motion_canceled.is_set() and events == ["start", "step", "end"]
+        assert len(cell.motions) == 1  # no new motion after the stop
+    else:
+        assert events == ["start", "end"]
+    spin_until(ros_node, lambda: f"episode {start.episode_id}: random seed 4, palette coal_slate" in
+               episode.output(), 10.0, "the episode's start in the node's log", [episode])
+    assert trigger(ros_node, EPISODE_STATUS_SERVICE, episode).success  # free again
+
+
+@pytest.mark.parametrize("route, wait", [("service", "decision"), ("action", "decision"),
+                                         ("service", "motion")])
+def test_a_node_stopped_mid_episode_closes_the_record(ros_node, launch, tmp_path, scripted_cell, route, wait):
+    """SIGINT on the episode node (the cell stopped) while an episode waits: the record gets its end
+    line and summary ("canceled") before the process exits. rclpy shuts the node's context down before
+    the node can stop its episode: an error that raises is the stop, not an "error: ..." end."""
+    episode = episode_node(launch, tmp_path, decision_timeout=120.0, motion_timeout=120.0)
+    cell = scripted_cell(driver="hold") if wait == "motion" else None
+    goal = dict(scenario="random", seed=5)
+    if route == "service":
+        assert call_service(ros_node, StartEpisode, "/episode/start", StartEpisode.Request(**goal),
+                            processes=[episode]).accepted
+    else:
+        action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
+        assert action.send_goal(RunEpisode.Goal(**goal)).accepted
+    if wait == "motion":
+        spin_until(ros_node, lambda: cell.motions, 60.0, "the motion under way", [episode])
+    else:
+        spin_until(ros_node, lambda: any(r["event"] == "start" for r in steps_in(tmp_path)), 60.0,
+                   "the episode waiting for a decision", [episode])
+    episode.send_signal(signal.SIGINT)
+    spin_until(ros_node, lambda: not episode.alive, 30.0, "the episode node to exit")
+    [record] = [path for path in tmp_path.iterdir() if path.is_dir()]
+    assert [r["event"] for r in read_steps(record / "steps.jsonl")][-1] == "end"
+    assert json.loads((record / "summary.json").read_text())["termination_reason"] == "canceled"
+    if route == "action":
+        action.destroy()

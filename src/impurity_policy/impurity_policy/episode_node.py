@@ -7,6 +7,13 @@ inputs are stamped on another clock). Every decision it executes comes from a ca
 the previous motion finished. A cancel of /episode/run is honoured in every wait (within
 ros_cell.CANCEL_POLL s; a motion under way is stopped by the driver) and the goal ends CANCELED with its
 records closed.
+
+It also serves /episode/stop (std_srvs/Trigger): the running episode, however it was started, ends
+"canceled" as a cancel would end it; and /episode/status (Trigger): whether an episode could start now
+(success false: the reason, e.g. "busy: ..."). Requests are refused, with one reason, when
+core.episode.validate_request refuses them, while an episode runs, and while more than one action server
+serves the driver's action (every primitive would run on each). A node stopped mid-episode (SIGINT) ends
+the episode "canceled" and closes its records before it goes.
 """
 
 import os
@@ -14,12 +21,13 @@ import pathlib
 import threading
 import time
 import uuid
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
+from std_srvs.srv import Trigger
 
 from impurity_common import names
 from impurity_common.conversions import ns_to_time
@@ -33,18 +41,24 @@ from impurity_policy.core.episode import (
     DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
     DEFAULT_NONE_FRAMES_TO_FINISH,
+    EPISODE_STATUS_SERVICE,
+    STOP_EPISODE_SERVICE,
     TERMINATION_CANCELED,
     EpisodeRecorder,
     EpisodeRequest,
     StepRecord,
+    describe_request,
     is_failure,
     validate_request,
 )
-from impurity_policy.core.picking import EpisodeLimits, run_episode
+from impurity_policy.core.picking import EpisodeCanceled, EpisodeLimits, run_episode
 from impurity_policy.core.verdict import VerdictParams
 from impurity_policy.ros_cell import RosCell, RosCellTimeouts
 
 VERDICT = VerdictParams()
+STOP_WAIT = 30.0  # s /episode/stop waits for the episode's end (a motion under way stops, the arm parks)
+NODE_STOP_WAIT = 10.0  # s a node being stopped waits for the running episode to close its records
+DRIVER_STATUS_TOPIC = names.EXECUTE_PRIMITIVE_ACTION + "/_action/status"  # one publisher per action server
 
 
 def default_record_dir() -> str:
@@ -105,13 +119,28 @@ class EpisodeParameters:
                                               "impurity; 0: no colour test", low=0.0)
 
 
+@dataclass
+class RunningEpisode:
+    """The episode under way: its id, who started it (the service or the action), the stop request
+    (/episode/stop, or the node stopping) and, once it ended, its termination reason and record."""
+
+    episode_id: str
+    route: str
+    stop: threading.Event = field(default_factory=threading.Event)
+    ended: threading.Event = field(default_factory=threading.Event)
+    termination_reason: str = ""
+    recorder: EpisodeRecorder | None = None
+
+
 class EpisodeNode(Node):
     def __init__(self):
         super().__init__("episode")
         self.params = declare_parameters(self, EpisodeParameters)
         self.record_dir = self.params.record_dir or default_record_dir()
         group = ReentrantCallbackGroup()
-        self._busy = threading.Lock()
+        self._lock = threading.Lock()  # guards self._running: claimed and released as one step
+        self._running: RunningEpisode | None = None
+        self._driver_status_topic = self.resolve_topic_name(DRIVER_STATUS_TOPIC)
         self._cell = RosCell(self, group, RosCellTimeouts(self.params.decision_timeout,
                                                           self.params.motion_timeout,
                                                           self.params.service_timeout,
@@ -125,6 +154,8 @@ class EpisodeNode(Node):
                           self.params.verdict_min_target_score, self.params.verdict_min_color_contrast))
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
+        self.create_service(Trigger, STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)
+        self.create_service(Trigger, EPISODE_STATUS_SERVICE, self._on_status, callback_group=group)
         self._action_server = ActionServer(
             self, RunEpisode, names.RUN_EPISODE_ACTION, execute_callback=self._execute_goal,
             goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
@@ -139,32 +170,48 @@ class EpisodeNode(Node):
                               max_actions=int(fields.max_actions), scene_file=fields.scene_file,
                               palette=fields.palette)
 
+    def _state_refusal(self) -> str | None:
+        """Why no episode can start now, whatever it asks (None: one can): an episode is running, or more
+        than one action server serves the driver's action (counted as publishers of its status topic)."""
+        running = self._running
+        if running is not None:
+            return f"busy: an episode is already running ({running.episode_id}, started by {running.route})"
+        drivers = self.count_publishers(self._driver_status_topic)
+        if drivers > 1:
+            return (f"{drivers} action servers serve {names.EXECUTE_PRIMITIVE_ACTION} ({drivers} publishers "
+                    f"of {self._driver_status_topic}): every primitive would run on each of them; stop all "
+                    "drivers but one (an action is renamed by remapping its internal topics and services, "
+                    "not its name: README, 'Running on a real cell')")
+        return None
+
     def _refusal(self, request: EpisodeRequest) -> str | None:
-        reason = validate_request(request)
-        if reason is None and self._busy.locked():
-            reason = "busy: an episode is already running"
-        return reason
+        return validate_request(request) or self._state_refusal()
+
+    def _claim(self, request: EpisodeRequest, route: str) -> tuple[RunningEpisode | None, str | None]:
+        """(the new running episode, None), or (None, why it is refused): checked and claimed at once."""
+        with self._lock:
+            reason = self._refusal(request)
+            if reason is not None:
+                return None, reason
+            self._running = RunningEpisode(_new_episode_id(), route)
+            return self._running, None
 
     def _on_start(self, request, response):
         episode_request = self._request_from(request)
-        reason = self._refusal(episode_request)
-        if reason is None and not self._busy.acquire(blocking=False):
-            reason = "busy: an episode is already running"
+        running, reason = self._claim(episode_request, names.START_EPISODE_SERVICE)
         if reason is not None:
             self.get_logger().warning(f"start refused: {reason}")
             response.accepted, response.reason = False, reason
             return response
-        episode_id = _new_episode_id()
-        started, answered, ended = threading.Event(), threading.Event(), {}
+        started, answered = threading.Event(), threading.Event()
 
         def run():
             try:
-                summary = self._run_and_release(episode_id, episode_request, None,
-                                                on_started=lambda: (started.set(), answered.set()))
-                ended["reason"] = summary["termination_reason"]
+                self._run_and_release(running, episode_request, None,
+                                      on_started=lambda: (started.set(), answered.set()))
             except Exception as error:  # noqa: BLE001 - before the loop (e.g. its record could not be opened)
-                ended["reason"] = f"error: {error!r}"
-                self.get_logger().error(f"episode {episode_id} failed before it started: {error!r}")
+                running.termination_reason = f"error: {error!r}"
+                self.get_logger().error(f"episode {running.episode_id} failed before it started: {error!r}")
             finally:
                 answered.set()
 
@@ -172,13 +219,42 @@ class EpisodeNode(Node):
         # `started` is set before `answered`: an answer without it is an episode that ended before its reset
         # was done; no answer within start_wait is a reset still under way (accepted)
         done = answered.wait(self.params.start_wait)
-        response.episode_id = episode_id
+        response.episode_id = running.episode_id
         if not done or started.is_set():
             response.accepted = True
-        else:
-            reason = ended.get("reason", "error: the episode ended before its scene reset")
-            self.get_logger().warning(f"start refused: episode {episode_id} could not start: {reason}")
+        else:  # refused: the episode never ran, its folder goes (episodes.jsonl keeps its line)
+            reason = running.termination_reason or "error: the episode ended before its scene reset"
+            if running.recorder is not None:
+                running.recorder.discard()
+            self.get_logger().warning(
+                f"start refused: episode {running.episode_id} could not start: {reason}")
             response.accepted, response.reason = False, reason
+        return response
+
+    def _on_stop(self, _request, response):
+        """/episode/stop: the running episode ends "canceled" (no new motion; one under way is stopped by
+        the driver); answered once it ended (or after STOP_WAIT s, still stopping)."""
+        running = self._running
+        if running is None:
+            response.success, response.message = False, "no episode is running"
+            return response
+        self.get_logger().info(f"stop requested: episode {running.episode_id} ends canceled")
+        running.stop.set()
+        response.success = True
+        if running.ended.wait(STOP_WAIT):
+            record = running.recorder.directory if running.recorder is not None else "(none)"
+            response.message = (f"episode {running.episode_id} ended: {running.termination_reason}; "
+                                f"record {record}")
+        else:
+            response.message = (f"episode {running.episode_id} is stopping (not ended within {STOP_WAIT:.0f} "
+                                "s: a motion is being stopped); its record will say how it ended")
+        return response
+
+    def _on_status(self, _request, response):
+        """/episode/status: success true when an episode could start now; else the reason (busy, ...)."""
+        reason = self._state_refusal()
+        response.success = reason is None
+        response.message = reason or "ready: no episode is running"
         return response
 
     def _on_goal(self, goal) -> GoalResponse:
@@ -190,41 +266,66 @@ class EpisodeNode(Node):
 
     def _execute_goal(self, goal_handle):
         result = RunEpisode.Result()
-        if not self._busy.acquire(blocking=False):
-            goal_handle.abort()
-            result.termination_reason = "busy: an episode is already running"
-            return result
         request = self._request_from(goal_handle.request)
-        summary = self._run_and_release(_new_episode_id(), request, goal_handle)
+        running, reason = self._claim(request, names.RUN_EPISODE_ACTION)
+        if reason is not None:  # claimed by another request since the goal was accepted
+            self.get_logger().warning(f"goal aborted: {reason}")
+            goal_handle.abort()
+            result.termination_reason = reason
+            return result
+        summary = self._run_and_release(running, request, goal_handle)
         for key, value in summary.items():
             if hasattr(result, key) and key != "record_path" and value is not None:
                 setattr(result, key, type(getattr(result, key))(value))
         result.record_path = summary.get("record_path", "")
-        if summary["termination_reason"] == TERMINATION_CANCELED:
+        if not self.context.ok():  # the node is being stopped: the goal's end cannot be sent
+            return result
+        reason = summary["termination_reason"]
+        if reason == TERMINATION_CANCELED and goal_handle.is_cancel_requested:
             goal_handle.canceled()
-        elif is_failure(summary["termination_reason"]):
-            goal_handle.abort()
+        elif is_failure(reason) or reason == TERMINATION_CANCELED:
+            goal_handle.abort()  # also a stop by /episode/stop: no cancel of the goal was asked
         else:
             goal_handle.succeed()
         return result
 
-    def _run_and_release(self, episode_id, request, goal_handle, on_started=None) -> dict:
+    def _run_and_release(self, running: RunningEpisode, request, goal_handle, on_started=None) -> dict:
         try:
-            return self._run_episode(episode_id, request, goal_handle, on_started)
+            summary = self._run_episode(running, request, goal_handle, on_started)
+            running.termination_reason = summary["termination_reason"]
+            return summary
         finally:
-            self._busy.release()
+            with self._lock:
+                self._running = None
+            running.ended.set()
+
+    def destroy_node(self) -> None:
+        """A running episode is stopped first (it ends "canceled", its records closed), waited for up to
+        NODE_STOP_WAIT s. After SIGINT the context is already shut down: a motion under way can no longer be
+        canceled from here, and the driver finishes it."""
+        running = self._running
+        if running is not None:
+            self.get_logger().warning(f"node stopping: episode {running.episode_id} ends canceled")
+            running.stop.set()
+            if not running.ended.wait(NODE_STOP_WAIT):
+                self.get_logger().error(f"episode {running.episode_id} did not close its records within "
+                                        f"{NODE_STOP_WAIT:.0f} s")
+        super().destroy_node()
 
     # ---- the loop -----------------------------------------------------------------------------
-    def _run_episode(self, episode_id: str, request: EpisodeRequest, goal_handle, on_started=None) -> dict:
-        """One episode through the picking loop; the summary it recorded. on_started: see
-        picking.run_episode."""
+    def _run_episode(self, running: RunningEpisode, request: EpisodeRequest, goal_handle,
+                     on_started=None) -> dict:
+        """One episode through the picking loop; the summary it recorded. It stops on a cancel of its
+        goal, /episode/stop or the node stopping (running.stop). on_started: see picking.run_episode."""
         log = self.get_logger()
-        recorder = EpisodeRecorder(self.record_dir, episode_id)
-        log.info(f"episode {episode_id}: {request.scenario} seed {request.seed}")
+        episode_id = running.episode_id
+        recorder = running.recorder = EpisodeRecorder(self.record_dir, episode_id, request)
+        log.info(f"episode {episode_id}: {describe_request(request)}")
         summary = run_episode(
-            self._cell, request, episode_id, self._limits, recorder=recorder,
+            StoppingCell(self._cell, self.context), request, episode_id, self._limits, recorder=recorder,
             on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
-            should_stop=lambda: goal_handle is not None and goal_handle.is_cancel_requested,
+            should_stop=lambda: running.stop.is_set() or not self.context.ok() or (
+                goal_handle is not None and goal_handle.is_cancel_requested),
             clock_ns=lambda: self.get_clock().now().nanoseconds,
             on_error=lambda error: log.error(f"episode {episode_id} failed: {error!r}"),
             on_started=on_started)
@@ -242,7 +343,11 @@ class EpisodeNode(Node):
 
     # ---- outputs ------------------------------------------------------------------------------
     def _publish_step(self, episode_id: str, step: StepRecord, goal_handle) -> None:
-        """The step on /episode/steps (the policy node remembers tried actions from it) and as feedback."""
+        """The step on /episode/steps (the policy node remembers tried actions from it) and as feedback;
+        only logged once the node is stopping (its context shut down: nothing can be sent)."""
+        if not self.context.ok():
+            self.get_logger().info(f"step {step.step} recorded; not published: the node is stopping")
+            return
         msg = EpisodeStep(episode_id=episode_id, step=step.step, attention_mode=step.attention_mode,
                           primitive=self._cell.last_primitive, success=step.success,
                           target_grasped=step.target_grasped, targets_remaining=step.targets_remaining,
@@ -258,6 +363,30 @@ class EpisodeNode(Node):
             f"{step.yaw:.2f} q {step.q_value:.3f} -> {'ok' if step.success else 'failed'}; "
             + (f"{step.targets_remaining} target(s) left" if step.targets_remaining >= 0 else
                (step.verdict or "not judged")))
+
+
+class StoppingCell:
+    """The RosCell as the picking loop sees it, where an error raised once the node's context is shut down
+    (SIGINT: rclpy shuts it down before the node can stop its episode; a graph query then fails with
+    "context is invalid") is the episode's stop, EpisodeCanceled, not an error of the cell."""
+
+    def __init__(self, cell: RosCell, context):
+        self._cell, self._context = cell, context
+
+    def __getattr__(self, name):
+        verb = getattr(self._cell, name)
+        if not callable(verb):
+            return verb
+
+        def call(*args, **kwargs):
+            try:
+                return verb(*args, **kwargs)
+            except Exception as error:
+                if self._context.ok() or isinstance(error, EpisodeCanceled):
+                    raise
+                raise EpisodeCanceled(f"the episode node stopped ({error!r})") from error
+
+        return call
 
 
 def _new_episode_id() -> str:
