@@ -4,6 +4,12 @@
 Equivalent on a ROS install:
   ros2 action send_goal --feedback /episode/run impurity_interfaces/action/RunEpisode \
       "{scenario: random, seed: 7}"
+
+The request is checked here first, with the episode node's own check (core.episode.validate_request):
+a bad one is refused with its reason before anything is sent. --start-only uses /episode/start (answers
+with the reason of a refusal); --stop ends the running episode however it was started (/episode/stop).
+A goal of /episode/run rejected for the cell's state (an action's rejection carries no reason) is
+explained by the node's /episode/status.
 """
 
 import argparse
@@ -17,16 +23,29 @@ import time
 
 import rclpy
 from rclpy.signals import SignalHandlerOptions
+from std_srvs.srv import Trigger
 
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
-from impurity_policy.core.episode import TERMINATION_CANCELED, is_failure
+from impurity_policy.core.episode import (
+    EPISODE_STATUS_SERVICE,
+    FIELD_RANGES,
+    STOP_EPISODE_SERVICE,
+    TERMINATION_CANCELED,
+    EpisodeRequest,
+    describe_request,
+    is_failure,
+    validate_request,
+)
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 CANCEL_TIMEOUT = 30.0  # s for the episode node to confirm a cancel (the arm stops and leaves upwards)
+OPTION_OF_FIELD = {"num_targets": "--targets", "num_objects": "--objects", "max_actions": "--max-actions",
+                   "scene_file": "--scene-file"}
+STOP_TIMEOUT = 45.0  # s for /episode/stop's answer (the node answers once the episode ended, within 30 s)
 
 
 @contextlib.contextmanager
@@ -186,24 +205,115 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
         client.destroy()
 
 
-def main(argv=None) -> int:
+def field_int(field: str):
+    """An argparse type for the integer option feeding the request's `field`: refused (with the option's
+    name, by argparse) outside core.episode.FIELD_RANGES, the messages' own range narrowed to a usable one
+    (a negative seed used to end in a traceback naming another field)."""
+    low, high = FIELD_RANGES[field]
+
+    def parse(text: str) -> int:
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"not an integer: '{text}'") from None
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be an integer from {low} to {high} (got {value})")
+        return value
+
+    parse.__name__ = f"{field} value"
+    return parse
+
+
+def positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: '{text}'") from None
+    if not value > 0:  # also NaN
+        raise argparse.ArgumentTypeError(f"must be > 0 (got {text})")
+    return value
+
+
+def parse_args(argv=None) -> argparse.Namespace:
+    """The options; exits 2 with argparse's usage message on a bad value or a request that
+    validate_request refuses (naming the option, or the request field and its reason)."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--scenario", default=Scenario.RANDOM.value,
                         choices=[scenario.value for scenario in EPISODE_SCENARIOS])
-    parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--targets", type=int, default=2)
-    parser.add_argument("--objects", type=int, default=20)
-    parser.add_argument("--max-actions", type=int, default=0, help="0: 15 per target")
+    parser.add_argument("--seed", type=field_int("seed"), default=0)
+    parser.add_argument("--targets", type=field_int("num_targets"), default=2, help="impurities (>= 1)")
+    parser.add_argument("--objects", type=field_int("num_objects"), default=20,
+                        help="product blocks (>= the targets)")
+    parser.add_argument("--max-actions", type=field_int("max_actions"), default=0, help="0: 15 per target")
     parser.add_argument("--scene-file", default="")
     parser.add_argument("--palette", default="", help="simulated cell: a named palette or random-<seed> "
                         "(see README, 'Appearance'); empty: the default blue/red palette")
-    parser.add_argument("--timeout", type=float, default=900.0, help="s for the whole episode")
-    parser.add_argument("--start-only", action="store_true",
-                        help=f"use the {START_EPISODE_SERVICE} service and return once it answers (after "
-                             "the scene reset, or the episode node's start_wait)")
+    parser.add_argument("--timeout", type=positive_float, default=900.0, help="s for the whole episode")
+    route = parser.add_mutually_exclusive_group()
+    route.add_argument("--start-only", action="store_true",
+                       help=f"use the {START_EPISODE_SERVICE} service and return once it answers (after "
+                            "the scene reset, or the episode node's start_wait)")
+    route.add_argument("--stop", action="store_true",
+                       help=f"stop the running episode ({STOP_EPISODE_SERVICE}): it ends canceled, a motion "
+                            "under way is stopped; the other options are ignored")
     args = parser.parse_args(argv)
-    fields = dict(scenario=args.scenario, seed=args.seed, num_targets=args.targets, num_objects=args.objects,
-                  max_actions=args.max_actions, scene_file=args.scene_file, palette=args.palette)
+    args.request = EpisodeRequest(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
+                                  num_objects=args.objects, max_actions=args.max_actions,
+                                  scene_file=args.scene_file, palette=args.palette)
+    reason = None if args.stop else validate_request(args.request)
+    if reason is not None:
+        for field, option in OPTION_OF_FIELD.items():  # the reason in this command line's words
+            reason = reason.replace(field, option)
+        parser.error(f"request refused: {reason}")
+    return args
+
+
+def call(node, srv_type, name: str, request, ctrl_c: CtrlC, timeout: float = 30.0, resend: bool = False):
+    """One call of service `name`: its response, or TimeoutError (not available / no answer within
+    `timeout` s), KeyboardInterrupt (Ctrl-C; twice once the request is out). resend: an idempotent query
+    is sent again every 5 s while unanswered (a response can be lost while the client's reader is not
+    matched yet)."""
+    client = node.create_client(srv_type, name)
+    try:
+        if not _spin_until(node, client.service_is_ready, 60.0, ctrl_c):
+            if ctrl_c.count:
+                raise KeyboardInterrupt
+            raise TimeoutError(f"service {name} not available (is the cell running?)")
+        deadline = time.monotonic() + timeout
+        while True:
+            future = client.call_async(request)
+            wait = min(5.0, deadline - time.monotonic()) if resend else timeout
+            if _spin_until(node, future.done, max(wait, 0.1), ctrl_c, presses=2):
+                return future.result()
+            client.remove_pending_request(future)
+            if ctrl_c.count >= 2:
+                raise KeyboardInterrupt
+            if not resend or time.monotonic() >= deadline:
+                raise TimeoutError(f"{name} did not answer within {timeout:.0f} s")
+    finally:
+        node.destroy_client(client)
+
+
+def rejection_reason(node, ctrl_c: CtrlC) -> str:
+    """Why /episode/run rejected a goal that passed validate_request here: the cell's state, as the
+    episode node's /episode/status tells it now (busy, two drivers)."""
+    try:
+        status = call(node, Trigger, EPISODE_STATUS_SERVICE, Trigger.Request(), ctrl_c, timeout=15.0,
+                      resend=True)
+    except TimeoutError as error:
+        return f"see the episode node's log for the reason ({error})"
+    if not status.success:
+        return status.message
+    return (f"the episode node reports no reason now ({status.message}): its state changed since; "
+            "try again, or see its log")
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    request = args.request
+    fields = dict(scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
+                  num_objects=request.num_objects, max_actions=request.max_actions,
+                  scene_file=request.scene_file, palette=request.palette)
     # Our own SIGINT handler (CtrlC: counted, read between spins), not rclpy's, which would shut the
     # context down before the cancel could be sent
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
@@ -211,26 +321,19 @@ def main(argv=None) -> int:
     signal.signal(signal.SIGINT, ctrl_c)
     node = rclpy.create_node("episode_client")
     try:
+        if args.stop:
+            response = call(node, Trigger, STOP_EPISODE_SERVICE, Trigger.Request(), ctrl_c, STOP_TIMEOUT)
+            print(f"episode_client: {response.message}")
+            return 0 if response.success else 1
+        route = START_EPISODE_SERVICE if args.start_only else RUN_EPISODE_ACTION
+        print(f"episode_client: {describe_request(request)} ({route})", flush=True)
         if args.start_only:
-            client = node.create_client(StartEpisode, START_EPISODE_SERVICE)
-            if not _spin_until(node, client.service_is_ready, 60.0, ctrl_c):
-                if ctrl_c.count:
-                    raise KeyboardInterrupt
-                print(f"service {START_EPISODE_SERVICE} not available (is the cell running?)",
-                      file=sys.stderr)
-                return 2
-            future = client.call_async(StartEpisode.Request(**fields))
-            if not _spin_until(node, future.done, 30.0, ctrl_c, presses=2):
-                if ctrl_c.count >= 2:
-                    raise KeyboardInterrupt
-                raise TimeoutError(f"{START_EPISODE_SERVICE} did not answer within 30 s")
-            response = future.result()
+            response = call(node, StartEpisode, START_EPISODE_SERVICE, StartEpisode.Request(**fields), ctrl_c)
             print(f"accepted={response.accepted} episode_id={response.episode_id} {response.reason}")
             return 0 if response.accepted else 1
         result = run_episode(node, RunEpisode.Goal(**fields), args.timeout, ctrl_c=ctrl_c)
         if result is None:
-            print("goal rejected (see the episode node's log for the reason: busy, bad request)",
-                  file=sys.stderr)
+            print(f"goal rejected: {rejection_reason(node, ctrl_c)}", file=sys.stderr)
             return 1
         print(format_result(result))
         if result.termination_reason == TERMINATION_CANCELED:

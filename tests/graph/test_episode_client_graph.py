@@ -1,11 +1,14 @@
 """bringup/episode_client.py as an operator uses it: Ctrl-C while an episode runs cancels the goal (the
-arm must stop), waits for the episode's "canceled" result, prints it and exits 130.
+arm must stop), waits for the episode's "canceled" result, prints it and exits 130; bad options and
+requests are refused before anything is sent; against the real episode node, the palette is echoed, a
+busy rejection of the action says why, and --stop ends an episode started with --start-only.
 
-The episode node is scripted in this test process (an action server on /episode/run that accepts the
-goal, sends one step of feedback and runs until it is canceled), so the client is the only executable
-under test; it runs as its own process on the session's isolated ROS domain.
+For Ctrl-C the episode node is scripted in this test process (an action server on /episode/run that
+accepts the goal, sends one step of feedback and runs until it is canceled), so the client is the only
+executable under test; it runs as its own process on the session's isolated ROS domain.
 """
 
+import json
 import os
 import signal
 import subprocess
@@ -22,7 +25,7 @@ from rclpy.executors import MultiThreadedExecutor
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
 from impurity_policy.core.episode import TERMINATION_CANCELED
-from ros_harness import ROOT
+from ros_harness import ROOT, ros_args
 
 CLIENT = ROOT / "bringup" / "episode_client.py"
 
@@ -106,3 +109,52 @@ def test_an_episode_refused_before_its_first_action_prints_its_reason_and_no_met
     ran = RunEpisode.Result(episode_id="e1", termination_reason="error: driver rejected the primitive",
                             actions=3, grasp_attempts=1, targets_total=2)
     assert "grasp success" in format_result(ran)  # after an action, the metrics are the record
+
+
+def run_client(*args: str) -> subprocess.CompletedProcess:
+    """The client as a process, to its end (bounded): its exit code and output."""
+    return subprocess.run([sys.executable, str(CLIENT), *args], capture_output=True, text=True, timeout=120,
+                          env={**os.environ, "PYTHONUNBUFFERED": "1"})
+
+
+@pytest.mark.parametrize("args, message", [
+    # a negative seed printed a traceback naming another field (OverflowError ... num_targets)
+    (["--seed", "-3"], "argument --seed: must be an integer from 0 to 4294967295 (got -3)"),
+    (["--seed", "-3", "--start-only"], "argument --seed: must be an integer from 0 to 4294967295 (got -3)"),
+    (["--seed", "4294967296"], "argument --seed: must be an integer from 0 to 4294967295"),
+    (["--objects", "-1"], "argument --objects: must be an integer from 0 to"),
+    (["--max-actions", "3000000000"], "argument --max-actions: must be an integer from 0 to 2147483647"),
+    # accepted before (750-action limit): refused with the episode node's own reason, before sending
+    (["--start-only", "--targets", "50", "--objects", "5"], "--targets (50) must not exceed --objects (5)"),
+    (["--targets", "50", "--objects", "5"], "--targets (50) must not exceed --objects (5)"),
+])
+def test_bad_options_are_refused_by_name_before_anything_is_sent(args, message):
+    refused = run_client(*args)
+    assert refused.returncode == 2, refused.stderr
+    assert message in refused.stderr and "Traceback" not in refused.stderr
+
+
+def test_palette_echoed_busy_explained_and_a_started_episode_stopped(launch, tmp_path):
+    """Against the real episode node (no cell: the episode waits for a decision): the start line names
+    the palette, the action route's rejection says "busy" with the episode it waits for, and --stop ends
+    the episode started by --start-only, its record closed with the palette in its summary."""
+    episode = launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(tmp_path), "use_ground_truth": False, "decision_timeout": 120.0}))
+    started = run_client("--start-only", "--scenario", "random", "--seed", "3", "--palette", "coal_slate")
+    assert started.returncode == 0, started.stdout + started.stderr + episode.output()
+    assert ("episode_client: random seed 3, palette coal_slate, 2 target(s) among 20 object(s)"
+            in started.stdout)
+    episode_id = started.stdout.split("episode_id=")[1].split()[0]
+
+    rejected = run_client("--seed", "4")
+    assert rejected.returncode == 1, rejected.stdout + rejected.stderr
+    assert (f"goal rejected: busy: an episode is already running ({episode_id}, started by /episode/start)"
+            in rejected.stderr)
+
+    stopped = run_client("--stop")
+    assert stopped.returncode == 0, stopped.stdout + stopped.stderr
+    assert f"episode {episode_id} ended: canceled" in stopped.stdout
+    summary = json.loads((tmp_path / episode_id / "summary.json").read_text())
+    assert summary["termination_reason"] == "canceled" and summary["request"]["palette"] == "coal_slate"
+    nothing = run_client("--stop")
+    assert nothing.returncode == 1 and "no episode is running" in nothing.stdout
