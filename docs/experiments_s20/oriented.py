@@ -20,6 +20,7 @@ the features are 0.
     python docs/experiments_s20/oriented.py cv          # palette-grouped CV, 12 vs 12 + 3 features
     python docs/experiments_s20/oriented.py fresh 500 60 # fitted on all tuning rows, judged on fresh palettes
     python docs/experiments_s20/oriented.py exposure     # the default palette at x0.5 / x1 / x2, seeds 30000+
+    python docs/experiments_s20/oriented.py exposure --seed-base 40000 --count-scale 2   # the second question
 
 Rows: rule-sweep's tuning scenes (shared layouts, with the default palette also at x0.5 and x2) and the
 tuning palettes' own-layout scenes, as `verifier-fit --own-layouts` (no picking-loop views: they are not
@@ -182,6 +183,9 @@ def judged(records, params, label: str) -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("action", choices=("cv", "fresh", "exposure"))
+    parser.add_argument("--seed-base", type=int, default=ca.EXPOSURE_CHECK_SEED_BASE,
+                        help="exposure: the exposure set's first seed (30000: the screen's)")
+    parser.add_argument("--count-scale", type=float, default=1.0, help="exposure: scenes per row, times")
     parser.add_argument("first", nargs="?", type=int, default=500)
     parser.add_argument("count", nargs="?", type=int, default=60)
     args = parser.parse_args()
@@ -193,7 +197,7 @@ def main() -> None:
         from fresh_tuning_palettes import fresh_records
         judged(fresh_records(args.first, args.count), params, f"random-{args.first}+{args.count}:")
     else:
-        base = ca.collect_exposure_scenes(ca.EXPOSURE_CHECK_SEED_BASE)
+        base = ca.collect_exposure_scenes(args.seed_base, args.count_scale)
         for exposure in ca.EXPOSURES:
             judged([r.exposed(exposure) for r in base], params, f"default x{exposure:g}:")
 
