@@ -222,9 +222,10 @@ class EpisodeNode(Node):
         response.episode_id = running.episode_id
         if not done or started.is_set():
             response.accepted = True
-        else:  # refused: the episode never ran, its folder goes (episodes.jsonl keeps its line)
+        else:  # refused: the episode never ran, its folder goes (episodes.jsonl keeps its line); one
+            # stopped by /episode/stop keeps it: the stop's answer names it
             reason = running.termination_reason or "error: the episode ended before its scene reset"
-            if running.recorder is not None:
+            if running.recorder is not None and not running.stop.is_set():
                 running.recorder.discard()
             self.get_logger().warning(
                 f"start refused: episode {running.episode_id} could not start: {reason}")
