@@ -27,13 +27,16 @@ from std_srvs.srv import Trigger
 
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
-from impurity_common.names import RUN_EPISODE_ACTION, START_EPISODE_SERVICE
+from impurity_common.names import (
+    EPISODE_STATUS_SERVICE,
+    RUN_EPISODE_ACTION,
+    START_EPISODE_SERVICE,
+    STOP_EPISODE_SERVICE,
+)
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
 from impurity_policy.core.episode import (
-    EPISODE_STATUS_SERVICE,
     FIELD_RANGES,
-    STOP_EPISODE_SERVICE,
     TERMINATION_CANCELED,
     EpisodeRequest,
     describe_request,

@@ -27,7 +27,7 @@ from impurity_common.conversions import ns_to_time
 from impurity_interfaces.action import ExecutePrimitive, RunEpisode
 from impurity_interfaces.msg import AttentionResult, Primitive
 from impurity_interfaces.srv import ResetScene, StartEpisode
-from impurity_policy.core.episode import EPISODE_STATUS_SERVICE, STOP_EPISODE_SERVICE, read_steps
+from impurity_policy.core.episode import read_steps
 from ros_harness import ActionHelper, call_service, ros_args, spin_until
 
 
@@ -287,7 +287,7 @@ def test_two_drivers_on_the_arms_action_refuse_every_episode(ros_node, launch, t
     scripted_cell(driver="hold")
     scripted_cell(driver="hold")
     statuses = []
-    spin_until(ros_node, lambda: statuses.append(trigger(ros_node, EPISODE_STATUS_SERVICE, episode))
+    spin_until(ros_node, lambda: statuses.append(trigger(ros_node, names.EPISODE_STATUS_SERVICE, episode))
                or not statuses[-1].success, 30.0, "the episode node counting two drivers", [episode])
     assert statuses[-1].message.startswith("2 action servers serve /ur5/execute_primitive")
     start = call_service(ros_node, StartEpisode, "/episode/start", StartEpisode.Request(scenario="random"),
@@ -309,7 +309,7 @@ def test_episode_stop_ends_a_started_episode_canceled_with_its_records(ros_node,
     one under way stopped by the driver; the summary keeps the palette asked for."""
     episode = episode_node(launch, tmp_path, decision_timeout=120.0, motion_timeout=120.0)
     cell = scripted_cell(driver="hold") if wait == "motion" else None  # else: no decision ever comes
-    nothing = trigger(ros_node, STOP_EPISODE_SERVICE, episode)
+    nothing = trigger(ros_node, names.STOP_EPISODE_SERVICE, episode)
     assert not nothing.success and nothing.message == "no episode is running"
     start = call_service(ros_node, StartEpisode, "/episode/start",
                          StartEpisode.Request(scenario="random", seed=4, palette="coal_slate"),
@@ -320,10 +320,10 @@ def test_episode_stop_ends_a_started_episode_canceled_with_its_records(ros_node,
     else:
         spin_until(ros_node, lambda: any(r["event"] == "start" for r in steps_in(tmp_path)), 60.0,
                    "the episode waiting for a decision", [episode])
-    busy = trigger(ros_node, EPISODE_STATUS_SERVICE, episode)
+    busy = trigger(ros_node, names.EPISODE_STATUS_SERVICE, episode)
     assert not busy.success
     assert busy.message.startswith(f"busy: an episode is already running ({start.episode_id}")
-    stopped = trigger(ros_node, STOP_EPISODE_SERVICE, episode)
+    stopped = trigger(ros_node, names.STOP_EPISODE_SERVICE, episode)
     assert stopped.success and stopped.message.startswith(f"episode {start.episode_id} ended: canceled")
     record = tmp_path / start.episode_id
     summary = json.loads((record / "summary.json").read_text())
@@ -336,7 +336,7 @@ def test_episode_stop_ends_a_started_episode_canceled_with_its_records(ros_node,
         assert events == ["start", "end"]
     spin_until(ros_node, lambda: f"episode {start.episode_id}: random seed 4, palette coal_slate" in
                episode.output(), 10.0, "the episode's start in the node's log", [episode])
-    assert trigger(ros_node, EPISODE_STATUS_SERVICE, episode).success  # free again
+    assert trigger(ros_node, names.EPISODE_STATUS_SERVICE, episode).success  # free again
 
 
 @pytest.mark.parametrize("route, wait", [("service", "decision"), ("action", "decision"),

@@ -25,6 +25,8 @@ Q_MAPS_TOPIC = "/policy/q_maps_image"  # sensor_msgs/Image rgb8, the Q maps side
 EPISODE_STEPS_TOPIC = "/episode/steps"  # impurity_interfaces/EpisodeStep
 START_EPISODE_SERVICE = "/episode/start"  # impurity_interfaces/srv/StartEpisode
 RUN_EPISODE_ACTION = "/episode/run"  # impurity_interfaces/action/RunEpisode
+STOP_EPISODE_SERVICE = "/episode/stop"  # std_srvs/srv/Trigger: the running episode ends "canceled"
+EPISODE_STATUS_SERVICE = "/episode/status"  # std_srvs/srv/Trigger: could an episode start now (else why)
 
 # Robot (the UR and gripper drivers, or sim_cell)
 EXECUTE_PRIMITIVE_ACTION = "/ur5/execute_primitive"  # impurity_interfaces/action/ExecutePrimitive

@@ -41,8 +41,6 @@ from impurity_policy.core.episode import (
     DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
     DEFAULT_NONE_FRAMES_TO_FINISH,
-    EPISODE_STATUS_SERVICE,
-    STOP_EPISODE_SERVICE,
     TERMINATION_CANCELED,
     EpisodeRecorder,
     EpisodeRequest,
@@ -154,8 +152,8 @@ class EpisodeNode(Node):
                           self.params.verdict_min_target_score, self.params.verdict_min_color_contrast))
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
-        self.create_service(Trigger, STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)
-        self.create_service(Trigger, EPISODE_STATUS_SERVICE, self._on_status, callback_group=group)
+        self.create_service(Trigger, names.STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)
+        self.create_service(Trigger, names.EPISODE_STATUS_SERVICE, self._on_status, callback_group=group)
         self._action_server = ActionServer(
             self, RunEpisode, names.RUN_EPISODE_ACTION, execute_callback=self._execute_goal,
             goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,

@@ -17,11 +17,6 @@ import numpy as np
 from impurity_common.enums import EPISODE_SCENARIOS
 
 SCENARIOS = tuple(scenario.value for scenario in EPISODE_SCENARIOS)  # what an episode request may ask
-# The episode node's services beside /episode/start and /episode/run (impurity_common.names), both
-# std_srvs/srv/Trigger: stop the running episode (it ends "canceled", as a cancel of /episode/run), and
-# whether an episode could start now (success false: the reason, e.g. busy).
-STOP_EPISODE_SERVICE = "/episode/stop"
-EPISODE_STATUS_SERVICE = "/episode/status"
 # Paper section 6.4 caps real-world runs at 15 steps per group; we scale it with the target count
 # so invisible scenes (more exploratory pushes) still have room: 15 actions per target.
 DEFAULT_ACTIONS_PER_TARGET = 15
