@@ -623,16 +623,19 @@ def model_source(verifier) -> str:
     lines += [f"    intercept={verifier.intercept!r},", f"    threshold={verifier.threshold!r},"]
     chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
     lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
+    names = ", ".join(repr(name) for name in verifier.features)
+    lines += ["    features=("] + [f"        {chunk}" for chunk in textwrap.wrap(names, 100)] + ["    ),"]
     return ('"""The shipped region verifier (verifier.py), written by\n'
             '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
-            '(tuning palettes and seeds only). Features in the order of '
-            'verifier.FEATURES. Do not edit by hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
+            '(tuning palettes and seeds only). Features named in `features`, in that order. Do not edit by '
+            'hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
             "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
 
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
                  exposure_scenes: bool = False, loop_views: tuple = (),
-                 model_json: pathlib.Path | None = None, threshold_on: str = "all"):
+                 model_json: pathlib.Path | None = None, threshold_on: str = "all",
+                 feature_names: tuple | None = None):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -647,7 +650,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     model is fitted without). loop_views: .npz files of picking-loop views (scene records, e.g.
     docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
     model is also written there as JSON (RegionVerifier's fields). threshold_on: "all" scenes and views, or
-    "first-views" (the loop views left out of the threshold's count). Returns the fitted RegionVerifier."""
+    "first-views" (the loop views left out of the threshold's count). feature_names: the model's features, a
+    subset of verifier.FEATURES (default all of them). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
@@ -667,9 +671,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
         halves["picking-loop views"] = loop
         records = records + loop
     features, on, scene, group, visible = verifier_rows(records, params)
+    feature_names = tuple(feature_names or FEATURES)
+    features = features[:, [FEATURES.index(name) for name in feature_names]]
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
-          f"{len(set(group))} palettes; features: {', '.join(FEATURES)}")
+          f"{len(set(group))} palettes; features: {', '.join(feature_names)}")
 
     def fit(rows, labels):
         scaler = StandardScaler().fit(rows)
@@ -719,7 +725,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
                               coef=tuple(round(float(v), 6) for v in model.coef_[0]),
                               intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
                               low=tuple(round(float(v), 6) for v in features.min(axis=0)),
-                              high=tuple(round(float(v), 6) for v in features.max(axis=0)))
+                              high=tuple(round(float(v), 6) for v in features.max(axis=0)),
+                              features=feature_names)
 
     def rates(part: slice) -> str:
         shown, taken = visible[part], (best >= least)[part]
@@ -828,6 +835,9 @@ def main() -> None:
                         help="verifier-fit: also write the fitted model here as JSON")
     parser.add_argument("--threshold-on", choices=("all", "first-views"), default="all",
                         help="verifier-fit: the scenes the threshold's false-TARGET share is counted on")
+    parser.add_argument("--features", default=None,
+                        help="verifier-fit: the model's features, comma-separated names of verifier.FEATURES "
+                             "(default all; before the twentieth session: every one but oriented_*)")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -857,7 +867,8 @@ def main() -> None:
         return
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
-                     model_json=args.model_json, threshold_on=args.threshold_on)
+                     model_json=args.model_json, threshold_on=args.threshold_on,
+                     feature_names=tuple(args.features.split(",")) if args.features else None)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

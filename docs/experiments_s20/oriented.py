@@ -14,8 +14,10 @@ the verifier defines it), and a region is judged by its residual from that model
 - oriented_lightness: median log-I residual over the region / standard deviation of the product's;
 - oriented_off_share: the share of the region's cells whose own residual lies beyond 3 (Mahalanobis).
 
-Slopes: the heightmap smoothed (Gaussian, sigma 1 px), Sobel / (8 x 2 mm). With fewer than 50 product cells
-the features are 0.
+Slopes: the heightmap smoothed (Gaussian, sigma 1 px), Sobel. With fewer than 50 product cells the features
+are 0. The features now live in impurity_attention.core.verifier (oriented_features, verifier.FEATURES), and
+this script reads them from there; the screen and the second question ran at commit 0d10939 with this
+script's own copy, which gives the same values (largest difference 2e-8 on 54 regions).
 
     python docs/experiments_s20/oriented.py cv          # palette-grouped CV, 12 vs 12 + 3 features
     python docs/experiments_s20/oriented.py fresh 500 60 # fitted on all tuning rows, judged on fresh palettes
@@ -30,90 +32,26 @@ from the threshold that lets 1 % (or 2 %) of the fitting scenes without a visibl
 import argparse
 import sys
 
-import cv2
 import numpy as np
 
 sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
 
 from impurity_attention.core import verifier  # noqa: E402
-from impurity_attention.core.attention import AttentionParams, scene_maps  # noqa: E402
-from impurity_attention.core.saliency import opponent_chromaticity  # noqa: E402
-from impurity_common.cell import HEIGHTMAP_RESOLUTION  # noqa: E402
+from impurity_attention.core.attention import AttentionParams  # noqa: E402
 
-NEW = ("oriented_contrast", "oriented_lightness", "oriented_off_share")
-MIN_PRODUCT = 50
+TWELVE = tuple(name for name in verifier.FEATURES if name not in verifier.ORIENTED_FEATURES)
 CAPS = (0.01, 0.02)
 
 
-def slopes(height: np.ndarray) -> tuple:
-    smooth = cv2.GaussianBlur(height.astype(np.float32), (0, 0), 1.0)
-    gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / (8 * HEIGHTMAP_RESOLUTION)
-    gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / (8 * HEIGHTMAP_RESOLUTION)
-    return gx, gy
-
-
-def oriented_features(planes: np.ndarray, gx: np.ndarray, gy: np.ndarray, region: np.ndarray,
-                      product: np.ndarray) -> np.ndarray:
-    """(3,) NEW of `region` against `product` (module docstring); planes (H, W, 3): log I, RG / I, BY / I."""
-    if product.sum() < MIN_PRODUCT:
-        return np.zeros(len(NEW))
-
-    def design(cells):
-        x, y = gx[cells], gy[cells]
-        return np.stack([np.ones_like(x), x, y, x * x, y * y, x * y], axis=1).astype(np.float64)
-
-    yp = planes[product].astype(np.float64)
-    beta, *_ = np.linalg.lstsq(design(product), yp, rcond=None)
-    rp = yp - design(product) @ beta
-    rm = planes[region].astype(np.float64) - design(region) @ beta
-    inverse = np.linalg.inv(np.cov(rp, rowvar=False) + 1e-4 * np.eye(3))
-    mean = rm.mean(axis=0)
-    d = float(np.sqrt(max(mean @ inverse @ mean, 0.0)))
-    per_cell = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", rm, inverse, rm), 0.0))
-    lightness = float(np.median(rm[:, 0]) / (np.std(rp[:, 0]) + 1e-3))
-    return np.array([np.log1p(min(d, 100.0)), lightness, float(np.mean(per_cell > 3.0))])
-
-
-def rows(records, params: AttentionParams) -> tuple:
-    """verifier_rows' rows with NEW appended: (features (N, 12 + 3), on, scene, group, visible)."""
-    from impurity_attention.core.attention import salient_regions
-    out, on, scene, group, visible = [], [], [], [], []
-    kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * verifier.PRODUCT_MARGIN + 1,) * 2)
-    for record in records:
-        category = record.category()
-        if category not in ca.evaluation.CATEGORIES:
-            continue
-        index = len(visible)
-        visible.append(category == "visible")
-        objects = record.height > params.density.occupied_height
-        saliency, conspicuity = scene_maps(record.color, objects, params)
-        regions = salient_regions(saliency, objects, params)
-        chroma = opponent_chromaticity(record.color)
-        planes = np.concatenate([np.log(np.maximum(chroma[..., :1], 0.02)), chroma[..., 1:]], axis=-1)
-        gx, gy = slopes(record.height)
-        for region, row in verifier.candidate_features(record.color, record.height, objects, conspicuity,
-                                                       regions):
-            if row is None:
-                continue
-            product = objects & ~(cv2.dilate(region.mask.astype(np.uint8), kernel) > 0)
-            if not product.any():
-                product = objects & ~region.mask
-            out.append(np.concatenate([row, oriented_features(planes, gx, gy, region.mask, product)]))
-            on.append(category == "visible" and bool(np.any(region.mask & record.visible_target_cells)))
-            scene.append(index)
-            group.append(record.palette or "blocks")
-    return np.array(out), np.array(on, bool), np.array(scene), np.array(group), np.array(visible, bool)
-
-
 def fitting_rows(params):
-    cache = ca.CACHE / "s20_oriented_rows.npz"
+    cache = ca.CACHE / "s20_verifier_rows.npz"  # verifier.FEATURES' columns
     if cache.exists():
         data = np.load(cache)
         return tuple(data[k] for k in ("features", "on", "scene", "group", "visible"))
     records, _ = ca.rule_sweep_records()
     records = records + ca.collect_palettes("tuning", own_layouts=True)
-    result = rows(records, params)
+    result = ca.verifier_rows(records, params)
     names = ("features", "on", "scene", "group", "visible")
     np.savez_compressed(cache, **dict(zip(names, result, strict=True)))
     return result
@@ -131,7 +69,8 @@ def predict(fitted, features):
     return model.predict_proba(scaler.transform(features))[:, 1]
 
 
-SETS = {"shipped 12": slice(0, 12), "12 + oriented 3": slice(0, 15)}
+SETS = {"shipped 12": [verifier.FEATURES.index(name) for name in TWELVE],
+        "12 + oriented 3": list(range(len(verifier.FEATURES)))}
 
 
 def cross_validate(params) -> None:
@@ -165,7 +104,7 @@ def judged(records, params, label: str) -> None:
     """Both feature sets fitted on all the fitting rows (threshold at each cap), judged on `records`."""
     features, on, scene, group, visible = fitting_rows(params)
     count = len(visible)
-    t_features, t_on, t_scene, _, t_visible = rows(records, params)
+    t_features, t_on, t_scene, _, t_visible = ca.verifier_rows(records, params)
     for name, columns in SETS.items():
         fitted = fit(features[:, columns], on)
         best_fit, _ = ca.scene_decisions(predict(fitted, features[:, columns]), on, scene, count)

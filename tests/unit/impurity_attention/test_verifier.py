@@ -82,10 +82,75 @@ def test_context_features_place_a_region_among_the_others():
 
 def test_a_feature_beyond_the_fitted_range_counts_as_its_end():
     model = ver.default_verifier()
-    inside = np.array(model.high, dtype=float)
+    inside = np.zeros(len(ver.FEATURES))
+    inside[[ver.FEATURES.index(name) for name in model.features]] = model.high
     beyond = inside.copy()
     beyond[ver.FEATURES.index("log_object_share")] = 0.0  # a view full of objects
     assert model.probability(beyond) == pytest.approx(model.probability(inside))
+
+
+def test_a_model_reads_the_features_it_names_and_no_others():
+    names = ("colour_contrast", "rank")
+    model = ver.RegionVerifier(mean=(0.0, 0.0), scale=(1.0, 1.0), coef=(1.0, -1.0), intercept=0.0,
+                               threshold=0.5, low=(-9.0, -9.0), high=(9.0, 9.0), features=names)
+    row = np.full(len(ver.FEATURES), 5.0)  # every other feature: anything
+    row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
+    assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
+    assert "oriented_contrast" not in ver.default_verifier().features  # the shipped model: the twelve
+
+
+def test_a_model_naming_an_unknown_feature_or_too_few_values_is_refused():
+    with pytest.raises(ValueError, match="features must be distinct names of FEATURES"):
+        ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5, low=(0.0,),
+                           high=(1.0,), features=("colour_contrast_typo",))
+    with pytest.raises(ValueError, match=r"RegionVerifier.coef needs 2 values \(colour_contrast, rank\)"):
+        ver.RegionVerifier(mean=(0.0, 0.0), scale=(1.0, 1.0), coef=(0.0,), intercept=0.0, threshold=0.5,
+                           low=(0.0, 0.0), high=(1.0, 1.0), features=("colour_contrast", "rank"))
+
+
+def tilted_view(odd=None, size=72, block=12):
+    """Product blocks each tilted along x by a random slope and shaded by it (lighter when tilted towards +x,
+    as under a light from there), one block (the first of the third row) in `odd`'s colour if given.
+    Returns (color, height, objects, that block, another product block)."""
+    rng = np.random.default_rng(2)
+    color = np.zeros((size, size, 3), np.uint8)
+    height = np.zeros((size, size), np.float32)
+    odd_block, product_block = np.zeros((size, size), bool), np.zeros((size, size), bool)
+    for row in range(0, size, block):
+        for col in range(0, size, block):
+            cells = (slice(row + 1, row + block - 1), slice(col + 1, col + block - 1))
+            slope = rng.uniform(-0.0015, 0.0015)  # m per 2 mm cell
+            height[cells] = 0.03 + slope * (np.arange(block - 2)[None, :] - (block - 3) / 2)
+            shade = np.array((40, 120, 200)) * (1.0 + 250 * slope) * rng.uniform(0.98, 1.02)
+            color[cells] = np.clip(shade, 0, 255)
+            if (row, col) == (2 * block, 0):
+                odd_block[cells] = True
+                if odd is not None:
+                    color[cells] = odd
+            elif (row, col) == (block, block):
+                product_block[cells] = True
+    return color, height, height > 0.008, odd_block, product_block
+
+
+def features_of(color, height, objects, cells):
+    values = ver.region_features(color, height, objects, conspicuity_of(color, objects), cells)
+    return dict(zip(ver.REGION_FEATURES, values, strict=True))
+
+
+def test_an_impurity_stands_apart_from_product_faces_of_its_orientation_and_a_product_face_does_not():
+    color, height, objects, odd, product = tilted_view(odd=(200, 60, 40))
+    impurity = features_of(color, height, objects, odd)
+    ordinary = features_of(color, height, objects, product)
+    assert impurity["oriented_contrast"] > 2.0 and impurity["oriented_off_share"] > 0.9
+    assert ordinary["oriented_contrast"] < 1.0 and ordinary["oriented_off_share"] < 0.1
+    assert abs(ordinary["oriented_lightness"]) < 1.0
+
+
+def test_too_few_product_cells_give_no_oriented_features():
+    color, height, objects, tilted, _ = tilted_view()
+    product = np.zeros_like(objects)
+    product[0, :ver.ORIENTED_MIN_PRODUCT - 1] = True
+    assert ver.oriented_features(color, height, tilted, product) == (0.0, 0.0, 0.0)
 
 
 def test_a_flat_face_has_no_height_spread_and_a_step_has():

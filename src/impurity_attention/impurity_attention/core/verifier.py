@@ -30,6 +30,15 @@ Of the region (REGION_FEATURES, region_features):
   much lighter or darker than the product, in the product's own spread (exposure scales I, so it cancels);
 - dark_share: the share of m's cells darker (L) than the product's darkest DARK_QUANTILE.
   Both read cells with no channel clipped (>= SATURATION) only, and are 0 when m or P has none.
+- oriented_contrast, oriented_lightness, oriented_off_share (twentieth session; oriented_features): m against
+  product faces of the same orientation. Under one directional light a face's shading, and at a long
+  exposure its clipping (a blue product's lit faces turn cyan), is a function of its normal, which the
+  heightmap gives. The product's log I, RG / I and BY / I are fitted over P as a quadratic in the local slope
+  (least squares on 1, gx, gy, gx^2, gy^2, gx gy; slopes of the heightmap smoothed by a Gaussian of
+  SLOPE_SIGMA px), and m is read by its residuals r: log(1 + d), d the Mahalanobis distance of m's mean r
+  under P's residual covariance (+ ORIENTED_RIDGE I), capped at COLOUR_CAP; the median log-I residual over m
+  in P's residual spread; the share of m's cells whose own r lies beyond ORIENTED_OFF (Mahalanobis). All 0
+  with fewer than ORIENTED_MIN_PRODUCT product cells.
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
@@ -37,6 +46,9 @@ Of the region among the others (CONTEXT_FEATURES, context_features):
 - log_object_share: log of the share of the view's cells that hold objects. The model knows it only over
   the range its tuning scenes span (12-28 % of a 448 mm view): like every feature it is clipped to the
   fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
+
+A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model's twelve
+are the list above without the oriented three.
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
 palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
@@ -56,11 +68,12 @@ import numpy as np
 
 from impurity_common.colour import off_colours, region_contrast
 
-from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_colour
+from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromaticity, opponent_colour
 
 TOP_REGIONS = 3  # salient regions scored, best first
+ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_share")
 REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
-                   "height_spread", "lightness_offset", "dark_share")
+                   "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES
 CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
 FEATURES = REGION_FEATURES + CONTEXT_FEATURES
 MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
@@ -71,6 +84,11 @@ COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no ot
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
 MIN_RATIO = 1e-3  # relative_*: ratios below this count as this (log)
 DARK_QUANTILE = 0.01  # dark_share: darker than this quantile of the product's log intensity
+SLOPE_SIGMA = 1.0  # px: the heightmap's Gaussian smoothing before its slopes (Sobel) are read
+ORIENTED_MIN_PRODUCT = 50  # product cells the orientation fit needs (else the oriented features are 0)
+ORIENTED_RIDGE = 1e-4  # added to the residual covariance's diagonal (a flat product has almost none)
+ORIENTED_OFF = 3.0  # oriented_off_share: a cell's residual beyond this Mahalanobis distance
+LOG_I_FLOOR = 0.02  # log I of the orientation fit: intensities below this count as this
 
 
 @dataclass(frozen=True)
@@ -88,12 +106,17 @@ class RegionVerifier:
     low: tuple
     high: tuple
     provenance: str = ""
+    features: tuple = FEATURES  # the names it was fitted on, a subset of FEATURES, in the order of its values
 
     def __post_init__(self):
+        unknown = [name for name in self.features if name not in FEATURES]
+        if unknown or len(set(self.features)) != len(self.features) or not self.features:
+            raise ValueError(f"RegionVerifier.features must be distinct names of FEATURES "
+                             f"({', '.join(FEATURES)}), got {self.features}")
         for name in ("mean", "scale", "coef", "low", "high"):
-            if len(getattr(self, name)) != len(FEATURES):
-                raise ValueError(f"RegionVerifier.{name} needs {len(FEATURES)} values "
-                                 f"({', '.join(FEATURES)}), got {len(getattr(self, name))}")
+            if len(getattr(self, name)) != len(self.features):
+                raise ValueError(f"RegionVerifier.{name} needs {len(self.features)} values "
+                                 f"({', '.join(self.features)}), got {len(getattr(self, name))}")
         if not all(s > 0 for s in self.scale):
             raise ValueError(f"RegionVerifier.scale must be > 0, got {self.scale}")
         if not all(lo <= hi for lo, hi in zip(self.low, self.high, strict=True)):
@@ -103,8 +126,11 @@ class RegionVerifier:
                              f"{self.threshold}")
 
     def probability(self, features: np.ndarray) -> np.ndarray:
-        """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity."""
-        features = np.clip(np.atleast_2d(np.asarray(features, dtype=np.float64)), self.low, self.high)
+        """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity (the model reads its own
+        `features` columns)."""
+        columns = [FEATURES.index(name) for name in self.features]
+        features = np.atleast_2d(np.asarray(features, dtype=np.float64))[:, columns]
+        features = np.clip(features, self.low, self.high)
         z = (features - np.asarray(self.mean)) / np.asarray(self.scale)
         logit = z @ np.asarray(self.coef) + self.intercept
         return 1.0 / (1.0 + np.exp(-logit))
@@ -134,7 +160,8 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     off_share = float(np.mean(off_colours(color, others)[region]))
     offset, dark = lightness_features(color, region, product)
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
-                     float(np.std(height[region])), offset, dark])
+                     float(np.std(height[region])), offset, dark,
+                     *oriented_features(color, height, region, product)])
 
 
 def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) -> tuple:
@@ -152,6 +179,34 @@ def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarra
     offset = float((np.median(own) - np.median(reference)) / (np.std(reference) + 1e-3))
     return offset, float(np.mean(own < np.quantile(reference, DARK_QUANTILE)))
 
+
+
+def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
+                      product: np.ndarray) -> tuple:
+    """(oriented_contrast, oriented_lightness, oriented_off_share) of `region` against `product` (module
+    docstring; both (H, W) bool, color (H, W, 3) uint8, height (H, W) m). (0.0, 0.0, 0.0) with fewer than
+    ORIENTED_MIN_PRODUCT product cells."""
+    if int(product.sum()) < ORIENTED_MIN_PRODUCT:
+        return 0.0, 0.0, 0.0
+    smooth = cv2.GaussianBlur(np.asarray(height, dtype=np.float32), (0, 0), SLOPE_SIGMA)
+    gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0  # m per cell: the fit is the same at any scale
+    gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / 8.0
+    chroma = opponent_chromaticity(color)
+    planes = np.concatenate([np.log(np.maximum(chroma[..., :1], LOG_I_FLOOR)), chroma[..., 1:]], axis=-1)
+
+    def design(cells: np.ndarray) -> np.ndarray:
+        x, y = gx[cells].astype(np.float64), gy[cells].astype(np.float64)
+        return np.stack([np.ones_like(x), x, y, x * x, y * y, x * y], axis=1)
+
+    own, reference = planes[region].astype(np.float64), planes[product].astype(np.float64)
+    beta = np.linalg.lstsq(design(product), reference, rcond=None)[0]
+    residual_p, residual_m = reference - design(product) @ beta, own - design(region) @ beta
+    inverse = np.linalg.inv(np.cov(residual_p, rowvar=False) + ORIENTED_RIDGE * np.eye(3))
+    mean = residual_m.mean(axis=0)
+    distance = math.sqrt(max(float(mean @ inverse @ mean), 0.0))
+    per_cell = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", residual_m, inverse, residual_m), 0.0))
+    lightness = float(np.median(residual_m[:, 0]) / (np.std(residual_p[:, 0]) + 1e-3))
+    return math.log1p(min(distance, COLOUR_CAP)), lightness, float(np.mean(per_cell > ORIENTED_OFF))
 
 def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarray:
     """(len(CONTEXT_FEATURES),) float64: region `rank` (0-based) among `regions` (salient regions, best

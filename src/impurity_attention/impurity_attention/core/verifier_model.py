@@ -1,6 +1,6 @@
 """The shipped region verifier (verifier.py), written by
 `python scripts/calibrate_attention.py verifier-fit --write-model`
-(tuning palettes and seeds only). Features in the order of verifier.FEATURES. Do not edit by hand: refit."""
+(tuning palettes and seeds only). Features named in `features`, in that order. Do not edit by hand: refit."""
 
 from .verifier import RegionVerifier
 
@@ -31,5 +31,9 @@ MODEL = RegionVerifier(
         'scripts/calibrate_attention.py verifier-fit: 4029 tuning scenes and 3304 picking-loop '
         'views, 205 palettes, threshold on the scenes; on the scenes 96.7 % found, 1.0 % false '
         'TARGET, on the loop views 80.2 % found, 2.4 % false TARGET'
+    ),
+    features=(
+        'colour_contrast', 'relative_rg', 'relative_by', 'relative_i', 'off_colour_share', 'height_spread',
+        'lightness_offset', 'dark_share', 'rank', 'log_regions', 'best_over_next', 'log_object_share'
     ),
 )
