@@ -162,6 +162,9 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(1000, 1615, _CA, "SEED_BASE['acceptance']: measured only, not tuning (the acceptance table, "
               "1000 + 100 x row + i, 138 scenes; the retired held-out sets' PALETTE_PLAN layouts; gallery; "
               "experiments_s13/acceptance_layouts.py; tests/integration/test_attention_sim.py)"),
+    SeedBlock(2_000, 6_060, "docs/experiments_s20/oriented.py",
+              "exposure --seed-base 2000 --count-scale 2: the twentieth session's fresh exposure check of "
+              "the refit with the orientation-matched features (the default palette, 1000 x row + i)"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
@@ -191,6 +194,10 @@ TUNING_SEED_BLOCKS = (
               "its argument 3, push_out.py --seed-base 16000 --random-from 500 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's second revision (the outline's step) on random-500 ... "
               "599, random 16 000-16 099, challenging 16 100-16 199, invisible 16 200-16 299"),
+    SeedBlock(17_000, 17_300, "docs/experiments_s20/run_oriented.sh",
+              "push_out.py --seed-base 17000 --random-from 800 --random-only: the twentieth session's test "
+              "of the verifier refitted with the orientation-matched features on random-800 ... 899, "
+              "invisible 17 000-17 099, challenging 17 100-17 199, random 17 200-17 299"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
