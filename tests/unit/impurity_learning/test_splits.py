@@ -101,7 +101,7 @@ LOOP_VIEWS = "docs/experiments_s17/loop_views.py"
 FRESH_S18 = "docs/experiments_s18/run_fresh.sh"
 STALL_S18 = "docs/experiments_s18/run_stall.sh"
 RIDGE_S19 = "docs/experiments_s19/run_ridge.sh"
-ORIENTED_S20, ORIENTED_PY = "docs/experiments_s20/run_oriented.sh", "docs/experiments_s20/oriented.py"
+ORIENTED_S20 = "docs/experiments_s20/run_oriented.sh"
 
 
 def own_layout_seeds(base: int, palettes: int, row_stride: int, first: int = 0) -> list:
@@ -172,8 +172,8 @@ def planned_seeds() -> list:
         (RIDGE_S19, [15_000 + k for k in range(300)]),  # run_ridge.sh ... 2: --seed-base 15000 (the revision)
         (RIDGE_S19, [16_000 + k for k in range(300)]),  # run_ridge.sh ... 3: --seed-base 16000 (the second)
         (ORIENTED_S20, [17_000 + k for k in range(300)]),  # push_out.py --seed-base 17000 (twentieth session)
-        # oriented.py exposure --seed-base 2000 --count-scale 2: EXPOSURE_PLAN's rows, twice their counts
-        (ORIENTED_PY, exposure_seeds(2_000, 2)),
+        # twentieth session: exposure_wide.py report --seed-base 2000 --count-scale 2 [--model ...]
+        ("docs/experiments_s11/exposure_wide.py", exposure_seeds(2_000, 2)),
         # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
         (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
                       for k in [*range(160), *range(200, 280), *range(400, 480)]]),
