@@ -163,8 +163,8 @@ TUNING_SEED_BLOCKS = (
               "1000 + 100 x row + i, 138 scenes; the retired held-out sets' PALETTE_PLAN layouts; gallery; "
               "experiments_s13/acceptance_layouts.py; tests/integration/test_attention_sim.py)"),
     SeedBlock(2_000, 6_060, "docs/experiments_s11/exposure_wide.py",
-              "report --seed-base 2000 --count-scale 2 [--model runs/s20/verifier_oriented.json]: the twentieth "
-              "session's fresh exposure check of the refit with the orientation-matched features"),
+              "report --seed-base 2000 --count-scale 2 [--model runs/s20/verifier_oriented.json]: the "
+              "twentieth session's fresh exposure check of the refit with the orientation-matched features"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
