@@ -17,7 +17,7 @@ from rclpy.action import ActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
-from impurity_policy.core.episode import is_failure
+from impurity_policy.core.episode import EpisodeRequest, describe_request, is_failure
 
 BRINGUP = pathlib.Path(__file__).resolve().parent
 ROOT = BRINGUP.parent
@@ -32,6 +32,7 @@ def main(argv=None) -> int:
     parser.add_argument("--seed", type=int, default=3)
     parser.add_argument("--targets", type=int, default=2)
     parser.add_argument("--objects", type=int, default=20)
+    parser.add_argument("--palette", default="", help="the scene's appearance (default: the blue blocks)")
     parser.add_argument("--timeout", type=float, default=900.0)
     parser.add_argument("--out", type=pathlib.Path, default=ROOT / "runs" / "demo")
     parser.add_argument("--probe", type=float, default=3.0,
@@ -78,9 +79,10 @@ def run_demo_episode(args, launcher) -> int:
     code = 1
     try:
         goal = RunEpisode.Goal(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
-                               num_objects=args.objects)
-        print(f"demo: episode {args.scenario} seed {args.seed}, {args.targets} targets among "
-              f"{args.objects} blocks", flush=True)
+                               num_objects=args.objects, palette=args.palette)
+        request = EpisodeRequest(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
+                                 num_objects=args.objects, palette=args.palette)
+        print(f"demo: episode {describe_request(request)}", flush=True)
         result = run_episode(node, goal, args.timeout, printer=lambda line: print(line, flush=True))
         if launcher.poll() is not None:
             print(f"demo: the cell stopped (exit {launcher.returncode}); see {args.out / 'logs'}",
