@@ -97,6 +97,17 @@ def test_a_model_reads_the_features_it_names_and_no_others():
     row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
     assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
     assert "oriented_contrast" not in ver.default_verifier().features  # the shipped model: the twelve
+    assert not ver.default_verifier().reads_oriented and not model.reads_oriented
+
+
+def test_the_oriented_features_are_computed_only_for_a_model_that_reads_them():
+    color, height, objects, impurity, _ = two_colour_view()
+    maps = conspicuity_of(color, objects)
+    full = ver.region_features(color, height, objects, maps, impurity)
+    lean = ver.region_features(color, height, objects, maps, impurity, oriented=False)
+    oriented = [ver.REGION_FEATURES.index(name) for name in ver.ORIENTED_FEATURES]
+    assert np.all(lean[oriented] == 0.0) and np.any(full[oriented] != 0.0)
+    assert np.array_equal(np.delete(full, oriented), np.delete(lean, oriented))  # the others alike
 
 
 def test_a_model_naming_an_unknown_feature_or_too_few_values_is_refused():

@@ -460,8 +460,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                     and select_occluded_region(dense_clusters()) is not None):
                 least = params.verifier_heap_threshold
                 view += " (heap left)"
-            candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions),
-                                       strict=True)
+            candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions,
+                                                           oriented=model.reads_oriented), strict=True)
             if features[0] is None:  # one region, every object in view: nothing to compare with, so
                 # saliency decides alone, as the rule does (a colour contrast of inf)
                 probability = np.array([1.0 if is_target(best.score, float("inf"), params) else 0.0])

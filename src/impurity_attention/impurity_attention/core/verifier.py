@@ -125,6 +125,11 @@ class RegionVerifier:
             raise ValueError(f"RegionVerifier.threshold must be a probability in (0, 1), got "
                              f"{self.threshold}")
 
+    @property
+    def reads_oriented(self) -> bool:
+        """Whether the model reads any of ORIENTED_FEATURES (else candidate_features may skip them)."""
+        return any(name in ORIENTED_FEATURES for name in self.features)
+
     def probability(self, features: np.ndarray) -> np.ndarray:
         """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity (the model reads its own
         `features` columns)."""
@@ -137,12 +142,13 @@ class RegionVerifier:
 
 
 def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
-                    region: np.ndarray) -> np.ndarray | None:
+                    region: np.ndarray, oriented: bool = True) -> np.ndarray | None:
     """(len(REGION_FEATURES),) float64 of one region (module docstring). color (H, W, 3) uint8, height
     (H, W) float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity:
     VOCUS2's chromaticity-space maps by channel name ("I", "RG", "BY"), each (H, W) float32. None when no
     other object cell is in view: there is no product to compare with (attention then lets saliency
-    decide alone, as the rule does)."""
+    decide alone, as the rule does). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
+    model that does not read them: they are the costliest)."""
     region = np.asarray(region, dtype=bool)
     others = objects & ~region
     if not others.any():
@@ -161,7 +167,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     offset, dark = lightness_features(color, region, product)
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
                      float(np.std(height[region])), offset, dark,
-                     *oriented_features(color, height, region, product)])
+                     *(oriented_features(color, height, region, product) if oriented else (0.0, 0.0, 0.0))])
 
 
 def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) -> tuple:
@@ -218,13 +224,13 @@ def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarra
 
 
 def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
-                       regions: list) -> list:
+                       regions: list, oriented: bool = True) -> list:
     """[(region, (len(FEATURES),) features or None)] for the TOP_REGIONS best of `regions` (salient
     regions, best first): what attention scores and verifier-fit learns from. Arguments as
     region_features."""
     candidates = []
     for rank, region in enumerate(regions[:TOP_REGIONS]):
-        own = region_features(color, height, objects, conspicuity, region.mask)
+        own = region_features(color, height, objects, conspicuity, region.mask, oriented)
         candidates.append((region, None if own is None else
                            np.concatenate([own, context_features(objects, regions, rank)])))
     return candidates
