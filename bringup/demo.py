@@ -5,6 +5,7 @@ Writes runs/demo/<episode>/ (steps.jsonl, summary.json, episode.png) and node lo
 """
 
 import argparse
+import dataclasses
 import os
 import pathlib
 import shutil
@@ -78,10 +79,9 @@ def run_demo_episode(args, launcher) -> int:
     node = rclpy.create_node("demo_client")
     code = 1
     try:
-        goal = RunEpisode.Goal(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
-                               num_objects=args.objects, palette=args.palette)
         request = EpisodeRequest(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
                                  num_objects=args.objects, palette=args.palette)
+        goal = RunEpisode.Goal(**dataclasses.asdict(request))
         print(f"demo: episode {describe_request(request)}", flush=True)
         result = run_episode(node, goal, args.timeout, printer=lambda line: print(line, flush=True))
         if launcher.poll() is not None:

@@ -14,6 +14,7 @@ explained by the node's /episode/status.
 
 import argparse
 import contextlib
+import dataclasses
 import os
 import pathlib
 import signal
@@ -314,9 +315,7 @@ def rejection_reason(node, ctrl_c: CtrlC) -> str:
 def main(argv=None) -> int:
     args = parse_args(argv)
     request = args.request
-    fields = dict(scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
-                  num_objects=request.num_objects, max_actions=request.max_actions,
-                  scene_file=request.scene_file, palette=request.palette)
+    fields = dataclasses.asdict(request)  # the messages' fields, by the same names
     # Our own SIGINT handler (CtrlC: counted, read between spins), not rclpy's, which would shut the
     # context down before the cancel could be sent
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
