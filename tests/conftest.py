@@ -17,13 +17,20 @@ os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 
 
 @pytest.fixture(scope="session")
-def ros_node():
-    """One rclpy node for the whole session, used as the client side of graph tests."""
+def rcl_context():
+    """rclpy's default context, initialised once for the session: one DDS participant in the test process
+    for every client node and every parameter file read (parameter_files.as_declared)."""
     rclpy.init()
-    node = rclpy.create_node(f"test_client_{os.getpid()}")
+    yield rclpy.get_default_context()
+    rclpy.try_shutdown()
+
+
+@pytest.fixture(scope="session")
+def ros_node(rcl_context):
+    """One rclpy node for the whole session, used as the client side of graph tests."""
+    node = rclpy.create_node(f"test_client_{os.getpid()}", context=rcl_context)
     yield node
     node.destroy_node()
-    rclpy.try_shutdown()
 
 
 @pytest.fixture

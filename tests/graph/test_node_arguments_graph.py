@@ -40,23 +40,22 @@ def parameters_class(executable: str):
 
 # ------------------------------------------------------------------------------------ in process
 @pytest.fixture
-def node_started_with():
-    """A node named like one of the cell's, in a context initialised with `args` (as a process started
-    with them), and with `overrides` ({name: value}); destroyed at teardown."""
+def node_started_with(rcl_context):
+    """A node named like one of the cell's, with its own `args` (as a process started with them: rcl
+    reads them the same way) and `overrides` ({name: value}), in the session's context; destroyed at
+    teardown."""
     made = []
 
     def make(name: str, args=(), **overrides):
-        context = rclpy.Context()
-        rclpy.init(args=["test", *args], context=context)
-        node = rclpy.create_node(name, context=context, parameter_overrides=[
-            Parameter(key, value=value) for key, value in overrides.items()])
-        made.append((node, context))
+        node = rclpy.create_node(name, context=rcl_context, cli_args=list(args), use_global_arguments=False,
+                                 parameter_overrides=[Parameter(key, value=value)
+                                                      for key, value in overrides.items()])
+        made.append(node)
         return node
 
     yield make
-    for node, context in made:
+    for node in made:
         node.destroy_node()
-        rclpy.shutdown(context=context)
 
 
 def test_an_override_no_declared_parameter_has_is_refused_with_the_closest_names(node_started_with):

@@ -54,6 +54,9 @@ FRESH = EVAL_SEED_BASE + 1_100_000
 EPISODES = [("random", FRESH + k, 1, 5, 15) for k in (1, 2, 3, 4)] + \
            [("challenging", FRESH + k, 1, 5, 15) for k in (1, 2, 3)] + \
            [("invisible", FRESH + k, 1, 10, 60) for k in (1, 2, 3)]
+# A hang guard, not a time limit: the first test of the module carries the fixture's ten episodes, which
+# took 177-302 s of the suite's 300 s guard on 2 loaded cores (twentieth session's CI runs).
+pytestmark = pytest.mark.timeout(900)
 MIN_VERDICT_AGREEMENT = 0.95  # issue 18: the perception verdict agrees with the truth on >= 95 % of grasps
 MIN_PICKED_MATCHING = 0.90  # and the picked count equals the truth in >= 90 % of episodes
 

@@ -13,7 +13,7 @@ import sys
 import pytest
 import rclpy
 import yaml
-from parameter_files import flatten
+from parameter_files import as_declared, flatten
 
 from impurity_common.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
@@ -26,6 +26,8 @@ CALIBRATION = BRINGUP / "config" / "camera_calibration.yaml"
 sys.path.insert(0, str(BRINGUP))
 from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
 from launch_cell import main as launch_cell_main  # noqa: E402
+
+pytestmark = pytest.mark.usefixtures("rcl_context")  # parameter_as_read's nodes live in it
 
 # executable -> the node name it runs under (its section in the cell's file)
 NODE_NAMES = {"sim_cell": "sim_cell", "ur5_driver": "ur5_driver", "heightmap_node": "heightmap",
@@ -57,19 +59,10 @@ def parameter_as_read(node_name: str, name: str, default, *overrides: str, cell=
                       calibration=CALIBRATION):
     """The value node `node_name` gets for `name` when started as the launchers start it: the cell's
     files (parameter_files), then `calibration`, then the `-p` overrides ("name:=value")."""
-    context = rclpy.Context()
-    args = ["test", *ros_arguments(parameter_files(cell, None, calibration))]
+    args = ros_arguments(parameter_files(cell, None, calibration))
     for override in overrides:
         args += ["-p", override]
-    rclpy.init(args=args, context=context)
-    try:
-        node = rclpy.create_node(node_name, context=context)
-        try:
-            return node.declare_parameter(name, default).value
-        finally:
-            node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)
+    return as_declared(rclpy.get_default_context(), node_name, args, {name: default})[name]
 
 
 def sections(config: pathlib.Path) -> dict:

@@ -325,20 +325,14 @@ def test_the_shipped_calibration_file_holds_the_simulated_cameras_pose():
 def parameters_as_rcl_reads_them(path, node_name: str) -> tuple:
     """camera_position and camera_orientation as a node `node_name` started with --params-file gets them."""
     import rclpy
+    from parameter_files import as_declared
 
-    context = rclpy.Context()
-    rclpy.init(args=["test", "--ros-args", "--params-file", str(path)], context=context)
-    try:
-        node = rclpy.create_node(node_name, context=context)
-        try:
-            return tuple(tuple(node.declare_parameter(name, [0.0] * length).value)
-                         for name, length in (("camera_position", 3), ("camera_orientation", 4)))
-        finally:
-            node.destroy_node()
-    finally:
-        rclpy.shutdown(context=context)
+    values = as_declared(rclpy.get_default_context(), node_name, ["--ros-args", "--params-file", str(path)],
+                         {"camera_position": [0.0] * 3, "camera_orientation": [0.0] * 4})
+    return tuple(tuple(value) for value in values.values())
 
 
+@pytest.mark.usefixtures("rcl_context")
 @pytest.mark.parametrize("node_name", ["heightmap", "sim_cell"])
 def test_rcl_reads_the_written_file_as_double_arrays_for_every_node(tmp_path, node_name):
     result = a_calibration()
@@ -348,6 +342,7 @@ def test_rcl_reads_the_written_file_as_double_arrays_for_every_node(tmp_path, no
     assert orientation == pytest.approx(result.orientation, abs=1e-7)
 
 
+@pytest.mark.usefixtures("rcl_context")
 def test_rcl_reads_the_shipped_file():
     import pathlib
 
