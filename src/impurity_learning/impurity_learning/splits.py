@@ -198,6 +198,10 @@ TUNING_SEED_BLOCKS = (
               "push_out.py --seed-base 17000 --random-from 800 --random-only: the twentieth session's test "
               "of the verifier refitted with the orientation-matched features on random-800 ... 899, "
               "invisible 17 000-17 099, challenging 17 100-17 199, random 17 200-17 299"),
+    SeedBlock(18_000, 18_300, "docs/experiments_s21/run_oriented.sh",
+              "push_out.py --seed-base 18000 --random-from 900 --random-only: the twenty-first session's "
+              "test of the verifier refitted with the orientation-matched features on unclipped cells, on "
+              "random-900 ... 999, invisible 18 000-18 099, challenging 18 100-18 199, random 18 200-18 299"),
     SeedBlock(19_000, 19_600, "docs/experiments_s14/push_out.py",
               "--seed-base 19000: the sixteenth session's test of verifier_heap_threshold, invisible 19 000-"
               "19 199, challenging 19 200-19 399 (--start 200), random 19 400-19 599 (--start 400), with and "
@@ -219,6 +223,9 @@ TUNING_SEED_BLOCKS = (
               "FRESH_SEED_BASE: EXPOSURE_PLAN at count_scale 2, a fresh default-palette exposure set"),
     SeedBlock(50_000, 50_040, "scripts/calibrate_verdict.py",
               "tuning split, 50 000 + k for k < --seeds (40 in docs/verdict/tuning_sweep.txt, default 12)"),
+    SeedBlock(51_000, 55_060, "docs/experiments_s11/exposure_wide.py",
+              "report --seed-base 51000 --count-scale 2 --model runs/s21/verifier_oriented.json: the "
+              "twenty-first session's fresh exposure check of the refit on unclipped cells"),
     SeedBlock(60_000, 60_430, "scripts/calibrate_episode_end.py",
               "SEED_BASE['tuning']: 100 x scene + k over its 5 SCENES, k < --seeds (30 in docs/episode_end)"),
     SeedBlock(70_000, 70_020, "docs/experiments.md",

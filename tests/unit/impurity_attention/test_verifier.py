@@ -164,6 +164,23 @@ def test_too_few_product_cells_give_no_oriented_features():
     assert ver.oriented_features(color, height, tilted, product) == (0.0, 0.0, 0.0)
 
 
+def test_a_product_clipped_in_every_channel_gives_no_oriented_features():
+    """A white-clipped product (a light product at a long exposure) says nothing about orientation."""
+    color, height, objects, odd, _ = tilted_view(odd=(120, 120, 120))
+    color[objects & ~odd] = 255
+    assert ver.oriented_features(color, height, odd, objects & ~odd) == (0.0, 0.0, 0.0)
+
+
+def test_faces_clipped_in_some_channels_are_still_read():
+    """A blue product's lit faces clipped in green and blue keep their red: still a function of the normal."""
+    color, height, objects, odd, product = tilted_view(odd=(200, 60, 40))
+    clipped = color.copy()
+    clipped[objects & ~odd, 1:] = 255
+    impurity = ver.oriented_features(clipped, height, odd, objects & ~odd)
+    assert impurity != (0.0, 0.0, 0.0)
+    assert impurity[0] > 2.0 and impurity[2] > 0.9
+
+
 def test_a_flat_face_has_no_height_spread_and_a_step_has():
     color, height, objects, impurity, _ = two_colour_view()
     maps = conspicuity_of(color, objects)

@@ -37,8 +37,9 @@ Of the region (REGION_FEATURES, region_features):
   (least squares on 1, gx, gy, gx^2, gy^2, gx gy; slopes of the heightmap smoothed by a Gaussian of
   SLOPE_SIGMA px), and m is read by its residuals r: log(1 + d), d the Mahalanobis distance of m's mean r
   under P's residual covariance (+ ORIENTED_RIDGE I), capped at COLOUR_CAP; the median log-I residual over m
-  in P's residual spread; the share of m's cells whose own r lies beyond ORIENTED_OFF (Mahalanobis). All 0
-  with fewer than ORIENTED_MIN_PRODUCT product cells.
+  in P's residual spread; the share of m's cells whose own r lies beyond ORIENTED_OFF (Mahalanobis). They
+  read cells with at least one channel below SATURATION only (twenty-first session), and are all 0 with
+  fewer than ORIENTED_MIN_PRODUCT such product cells or none in m.
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
@@ -190,9 +191,14 @@ def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarra
 def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
                       product: np.ndarray) -> tuple:
     """(oriented_contrast, oriented_lightness, oriented_off_share) of `region` against `product` (module
-    docstring; both (H, W) bool, color (H, W, 3) uint8, height (H, W) m). (0.0, 0.0, 0.0) with fewer than
-    ORIENTED_MIN_PRODUCT product cells."""
-    if int(product.sum()) < ORIENTED_MIN_PRODUCT:
+    docstring; both (H, W) bool, color (H, W, 3) uint8, height (H, W) m), read on cells with at least one
+    channel below SATURATION: a cell clipped in every channel (a light product at a long exposure, all 255)
+    says nothing about its face's orientation, while a face clipped in some channels (a blue product's lit
+    faces turned cyan) still does. (0.0, 0.0, 0.0) with fewer than ORIENTED_MIN_PRODUCT such product cells
+    or no such region cell."""
+    readable = np.any(np.asarray(color) < SATURATION, axis=-1)
+    region, product = region & readable, product & readable
+    if int(product.sum()) < ORIENTED_MIN_PRODUCT or not region.any():
         return 0.0, 0.0, 0.0
     smooth = cv2.GaussianBlur(np.asarray(height, dtype=np.float32), (0, 0), SLOPE_SIGMA)
     gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0  # m per cell: the fit is the same at any scale

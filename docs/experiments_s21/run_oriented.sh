@@ -1,0 +1,19 @@
+#!/usr/bin/env bash
+# Twenty-first session (docs/experiments.md): the shipped verifier against the refit whose orientation-matched
+# features read unclipped cells only (runs/s21/verifier_oriented.json, written by the verifier-fit command in
+# experiments.md) on tuning palettes neither was fitted on (random-900 ... 999) and fresh tuning seeds
+# 18000-18299: invisible k < 100, challenging 100-199, random 200-299. Usage, from the repository root after
+# `source scripts/env.sh`:
+#   docs/experiments_s21/run_oriented.sh shipped|oriented      (one arm per core)
+set -euo pipefail
+arm=$1
+out=runs/s21/picking_$arm
+mkdir -p "$out"
+extra=()
+if [ "$arm" = oriented ]; then
+    extra=(--verifier runs/s21/verifier_oriented.json)
+fi
+common=(--seed-base 18000 --random-from 900 --random-only --random-palettes 100 --jobs 1)
+python docs/experiments_s14/push_out.py run invisible 100 "$out/invisible.jsonl" "${common[@]}" "${extra[@]}"
+python docs/experiments_s14/push_out.py run challenging 100 "$out/challenging.jsonl" --start 100 "${common[@]}" "${extra[@]}"
+python docs/experiments_s14/push_out.py run random 100 "$out/random.jsonl" --start 200 "${common[@]}" "${extra[@]}"
