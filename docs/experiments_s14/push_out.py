@@ -101,8 +101,8 @@ def run_one(task: tuple) -> dict:
         _WORKER["world"] = CellWorld(mode="floating")
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
-        values = {k: v for k, v in rule_params.items() if k not in ("without", "with", "verifier_heap_threshold",
-                                                                "verifier", "stall")}
+        attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall", "verifier_last_look")
+        values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())), params)
@@ -172,6 +172,8 @@ def run_one(task: tuple) -> dict:
     verifier = verifier_from_json(rule_params["verifier"]) if "verifier" in rule_params else None
     attention = AttentionParams(verifier_heap_threshold=rule_params.get("verifier_heap_threshold", 0.0),
                                 verifier=verifier)
+    if "verifier_last_look" in rule_params:
+        attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
     summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"], attention),
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
@@ -214,6 +216,8 @@ def run(args) -> None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
+    if args.last_look is not None:
+        rule_params["verifier_last_look"] = args.last_look
     if args.stall is not None:
         rule_params["stall"] = [int(args.stall[0]), float(args.stall[1])]
     names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
@@ -339,6 +343,8 @@ def main(argv=None) -> int:
     r.add_argument("--verifier", default=None,
                    help="attention's region verifier from this JSON (calibrate_attention.py verifier-fit "
                         "--model-json; default: the shipped model)")
+    r.add_argument("--last-look", type=float, default=None,
+                   help="attention's verifier_last_look (default: AttentionParams' own; 21st session)")
     r.add_argument("--palette", default="",
                    help="this palette for every episode (default: the tuning group's)")
     s = sub.add_parser("report")

@@ -10,8 +10,8 @@ arm=$1
 out=runs/s21/picking_$arm
 mkdir -p "$out"
 extra=()
-if [ "$arm" = oriented ]; then
-    extra=(--verifier runs/s21/verifier_oriented.json)
+if [ "$arm" = oriented ]; then  # the refit with its own last look (runs/s21/last_look.txt, run_fit.sh)
+    extra=(--verifier runs/s21/verifier_oriented.json --last-look "$(sed -n 's/^chosen t = //p' runs/s21/last_look.txt)")
 fi
 common=(--seed-base 18000 --random-from 900 --random-only --random-palettes 100 --jobs 1)
 python docs/experiments_s14/push_out.py run invisible 100 "$out/invisible.jsonl" "${common[@]}" "${extra[@]}"

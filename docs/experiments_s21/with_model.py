@@ -1,8 +1,12 @@
 """Twenty-first session: run pytest with a fitted verifier (verifier-fit --model-json's file) written into
-impurity_attention/core/verifier_model.py, then put the shipped file back, whatever pytest answered.
+impurity_attention/core/verifier_model.py, and optionally another default verifier_last_look in attention.py,
+then put the shipped files back, whatever pytest answered. It rewrites the checkout's source files while
+pytest runs: run it in a clone of its own (with its own `make setup`), never beside a job reading this one's.
 
-    python docs/experiments_s21/with_model.py runs/s21/verifier_oriented.json tests/unit/impurity_attention
+    python docs/experiments_s21/with_model.py runs/s21/verifier_oriented.json [--last-look T] \
+        tests/unit/impurity_attention
 """
+import argparse
 import pathlib
 import subprocess
 import sys
@@ -12,18 +16,28 @@ sys.path[:0] = [str(ROOT / "scripts"), str(ROOT / "docs" / "experiments_s14")]
 import calibrate_attention as ca  # noqa: E402
 import push_out  # noqa: E402
 
-MODEL_FILE = ROOT / "src/impurity_attention/impurity_attention/core/verifier_model.py"
+CORE = ROOT / "src/impurity_attention/impurity_attention/core"
+MODEL_FILE, ATTENTION_FILE = CORE / "verifier_model.py", CORE / "attention.py"
+LAST_LOOK_LINE = "    verifier_last_look: float = 0.35\n"
 
 
 def main() -> int:
-    model, tests = sys.argv[1], sys.argv[2:]
-    shipped = MODEL_FILE.read_text()
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("model")
+    parser.add_argument("--last-look", type=float, default=None)
+    args, tests = parser.parse_known_args()
+    shipped_model, shipped_attention = MODEL_FILE.read_text(), ATTENTION_FILE.read_text()
+    assert LAST_LOOK_LINE in shipped_attention, "attention.py's verifier_last_look line moved"
     try:
-        MODEL_FILE.write_text(ca.model_source(push_out.verifier_from_json(model)))
+        MODEL_FILE.write_text(ca.model_source(push_out.verifier_from_json(args.model)))
+        if args.last_look is not None:
+            ATTENTION_FILE.write_text(shipped_attention.replace(
+                LAST_LOOK_LINE, f"    verifier_last_look: float = {args.last_look!r}\n"))
         return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests],
                               cwd=ROOT).returncode
     finally:
-        MODEL_FILE.write_text(shipped)
+        MODEL_FILE.write_text(shipped_model)
+        ATTENTION_FILE.write_text(shipped_attention)
 
 
 if __name__ == "__main__":
