@@ -101,7 +101,8 @@ def run_one(task: tuple) -> dict:
         _WORKER["world"] = CellWorld(mode="floating")
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
-        attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall", "verifier_last_look")
+        attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
+                          "verifier_last_look")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
