@@ -677,14 +677,22 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
           f"{len(set(group))} palettes; features: {', '.join(feature_names)}")
 
+    unknown = np.isnan(features).any(axis=1)
+    if unknown.any():
+        print(f"{int(unknown.sum())} regions with an unknown feature (NaN: read as its mean, as "
+              "RegionVerifier.probability does)")
+
+    def standardised(scaler, rows):  # an unknown value (NaN) is the fitted mean: z = 0, no contribution
+        return np.nan_to_num(scaler.transform(rows), nan=0.0)
+
     def fit(rows, labels):
-        scaler = StandardScaler().fit(rows)
-        model = LogisticRegression(C=1.0, max_iter=5000).fit(scaler.transform(rows), labels)
+        scaler = StandardScaler().fit(rows)  # means and spreads over the known values of each feature
+        model = LogisticRegression(C=1.0, max_iter=5000).fit(standardised(scaler, rows), labels)
         return scaler, model
 
     def predict(fitted, rows):
         scaler, model = fitted
-        return model.predict_proba(scaler.transform(rows))[:, 1]
+        return model.predict_proba(standardised(scaler, rows))[:, 1]
 
     caps = (0.01, 0.02, 0.05)
     out_of_fold = np.zeros(len(features))
@@ -724,8 +732,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
                               coef=tuple(round(float(v), 6) for v in model.coef_[0]),
                               intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
-                              low=tuple(round(float(v), 6) for v in features.min(axis=0)),
-                              high=tuple(round(float(v), 6) for v in features.max(axis=0)),
+                              low=tuple(round(float(v), 6) for v in np.nanmin(features, axis=0)),
+                              high=tuple(round(float(v), 6) for v in np.nanmax(features, axis=0)),
                               features=feature_names)
 
     def rates(part: slice) -> str:

@@ -223,9 +223,9 @@ TUNING_SEED_BLOCKS = (
               "FRESH_SEED_BASE: EXPOSURE_PLAN at count_scale 2, a fresh default-palette exposure set"),
     SeedBlock(50_000, 50_040, "scripts/calibrate_verdict.py",
               "tuning split, 50 000 + k for k < --seeds (40 in docs/verdict/tuning_sweep.txt, default 12)"),
-    SeedBlock(51_000, 55_060, "docs/experiments_s11/exposure_wide.py",
-              "report --seed-base 51000 --count-scale 2 --model runs/s21/verifier_oriented.json: the "
-              "twenty-first session's fresh exposure check of the refit on unclipped cells"),
+    SeedBlock(51_000, 55_060, "docs/experiments_s21/run_fit.sh",
+              "exposure_wide.py report --seed-base 51000 --count-scale 2 --model runs/s21/verifier_*.json: "
+              "the twenty-first session's fresh exposure check of the refit on unclipped cells"),
     SeedBlock(60_000, 60_430, "scripts/calibrate_episode_end.py",
               "SEED_BASE['tuning']: 100 x scene + k over its 5 SCENES, k < --seeds (30 in docs/episode_end)"),
     SeedBlock(70_000, 70_020, "docs/experiments.md",

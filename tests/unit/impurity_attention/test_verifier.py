@@ -157,18 +157,22 @@ def test_an_impurity_stands_apart_from_product_faces_of_its_orientation_and_a_pr
     assert abs(ordinary["oriented_lightness"]) < 1.0
 
 
-def test_too_few_product_cells_give_no_oriented_features():
+def unknown(values) -> bool:
+    return all(np.isnan(value) for value in values)
+
+
+def test_too_few_product_cells_leave_the_oriented_features_unknown():
     color, height, objects, tilted, _ = tilted_view()
     product = np.zeros_like(objects)
     product[0, :ver.ORIENTED_MIN_PRODUCT - 1] = True
-    assert ver.oriented_features(color, height, tilted, product) == (0.0, 0.0, 0.0)
+    assert unknown(ver.oriented_features(color, height, tilted, product))
 
 
-def test_a_product_clipped_in_every_channel_gives_no_oriented_features():
+def test_a_product_clipped_in_every_channel_leaves_the_oriented_features_unknown():
     """A white-clipped product (a light product at a long exposure) says nothing about orientation."""
     color, height, objects, odd, _ = tilted_view(odd=(120, 120, 120))
     color[objects & ~odd] = 255
-    assert ver.oriented_features(color, height, odd, objects & ~odd) == (0.0, 0.0, 0.0)
+    assert unknown(ver.oriented_features(color, height, odd, objects & ~odd))
 
 
 def test_faces_clipped_in_some_channels_are_still_read():
@@ -177,8 +181,22 @@ def test_faces_clipped_in_some_channels_are_still_read():
     clipped = color.copy()
     clipped[objects & ~odd, 1:] = 255
     impurity = ver.oriented_features(clipped, height, odd, objects & ~odd)
-    assert impurity != (0.0, 0.0, 0.0)
+    assert np.all(np.isfinite(impurity))
     assert impurity[0] > 2.0 and impurity[2] > 0.9
+
+
+def test_a_model_reads_an_unknown_feature_as_its_fitted_mean():
+    names = ("colour_contrast", "oriented_contrast")
+    model = ver.RegionVerifier(mean=(1.0, 1.5), scale=(0.5, 0.6), coef=(1.0, 2.0), intercept=0.0,
+                               threshold=0.5, low=(0.0, 0.0), high=(3.0, 4.0), features=names)
+    row = np.zeros((1, len(ver.FEATURES)))
+    row[0, ver.FEATURES.index("colour_contrast")] = 2.0
+    at_mean, unknown_row, as_product = row.copy(), row.copy(), row.copy()
+    at_mean[0, ver.FEATURES.index("oriented_contrast")] = 1.5
+    unknown_row[0, ver.FEATURES.index("oriented_contrast")] = np.nan
+    assert model.probability(unknown_row)[0] == pytest.approx(model.probability(at_mean)[0])
+    assert model.probability(unknown_row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-2.0)))
+    assert model.probability(as_product)[0] < 0.1  # 0 would read as "like the product"
 
 
 def test_a_flat_face_has_no_height_spread_and_a_step_has():

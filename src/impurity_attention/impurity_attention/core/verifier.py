@@ -38,8 +38,9 @@ Of the region (REGION_FEATURES, region_features):
   SLOPE_SIGMA px), and m is read by its residuals r: log(1 + d), d the Mahalanobis distance of m's mean r
   under P's residual covariance (+ ORIENTED_RIDGE I), capped at COLOUR_CAP; the median log-I residual over m
   in P's residual spread; the share of m's cells whose own r lies beyond ORIENTED_OFF (Mahalanobis). They
-  read cells with at least one channel below SATURATION only (twenty-first session), and are all 0 with
-  fewer than ORIENTED_MIN_PRODUCT such product cells or none in m.
+  read cells with at least one channel below SATURATION only (twenty-first session), and are unknown (NaN)
+  with fewer than ORIENTED_MIN_PRODUCT such product cells or none in m. A model reads an unknown feature as
+  its fitted mean: it adds nothing to the score (RegionVerifier.probability).
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
@@ -133,11 +134,11 @@ class RegionVerifier:
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity (the model reads its own
-        `features` columns)."""
+        `features` columns; an unknown value, NaN, counts as that feature's fitted mean)."""
         columns = [FEATURES.index(name) for name in self.features]
         features = np.atleast_2d(np.asarray(features, dtype=np.float64))[:, columns]
-        features = np.clip(features, self.low, self.high)
-        z = (features - np.asarray(self.mean)) / np.asarray(self.scale)
+        features = np.clip(features, self.low, self.high)  # NaN stays NaN
+        z = np.nan_to_num((features - np.asarray(self.mean)) / np.asarray(self.scale), nan=0.0)
         logit = z @ np.asarray(self.coef) + self.intercept
         return 1.0 / (1.0 + np.exp(-logit))
 
@@ -194,12 +195,13 @@ def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
     docstring; both (H, W) bool, color (H, W, 3) uint8, height (H, W) m), read on cells with at least one
     channel below SATURATION: a cell clipped in every channel (a light product at a long exposure, all 255)
     says nothing about its face's orientation, while a face clipped in some channels (a blue product's lit
-    faces turned cyan) still does. (0.0, 0.0, 0.0) with fewer than ORIENTED_MIN_PRODUCT such product cells
-    or no such region cell."""
+    faces turned cyan) still does. Unknown, (nan, nan, nan), with fewer than ORIENTED_MIN_PRODUCT such
+    product cells or no such region cell: a model reads an unknown feature as its fitted mean
+    (RegionVerifier.probability), where 0 would read as "like the product" to a model that weighs them."""
     readable = np.any(np.asarray(color) < SATURATION, axis=-1)
     region, product = region & readable, product & readable
     if int(product.sum()) < ORIENTED_MIN_PRODUCT or not region.any():
-        return 0.0, 0.0, 0.0
+        return math.nan, math.nan, math.nan
     smooth = cv2.GaussianBlur(np.asarray(height, dtype=np.float32), (0, 0), SLOPE_SIGMA)
     gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0  # m per cell: the fit is the same at any scale
     gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / 8.0
