@@ -1,5 +1,6 @@
 """Which salient regions are impurities: a learned region verifier (issue 17; eighth session, twelve
-features and the own-layout scenes from the ninth, the picking loop's own views from the seventeenth).
+features and the own-layout scenes from the ninth, the picking loop's own views from the seventeenth, the
+three orientation-matched features from the twenty-first).
 
 The thresholds rule (attention.is_target) judges the best salient region alone, by its relative saliency and
 its colour contrast. On tuning palettes it misses impurities whose region is the best one but whose
@@ -49,14 +50,14 @@ Of the region among the others (CONTEXT_FEATURES, context_features):
   the range its tuning scenes span (12-28 % of a 448 mm view): like every feature it is clipped to the
   fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
 
-A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model's twelve
-are the list above without the oriented three.
+A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model reads all
+fifteen since the twenty-first session (before it, the twelve without the oriented three).
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
 palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
 the picking loop decided on after its pushes and grasps (docs/experiments_s17/loop_views.py), its threshold
-set on the first views. That script's docstring, the model file and docs/experiments.md (seventeenth
-section) give its figures. Pure numpy: no
+set on the first views. That script's docstring, the model file and docs/experiments.md (seventeenth and
+twenty-first sections) give its figures. Pure numpy: no
 scikit-learn at run time.
 """
 
