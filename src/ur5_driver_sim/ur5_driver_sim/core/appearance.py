@@ -263,6 +263,18 @@ PALETTES = {p.name: p for p in (
     _palette("abs_flakes_metal", [(42, 42, 44), (54, 52, 52)], [(150, 152, 158)],
              "black ABS flakes with grey aluminium pieces", product_jitter=0.015,
              light_direction=(-0.2, -0.3, 1.0)),
+    # Added 2026-12-03 (twenty-second session) as the tenth held-out set, fixed before any was rendered.
+    _palette("sesame_stones", [(234, 220, 186), (226, 210, 172)], [(96, 90, 84)],
+             "hulled sesame seeds with dark grey stones", product_jitter=0.015,
+             light_direction=(0.4, -0.1, 1.0)),
+    _palette("buckwheat_stones", [(150, 110, 70), (138, 100, 62), (162, 120, 80)], [(128, 126, 122)],
+             "roasted buckwheat of several shades with grey stones", product_jitter=0.02,
+             ambient=0.55, diffuse=0.5),
+    _palette("mung_beans_stones", [(104, 140, 60), (94, 128, 54)], [(140, 120, 96), (70, 66, 60)],
+             "green mung beans with brown and dark stones", product_jitter=0.02,
+             light_direction=(-0.4, 0.4, 1.0), exposure=1.05),
+    _palette("pa_flakes_wood", [(238, 236, 228), (228, 226, 218)], [(176, 130, 82)],
+             "white nylon flakes with wood splinters", product_jitter=0.015, exposure=0.9),
 )}
 
 
