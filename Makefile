@@ -9,6 +9,10 @@ EVAL_GRAPH_EPISODES ?= 2
 EVAL_EPISODES ?= 8
 EVAL_GROUP_EPISODES ?= 4
 SOAK_EPISODES ?= 200
+# make test: pytest-xdist workers, each on a ROS domain of its own (tests/conftest.py), whole files per
+# worker (--dist loadfile: a module's fixture runs once). The suite mostly waits on node graphs, so two
+# workers on two cores finish sooner; PYTEST_WORKERS=0 runs it in one process.
+PYTEST_WORKERS ?= 2
 
 .PHONY: setup test lint pytest demo train train-baselines eval bench soak test-bag clean help
 
@@ -34,7 +38,7 @@ lint: setup
 	@echo "lint: ok"
 
 pytest: setup
-	@$(ENV) bash scripts/run_pytest.sh tests
+	@$(ENV) bash scripts/run_pytest.sh -n $(PYTEST_WORKERS) --dist loadfile tests
 
 test: lint pytest
 

@@ -8,10 +8,22 @@ import rclpy
 
 from ros_harness import NodeProcess
 
+
+def session_domain_id() -> int:
+    """This session's ROS domain: IMPURITY_TEST_DOMAIN_ID if set, else drawn from the run's process id in
+    20..190. Under pytest-xdist (make test runs two workers) every worker takes the run's domain plus its
+    number (PYTEST_XDIST_WORKER "gw<N>"; the controller's pid is the workers' parent), so the workers'
+    graphs never see each other."""
+    worker = os.environ.get("PYTEST_XDIST_WORKER", "")
+    index = int(worker[2:]) if worker.startswith("gw") and worker[2:].isdigit() else 0
+    if os.environ.get("IMPURITY_TEST_DOMAIN_ID"):
+        return int(os.environ["IMPURITY_TEST_DOMAIN_ID"]) + index
+    return random.Random(os.getppid() if worker else os.getpid()).randint(20, 190) + index
+
+
 # Before rclpy is initialised anywhere: this session's own DDS domain, discovery on this host only,
 # so parallel test runs and other sessions on the machine never see each other.
-os.environ["ROS_DOMAIN_ID"] = str(os.environ.get("IMPURITY_TEST_DOMAIN_ID")
-                                  or random.Random(os.getpid()).randint(20, 199))
+os.environ["ROS_DOMAIN_ID"] = str(session_domain_id())
 os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
 os.environ.setdefault("RCUTILS_COLORIZED_OUTPUT", "0")
 
