@@ -11,6 +11,11 @@ on all 100 seeds (criterion in docs/experiments.md, sixteenth section):
         runs/s16/default100/results.json            # -> docs/experiments_s16/heldout8b_episodes.jsonl
     python docs/experiments_s16/default100.py report  # -> default100.txt
 
+Any other held-out run and default-palette run on the same seeds (the twenty-second session's tenth set):
+
+    python docs/experiments_s16/default100.py extract HELD.json DEFAULT.json EPISODES.jsonl
+    python docs/experiments_s16/default100.py report EPISODES.jsonl
+
 `report` reads the committed episode file: per scenario the default palette's grasp success (make eval's
 measure: each episode's picked / attempts averaged, an episode without attempts at 0) on the first 20 and on
 all 100 seeds, the held-out figure, the gaps, and a paired bootstrap of the 100-seed gap over the seeds.
@@ -28,25 +33,26 @@ KEYS = ("scenario", "seed", "group", "palette", "targets_picked", "targets_total
 SCENARIOS = ("random", "challenging", "invisible")
 
 
-def extract(held_out_json: str, default_json: str) -> None:
-    """Held-out episodes from the fifteenth session's run, default-palette ones from the 100-seed run (its
-    first 20 are checked against the fifteenth session's default episodes)."""
+def extract(held_out_json: str, default_json: str, episodes=EPISODES) -> None:
+    """Held-out episodes from the held-out run, default-palette ones from the 100-seed run (its first 20 are
+    checked against the held-out run's default episodes); written to `episodes`."""
     held = json.load(open(held_out_json))["ours@cell"]["episodes"]
     default = json.load(open(default_json))["ours@cell"]["episodes"]
     earlier = {(e["scenario"], e["seed"]): e for e in held if e["group"] == "default"}
     same = sum(all(earlier[(e["scenario"], e["seed"])][k] == e[k] for k in KEYS)
                for e in default if (e["scenario"], e["seed"]) in earlier)
-    print(f"default palette, the fifteenth session's {len(earlier)} episodes repeated: {same} alike")
-    with open(EPISODES, "w") as f:
+    print(f"default palette, the held-out run's {len(earlier)} episodes repeated: {same} alike")
+    with open(episodes, "w") as f:
         for e in [e for e in held if e["group"] == "held_out"] + default:
             f.write(json.dumps({k: e[k] for k in KEYS}) + "\n")
 
 
-def report(draws: int = 5000) -> None:
-    rows = [json.loads(line) for line in open(EPISODES)]
+def report(episodes=EPISODES, draws: int = 5000) -> None:
+    rows = [json.loads(line) for line in open(episodes)]
     rng = np.random.default_rng(0)
-    print("grasp success %, make eval's measure (`cell`, palettes 100-199 against the default palette, "
-          "same seeds 904900000 + k)")
+    base = min(e["seed"] for e in rows)
+    print(f"grasp success %, make eval's measure (`cell`, held-out palettes against the default palette, "
+          f"same seeds {base} + k; {episodes})")
     print("scenario     default k<20  default k<100 (se)  held-out (n, no attempt)  gap k<20  gap k<100 "
           "[paired 95 %]  default / held-out completion %")
     for scenario in SCENARIOS:
@@ -68,10 +74,10 @@ def report(draws: int = 5000) -> None:
 
 
 def main(argv: list) -> int:
-    if argv[:1] == ["extract"] and len(argv) == 3:
-        extract(argv[1], argv[2])
-    elif argv == ["report"]:
-        report()
+    if argv[:1] == ["extract"] and len(argv) in (3, 4):
+        extract(*argv[1:])
+    elif argv[:1] == ["report"] and len(argv) in (1, 2):
+        report(*argv[1:])
     else:
         print(__doc__)
         return 2
