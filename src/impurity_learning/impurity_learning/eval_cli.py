@@ -59,6 +59,7 @@ from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
 from .evaluate import EVAL_SEED_BASE, run_episode
 from .train_cli import BASELINE_CHECKPOINT_DIR
 
+MARKDOWN = "docs/results.md"  # make eval's table; outputs not given go beside it (generalisation_outputs)
 SCENARIOS = ("random", "challenging", "invisible")
 LABELS = {"ours": "Ours", "vpg": "VPG", "s_vpg": "S-VPG", "s_rgm": "S-RGM (heuristic)", "no_tsd": "No-TSD",
           "no_oi": "No-OI", "no_t": "No-T"}
@@ -367,10 +368,13 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--checkpoint-dir", default=str(BASELINE_CHECKPOINT_DIR),
                    help="the baselines' and ablations' networks, <trained method>.pt")
     p.add_argument("--policy-checkpoint", default=str(SHIPPED_CHECKPOINT), help="Ours: the shipped network")
-    p.add_argument("--markdown", default="docs/results.md")
-    p.add_argument("--chart", default="docs/images/results.png")
+    p.add_argument("--markdown", default=MARKDOWN)
+    p.add_argument("--chart", default=None,
+                   help="the results chart (default: images/results.png beside --markdown)")
     p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
-    p.add_argument("--readme", default="README.md", help="its results block is replaced with the table")
+    p.add_argument("--readme", default=None,
+                   help="its results block is replaced with the table (default: README.md when --markdown is "
+                        "left at its default, else README.md beside --markdown, updated only if it exists)")
     p.add_argument("--threads", type=int, default=1, help="torch CPU threads per episode process")
     p.add_argument("--device", default="cpu", help="cpu, cuda, cuda:N, or auto (CUDA when present)")
     p.add_argument("--jobs", type=int, default=2,
@@ -403,10 +407,13 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def generalisation_outputs(args):
-    """Fill the generalisation outputs not given beside --markdown (docs/results.md: docs/generalisation.md,
-    docs/images/...), so that a run sent elsewhere does not overwrite the committed table."""
+    """Fill the outputs not given beside --markdown (docs/results.md: docs/images/results.png,
+    docs/generalisation.md, docs/images/..., and the repository's README.md), so that a run sent elsewhere
+    overwrites neither the committed tables nor the README's results block."""
     where = pathlib.Path(args.markdown).parent
-    defaults = {"generalisation": where / "generalisation.md",
+    readme = pathlib.Path("README.md") if args.markdown == MARKDOWN else where / "README.md"
+    defaults = {"chart": where / "images" / "results.png", "readme": readme,
+                "generalisation": where / "generalisation.md",
                 "generalisation_chart": where / "images" / "generalisation.png",
                 "generalisation_scenes": where / "images" / "generalisation_scenes.png"}
     for name, path in defaults.items():

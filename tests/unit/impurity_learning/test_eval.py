@@ -236,6 +236,18 @@ def test_the_generalisation_outputs_follow_the_markdown_unless_given():
     assert given.generalisation == "x/g.md"
 
 
+def test_a_run_sent_elsewhere_leaves_the_readme_and_the_committed_chart_alone():
+    # make eval (every output at its default) updates the README's results block and docs/images/results.png
+    default = eval_cli.parse_args([])
+    assert default.readme == "README.md" and default.chart == str(pathlib.Path("docs/images/results.png"))
+    # a run with its table elsewhere writes its chart and README block there (the README only if one is there)
+    elsewhere = eval_cli.parse_args(["--markdown", "runs/check/results.md"])
+    assert elsewhere.readme == str(pathlib.Path("runs/check/README.md"))
+    assert elsewhere.chart == str(pathlib.Path("runs/check/images/results.png"))
+    given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--readme", "README.md"])
+    assert given.readme == "README.md"
+
+
 def test_sigterm_stops_the_run_with_its_pool_workers_and_keeps_finished_episodes(tmp_path):
     import os
     import signal
