@@ -371,7 +371,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--markdown", default=MARKDOWN)
     p.add_argument("--chart", default=None,
                    help="the results chart (default: images/results.png beside --markdown)")
-    p.add_argument("--json", default="docs/results.json", help="every episode's metrics and seed")
+    p.add_argument("--json", default=None,
+                   help="every episode's metrics and seed (default: results.json beside --markdown)")
     p.add_argument("--readme", default=None,
                    help="its results block is replaced with the table (default: README.md when --markdown is "
                         "left at its default, else README.md beside --markdown, updated only if it exists)")
@@ -407,12 +408,13 @@ def parse_args(argv=None) -> argparse.Namespace:
 
 
 def generalisation_outputs(args):
-    """Fill the outputs not given beside --markdown (docs/results.md: docs/images/results.png,
-    docs/generalisation.md, docs/images/..., and the repository's README.md), so that a run sent elsewhere
-    overwrites neither the committed tables nor the README's results block."""
+    """Fill the outputs not given beside --markdown (docs/results.md: docs/results.json,
+    docs/images/results.png, docs/generalisation.md, docs/images/..., and the repository's README.md), so
+    that a run sent elsewhere overwrites neither the committed tables and episodes nor the README's results
+    block."""
     where = pathlib.Path(args.markdown).parent
     readme = pathlib.Path("README.md") if args.markdown == MARKDOWN else where / "README.md"
-    defaults = {"chart": where / "images" / "results.png", "readme": readme,
+    defaults = {"json": where / "results.json", "chart": where / "images" / "results.png", "readme": readme,
                 "generalisation": where / "generalisation.md",
                 "generalisation_chart": where / "images" / "generalisation.png",
                 "generalisation_scenes": where / "images" / "generalisation_scenes.png"}

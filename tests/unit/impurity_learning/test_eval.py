@@ -244,6 +244,8 @@ def test_a_run_sent_elsewhere_leaves_the_readme_and_the_committed_chart_alone():
     elsewhere = eval_cli.parse_args(["--markdown", "runs/check/results.md"])
     assert elsewhere.readme == str(pathlib.Path("runs/check/README.md"))
     assert elsewhere.chart == str(pathlib.Path("runs/check/images/results.png"))
+    assert default.json == str(pathlib.Path("docs/results.json"))
+    assert elsewhere.json == str(pathlib.Path("runs/check/results.json"))
     given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--readme", "README.md"])
     assert given.readme == "README.md"
 
