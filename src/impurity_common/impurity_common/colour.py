@@ -127,17 +127,28 @@ def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,
     return reference.contrast(rgb[region].astype(np.float64).mean(axis=0))
 
 
-def off_colours(color: np.ndarray, reference: np.ndarray) -> np.ndarray:
+def off_colours(color: np.ndarray, reference: np.ndarray, judged: np.ndarray | None = None) -> np.ndarray:
     """(H, W) bool: the cells of a colour image (H, W, 3) uint8 whose colour lies off the colours of the
     `reference` cells ((H, W) bool, not empty): a histogram of OFF_COLOUR_BINS per channel of the
     reference's colours, smoothed over each bin's 26 neighbours, below the density of the reference's own
     OFF_COLOUR_QUANTILE least likely cells. A per-cell test with no shape: used by the region verifier
-    (the share of a region's cells off the other objects' colours) and by evaluation.colour_separable."""
-    bins = OFF_COLOUR_BINS
-    index = (np.asarray(color).astype(np.int64) * bins) // 256
-    counts = np.zeros((bins + 2,) * 3)
-    np.add.at(counts, tuple(index[reference].T + 1), 1.0)
+    (the share of a region's cells off the other objects' colours) and by evaluation.colour_separable.
+    judged: (H, W) bool, the only cells judged (the rest come out False; the reference's histogram and
+    quantile are the same), when only some are read: it saves the work on the others."""
+    reference = np.asarray(reference, dtype=bool)
+    bins, side = OFF_COLOUR_BINS, OFF_COLOUR_BINS + 2  # a bin of padding each side: 26 neighbours for all
+    rgb = np.asarray(color)
+    own = (rgb[reference].astype(np.int64) * bins) // 256
+    counts = np.bincount(((own[:, 0] + 1) * side + own[:, 1] + 1) * side + own[:, 2] + 1,
+                         minlength=side ** 3).astype(np.float64).reshape((side,) * 3)
     smooth = sum(counts[1 + dr:bins + 1 + dr, 1 + dg:bins + 1 + dg, 1 + db:bins + 1 + db]
                  for dr in (-1, 0, 1) for dg in (-1, 0, 1) for db in (-1, 0, 1))
-    density = smooth[index[..., 0], index[..., 1], index[..., 2]]
-    return density < np.quantile(density[reference], OFF_COLOUR_QUANTILE)
+    level = np.quantile(smooth[own[:, 0], own[:, 1], own[:, 2]], OFF_COLOUR_QUANTILE)
+    if judged is None:
+        index = (rgb.astype(np.int64) * bins) // 256
+        return smooth[index[..., 0], index[..., 1], index[..., 2]] < level
+    judged = np.asarray(judged, dtype=bool)
+    index = (rgb[judged].astype(np.int64) * bins) // 256
+    off = np.zeros(reference.shape, dtype=bool)
+    off[judged] = smooth[index[:, 0], index[:, 1], index[:, 2]] < level
+    return off

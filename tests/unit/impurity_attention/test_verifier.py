@@ -110,6 +110,23 @@ def test_the_oriented_features_are_computed_only_for_a_model_that_reads_them():
     assert np.array_equal(np.delete(full, oriented), np.delete(lean, oriented))  # the others alike
 
 
+def test_a_view_read_once_gives_every_region_the_features_it_gets_alone():
+    """candidate_features reads the view's planes once (ViewPlanes) for all its regions: the features are
+    the ones each region gets when read on its own, bit for bit."""
+    color, height, objects, impurity, product = two_colour_view()
+    height = height + np.linspace(0.0, 0.01, height.shape[1], dtype=np.float32) * objects  # some slope
+    maps = conspicuity_of(color, objects)
+    planes = ver.ViewPlanes.of(color, height)
+    for region in (impurity, product):
+        alone = ver.region_features(color, height, objects, maps, region)
+        shared = ver.region_features(color, height, objects, maps, region, planes=planes)
+        assert np.array_equal(alone, shared, equal_nan=True)
+    lean = ver.ViewPlanes.of(color)  # no height: what the lightness features read, not the oriented
+    assert lean.chroma is None and np.array_equal(lean.lightness, planes.lightness)
+    assert ver.lightness_features(color, impurity, objects & ~impurity, lean) == \
+        ver.lightness_features(color, impurity, objects & ~impurity)
+
+
 def test_a_model_naming_an_unknown_feature_or_too_few_values_is_refused():
     with pytest.raises(ValueError, match="features must be distinct names of FEATURES"):
         ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5, low=(0.0,),

@@ -4,7 +4,7 @@ that the product's own shading counts little and one threshold serves every pale
 import numpy as np
 import pytest
 
-from impurity_common.colour import REFERENCE_CELLS, ProductReference
+from impurity_common.colour import REFERENCE_CELLS, ProductReference, off_colours
 
 LIT, SHADED = (40, 120, 200), (30, 90, 150)  # one blue block, a lit and a shaded face
 
@@ -99,3 +99,17 @@ def test_a_product_clipped_in_every_channel_keeps_all_three():
 def test_a_bad_saturation_level_is_refused_by_name():
     with pytest.raises(ValueError, match="saturation"):
         ProductReference.from_colors([LIT] * 10, min_spread=4.0, saturation=0.0)
+
+
+def test_off_colours_marks_colours_rare_among_the_reference_and_judges_only_the_cells_asked_for():
+    rng = np.random.default_rng(3)
+    color = np.clip(rng.normal((40, 120, 200), 8, size=(40, 40, 3)), 0, 255).astype(np.uint8)  # blue product
+    color[10:16, 10:16] = (200, 60, 40)  # a red block
+    red = np.zeros((40, 40), bool)
+    red[10:16, 10:16] = True
+    reference = ~red
+    off = off_colours(color, reference)
+    assert off[red].all() and off[reference].mean() <= 0.02  # ~1 % of the reference's own cells are rare
+    judged = np.zeros((40, 40), bool)
+    judged[5:20, 5:30] = True
+    assert np.array_equal(off_colours(color, reference, judged), off & judged)  # the same verdicts, no others

@@ -71,7 +71,7 @@ import numpy as np
 
 from impurity_common.colour import off_colours, region_contrast
 
-from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromaticity, opponent_colour
+from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromaticity
 
 TOP_REGIONS = 3  # salient regions scored, best first
 ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_share")
@@ -145,13 +145,15 @@ class RegionVerifier:
 
 
 def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
-                    region: np.ndarray, oriented: bool = True) -> np.ndarray | None:
+                    region: np.ndarray, oriented: bool = True,
+                    planes: ViewPlanes | None = None) -> np.ndarray | None:
     """(len(REGION_FEATURES),) float64 of one region (module docstring). color (H, W, 3) uint8, height
     (H, W) float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity:
     VOCUS2's chromaticity-space maps by channel name ("I", "RG", "BY"), each (H, W) float32. None when no
     other object cell is in view: there is no product to compare with (attention then lets saliency
     decide alone, as the rule does). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
-    model that does not read them: they are the costliest)."""
+    model that does not read them: they are the costliest). planes: the view's ViewPlanes when
+    several regions of one view are read (computed here when None; the features are the same)."""
     region = np.asarray(region, dtype=bool)
     others = objects & ~region
     if not others.any():
@@ -166,54 +168,85 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
         plane = conspicuity[name]
         level = max(float(plane[product].mean()), MIN_CHANNEL_LEVEL)
         ratios[name] = math.log(max(float(plane[region].mean()) / level, MIN_RATIO))
-    off_share = float(np.mean(off_colours(color, others)[region]))
-    offset, dark = lightness_features(color, region, product)
+    off_share = float(np.mean(off_colours(color, others, region)[region]))
+    if planes is None:
+        planes = ViewPlanes.of(color, height if oriented else None)
+    offset, dark = lightness_features(color, region, product, planes)
+    facing = oriented_features(color, height, region, product, planes) if oriented else (0.0, 0.0, 0.0)
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
-                     float(np.std(height[region])), offset, dark,
-                     *(oriented_features(color, height, region, product) if oriented else (0.0, 0.0, 0.0))])
+                     float(np.std(height[region])), offset, dark, *facing])
 
 
-def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) -> tuple:
+def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray,
+                       planes: ViewPlanes | None = None) -> tuple:
     """(lightness_offset, dark_share) of `region` against `product` (module docstring), both (H, W) bool,
     read on cells with no channel at or above SATURATION only: a clipped cell's lightness is unknown (a
-    light product at a long exposure is all 255). (0.0, 0.0) when either has no such cell."""
-    def lightness(cells: np.ndarray) -> np.ndarray:  # L of the unclipped ones among `cells`, (N,)
-        colours = color[cells]
-        colours = colours[np.all(colours < SATURATION, axis=-1)]
-        return np.log(np.maximum(opponent_colour(colours[None])[0, :, 0], CHROMA_MIN_INTENSITY))
-
-    own, reference = lightness(region), lightness(product)
+    light product at a long exposure is all 255). (0.0, 0.0) when either has no such cell. planes: the
+    view's ViewPlanes (computed here when None)."""
+    if planes is None:
+        planes = ViewPlanes.of(color)
+    own = planes.lightness[region & planes.unclipped]
+    reference = planes.lightness[product & planes.unclipped]
     if not own.size or not reference.size:
         return 0.0, 0.0
     offset = float((np.median(own) - np.median(reference)) / (np.std(reference) + 1e-3))
     return offset, float(np.mean(own < np.quantile(reference, DARK_QUANTILE)))
 
 
+@dataclass(frozen=True)
+class ViewPlanes:
+    """What lightness_features and oriented_features read of a whole view, the same for every region of it
+    (computed once per view by candidate_features). unclipped (H, W) bool: cells with no channel at or above
+    SATURATION; lightness (H, W) float32: L, the log of the opponent intensity I (floor
+    CHROMA_MIN_INTENSITY). For oriented_features only (None when built without a height map): readable
+    (H, W) bool, cells with at least one channel below SATURATION; gx, gy (H, W) float32, the slopes of the
+    heightmap smoothed by a Gaussian of SLOPE_SIGMA px (Sobel / 8: m per cell); chroma (H, W, 3) float32,
+    log I (floor LOG_I_FLOOR), RG / I and BY / I (saliency.opponent_chromaticity)."""
+
+    unclipped: np.ndarray
+    lightness: np.ndarray
+    readable: np.ndarray | None = None
+    gx: np.ndarray | None = None
+    gy: np.ndarray | None = None
+    chroma: np.ndarray | None = None
+
+    @classmethod
+    def of(cls, color: np.ndarray, height: np.ndarray | None = None) -> ViewPlanes:
+        """From a view's color (H, W, 3) uint8 and, for the oriented planes, height (H, W) m."""
+        chroma = opponent_chromaticity(np.asarray(color))  # its I plane is opponent_colour's, unfloored
+        below = np.asarray(color) < SATURATION
+        lightness = np.log(np.maximum(chroma[..., 0], CHROMA_MIN_INTENSITY))
+        if height is None:
+            return cls(np.all(below, axis=-1), lightness)
+        smooth = cv2.GaussianBlur(np.asarray(height, dtype=np.float32), (0, 0), SLOPE_SIGMA)
+        return cls(np.all(below, axis=-1), lightness, readable=np.any(below, axis=-1),
+                   gx=cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0,  # the fit is the same at any scale
+                   gy=cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / 8.0,
+                   chroma=np.concatenate([np.log(np.maximum(chroma[..., :1], LOG_I_FLOOR)), chroma[..., 1:]],
+                                         axis=-1))
+
 
 def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
-                      product: np.ndarray) -> tuple:
+                      product: np.ndarray, planes: ViewPlanes | None = None) -> tuple:
     """(oriented_contrast, oriented_lightness, oriented_off_share) of `region` against `product` (module
     docstring; both (H, W) bool, color (H, W, 3) uint8, height (H, W) m), read on cells with at least one
     channel below SATURATION: a cell clipped in every channel (a light product at a long exposure, all 255)
     says nothing about its face's orientation, while a face clipped in some channels (a blue product's lit
     faces turned cyan) still does. Unknown, (nan, nan, nan), with fewer than ORIENTED_MIN_PRODUCT such
     product cells or no such region cell: a model reads an unknown feature as its fitted mean
-    (RegionVerifier.probability), where 0 would read as "like the product" to a model that weighs them."""
-    readable = np.any(np.asarray(color) < SATURATION, axis=-1)
-    region, product = region & readable, product & readable
+    (RegionVerifier.probability), where 0 would read as "like the product" to a model that weighs them.
+    planes: ViewPlanes.of(color, height), passed when several regions of one view are read."""
+    if planes is None or planes.chroma is None:
+        planes = ViewPlanes.of(color, height)
+    region, product = region & planes.readable, product & planes.readable
     if int(product.sum()) < ORIENTED_MIN_PRODUCT or not region.any():
         return math.nan, math.nan, math.nan
-    smooth = cv2.GaussianBlur(np.asarray(height, dtype=np.float32), (0, 0), SLOPE_SIGMA)
-    gx = cv2.Sobel(smooth, cv2.CV_32F, 1, 0, ksize=3) / 8.0  # m per cell: the fit is the same at any scale
-    gy = cv2.Sobel(smooth, cv2.CV_32F, 0, 1, ksize=3) / 8.0
-    chroma = opponent_chromaticity(color)
-    planes = np.concatenate([np.log(np.maximum(chroma[..., :1], LOG_I_FLOOR)), chroma[..., 1:]], axis=-1)
 
     def design(cells: np.ndarray) -> np.ndarray:
-        x, y = gx[cells].astype(np.float64), gy[cells].astype(np.float64)
+        x, y = planes.gx[cells].astype(np.float64), planes.gy[cells].astype(np.float64)
         return np.stack([np.ones_like(x), x, y, x * x, y * y, x * y], axis=1)
 
-    own, reference = planes[region].astype(np.float64), planes[product].astype(np.float64)
+    own, reference = planes.chroma[region].astype(np.float64), planes.chroma[product].astype(np.float64)
     beta = np.linalg.lstsq(design(product), reference, rcond=None)[0]
     residual_p, residual_m = reference - design(product) @ beta, own - design(region) @ beta
     inverse = np.linalg.inv(np.cov(residual_p, rowvar=False) + ORIENTED_RIDGE * np.eye(3))
@@ -222,6 +255,7 @@ def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
     per_cell = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", residual_m, inverse, residual_m), 0.0))
     lightness = float(np.median(residual_m[:, 0]) / (np.std(residual_p[:, 0]) + 1e-3))
     return math.log1p(min(distance, COLOUR_CAP)), lightness, float(np.mean(per_cell > ORIENTED_OFF))
+
 
 def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarray:
     """(len(CONTEXT_FEATURES),) float64: region `rank` (0-based) among `regions` (salient regions, best
@@ -238,8 +272,9 @@ def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarra
     regions, best first): what attention scores and verifier-fit learns from. Arguments as
     region_features."""
     candidates = []
+    planes = ViewPlanes.of(color, height if oriented else None)
     for rank, region in enumerate(regions[:TOP_REGIONS]):
-        own = region_features(color, height, objects, conspicuity, region.mask, oriented)
+        own = region_features(color, height, objects, conspicuity, region.mask, oriented, planes)
         candidates.append((region, None if own is None else
                            np.concatenate([own, context_features(objects, regions, rank)])))
     return candidates
