@@ -172,6 +172,10 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(2_000, 6_060, "docs/experiments_s11/exposure_wide.py",
               "report --seed-base 2000 --count-scale 2 [--model runs/s20/verifier_oriented.json]: the "
               "twentieth session's fresh exposure check of the refit with the orientation-matched features"),
+    SeedBlock(6_100, 6_300, "docs/experiments_s14/push_out.py",
+              "--seed-base 6100: the twenty-third session's grasp records with the twenty-first session's "
+              "verifier, invisible 6 100-6 299, tuning palettes and the default palette (--palette blocks) "
+              "on the same seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
