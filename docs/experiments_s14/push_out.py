@@ -102,12 +102,13 @@ def run_one(task: tuple) -> dict:
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
-                          "verifier_last_look")
+                          "verifier_last_look", "canonical_colours")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())), params)
-        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
+        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(
+            SHIPPED_CHECKPOINT, rules=rules, canonical_colours=bool(rule_params.get("canonical_colours"))))
         _WORKER["key"] = key
     steps, where, decided = [], [], []
     world = _WORKER["world"]
@@ -215,6 +216,8 @@ def run(args) -> None:
         rule_params["with"] = args.with_rules
     if args.heap_threshold is not None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
+    if args.canonical_colours:
+        rule_params["canonical_colours"] = True
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -339,6 +342,8 @@ def main(argv=None) -> int:
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
+    r.add_argument("--canonical-colours", action="store_true",
+                   help="the network sees the colour crop in the default palette (policy canonical_colours)")
     r.add_argument("--heap-threshold", type=float, default=None,
                    help="attention's verifier_heap_threshold (default: AttentionParams' own, off)")
     r.add_argument("--verifier", default=None,

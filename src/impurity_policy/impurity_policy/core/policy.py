@@ -19,6 +19,7 @@ import torch
 
 from impurity_common.grid import HeightmapGrid
 
+from .canonical import canonical_colours
 from .checkpoint import load_network
 from .decision import Decision, State, action_masks, best_action, epsilon_greedy
 from .network import GRASP, PUSH, QNetwork, network_inputs
@@ -91,11 +92,14 @@ class Policy:
     network: QNetwork (eval mode); pose_rules: pose.PoseRules (heights of pushes and grasps);
     grasp_needs_object: grasps only where the height crop shows something (as in training);
     rules: rules.RulePipeline (default: none, the paper's method: the network's argmax over the valid
-    actions)."""
+    actions); canonical_colours: the network sees the colour crop repainted in the default palette
+    (canonical.canonical_colours; an experiment of the twenty-third session, off by default)."""
 
     def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(),
-                 grasp_needs_object: bool = True, rules: RulePipeline | None = None):
+                 grasp_needs_object: bool = True, rules: RulePipeline | None = None,
+                 canonical_colours: bool = False):
         self.network = network.eval()
+        self.canonical_colours = canonical_colours
         self.device = next(network.parameters()).device  # the network's: load_network(device=...)
         self.pose_rules, self.grasp_needs_object = pose_rules, grasp_needs_object
         self.rules = rules if rules is not None else RulePipeline()
@@ -109,7 +113,10 @@ class Policy:
     @torch.no_grad()
     def q_maps(self, obs: Observation) -> np.ndarray:
         """(R, 2, S, S) Q maps of the observation's crops."""
-        inputs = network_inputs(obs.color_crop, obs.height_crop, obs.mask).to(self.device)
+        color = obs.color_crop
+        if self.canonical_colours:
+            color = canonical_colours(color, obs.height_crop, obs.mask, obs.mode == MODE_TARGET)
+        inputs = network_inputs(color, obs.height_crop, obs.mask).to(self.device)
         return self.network.q_maps(inputs).cpu().numpy()
 
     def masks(self, obs: Observation) -> np.ndarray:
