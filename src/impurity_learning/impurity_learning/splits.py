@@ -176,6 +176,10 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 6100: the twenty-third session's grasp records with the twenty-first session's "
               "verifier, invisible 6 100-6 299, tuning palettes and the default palette (--palette blocks) "
               "on the same seeds"),
+    SeedBlock(6_300, 6_500, "docs/experiments_s14/push_out.py",
+              "--seed-base 6100 --start 200 / 300: the twenty-third session's random (6 300-6 399) and "
+              "challenging (6 400-6 499) test of canonical colours, shipped and canonical arms on the same "
+              "seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
