@@ -180,6 +180,9 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 6100 --start 200 / 300: the twenty-third session's random (6 300-6 399) and "
               "challenging (6 400-6 499) test of canonical colours, shipped and canonical arms on the same "
               "seeds"),
+    SeedBlock(6_500, 6_700, "docs/experiments_s14/push_out.py",
+              "--seed-base 6100 --start 400: the twenty-third session's second invisible test of canonical "
+              "colours on tuning palettes, shipped and canonical arms on the same seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
