@@ -108,7 +108,8 @@ def run_one(task: tuple) -> dict:
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
         rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())), params)
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(
-            SHIPPED_CHECKPOINT, rules=rules, canonical_colours=bool(rule_params.get("canonical_colours"))))
+            SHIPPED_CHECKPOINT, rules=rules,
+            canonical_colours=True if rule_params.get("canonical_colours") else None))
         _WORKER["key"] = key
     steps, where, decided = [], [], []
     world = _WORKER["world"]
@@ -343,7 +344,8 @@ def main(argv=None) -> int:
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
     r.add_argument("--canonical-colours", action="store_true",
-                   help="the network sees the colour crop in the default palette (policy canonical_colours)")
+                   help="the network sees the colour crop in the default palette (the candidate rule "
+                        "canonical_colours; --with canonical_colours does the same)")
     r.add_argument("--heap-threshold", type=float, default=None,
                    help="attention's verifier_heap_threshold (default: AttentionParams' own, off)")
     r.add_argument("--verifier", default=None,

@@ -333,7 +333,7 @@ def test_preset_none_leaves_the_q_maps_untouched():
 def test_preset_cell_has_every_rule_but_the_candidates_and_can_leave_some_out():
     every_but_candidates = tuple(n for n in RULE_ORDER if n not in CANDIDATES)
     assert RulePipeline.preset("cell").names == PRESETS["cell"] == every_but_candidates
-    assert len(RULE_ORDER) == 11 and set(CANDIDATES) <= set(RULE_ORDER)
+    assert len(RULE_ORDER) == 12 and set(CANDIDATES) <= set(RULE_ORDER)
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
     left_out = ("finger_clearance", "grasp_at_target_core")
     assert without == tuple(n for n in PRESETS["cell"] if n not in left_out)
@@ -470,3 +470,15 @@ def test_a_greedy_policy_with_the_cell_rules_does_not_repeat_a_failed_grasp():
     assert not (same_axis and distance <= policy.rules.params.tried_action_radius_px)
     policy.rules.clear()  # a new episode: the failed grasp may be tried again
     assert policy.decide(obs, q=q).decision == first.decision
+
+
+def test_the_input_rule_rules_nothing_out_and_tells_the_policy_to_repaint_the_colours():
+    obs = _observation(MODE_TARGET, _wedged_target(), _square_mask())
+    q = _q()
+    only = RulePipeline(("canonical_colours",))
+    assert only.apply(q, obs, np.ones((2, CROP, CROP), bool), PoseRules(), obs.grid) is q
+    cell = RulePipeline.preset("cell")
+    assert not Policy(QNetwork(SMALL), rules=cell).canonical_colours  # a candidate, in no preset
+    assert Policy(QNetwork(SMALL), rules=RulePipeline(cell.names + ("canonical_colours",))).canonical_colours
+    assert not Policy(QNetwork(SMALL), rules=RulePipeline.preset("none")).canonical_colours  # the paper's
+    assert Policy(QNetwork(SMALL), canonical_colours=True).canonical_colours  # or said outright

@@ -1,5 +1,5 @@
-"""The network's colour input in one appearance, whatever the scene's (issue 17; twenty-third session,
-an experiment: `Policy(canonical_colours=True)`).
+"""The network's colour input in one appearance, whatever the scene's (issue 17; twenty-third session; the
+candidate rule canonical_colours, in no preset: tested twice on tuning data and not adopted).
 
 The push-grasp network learnt on the default palette first (blue product, red impurities) and was then
 fine-tuned with a fifth of its scenes still in it. On tuning palettes it grasps a revealed target while
