@@ -102,7 +102,7 @@ def run_one(task: tuple) -> dict:
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
-                          "verifier_last_look", "canonical_colours")
+                          "verifier_last_look", "canonical_colours", "mask_truth")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -161,8 +161,30 @@ def run_one(task: tuple) -> dict:
                                 "object_m": nearest(poses, truth.object_ids, x, y),
                                 "probability": float(found.group(1)) if found else None,
                                 "last_look": bool(attention.last_look), "heap": heap is not None,
-                                "stall": self.fired})
+                                "stall": self.fired, **(mask_truth(attention) if with_mask_truth else {})})
             return action
+
+    with_mask_truth = bool(rule_params.get("mask_truth"))
+
+    def mask_truth(attention) -> dict:
+        """Twenty-third session: the target mask (m_t grown) and the salient region m_t against the truth,
+        from a frame rendered with segmentation at decision time (no depth noise: the episode is unchanged).
+        mask_precision: the share of the mask's cells that show a target; mask_cells: its size;
+        mask_bodies: the bodies it covers with at least 10 cells; region_precision: the same share for m_t."""
+        from impurity_attention.core.heightmap import rgbd_to_heightmaps
+        from impurity_common.grid import HeightmapGrid
+        if attention.target_mask is None or not attention.target_mask.any():
+            return {}
+        frame = world.render()
+        labels = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose,
+                                    HeightmapGrid(), labels=frame.segmentation).labels
+        targets = np.isin(labels, list(world.ground_truth().target_ids))
+        mask = attention.target_mask
+        ids, counts = np.unique(labels[mask], return_counts=True)
+        region = attention.target_region.mask if attention.target_region is not None else mask
+        return {"mask_precision": round(float(targets[mask].mean()), 3), "mask_cells": int(mask.sum()),
+                "mask_bodies": int(np.sum((counts >= 10) & (ids >= 0))),
+                "region_precision": round(float(targets[region].mean()), 3)}
 
     def targets_at() -> list:
         truth = world.ground_truth()
@@ -196,7 +218,9 @@ def run_one(task: tuple) -> dict:
                "target": step.target_grasped, "target_m": round(decided[index]["target_m"], 4),
                "object_m": round(decided[index]["object_m"], 4), "probability": decided[index]["probability"],
                "last_look": decided[index]["last_look"], "heap": decided[index]["heap"],
-               "stall": decided[index]["stall"]}
+               "stall": decided[index]["stall"],
+               **{k: decided[index][k] for k in ("mask_precision", "mask_cells", "mask_bodies",
+                                                  "region_precision") if k in decided[index]}}
               for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
             "termination": summary["termination_reason"], "completed": summary["completed"],
@@ -219,6 +243,8 @@ def run(args) -> None:
         rule_params["verifier_heap_threshold"] = args.heap_threshold
     if args.canonical_colours:
         rule_params["canonical_colours"] = True
+    if args.mask_truth:
+        rule_params["mask_truth"] = True
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -343,6 +369,8 @@ def main(argv=None) -> int:
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
+    r.add_argument("--mask-truth", action="store_true",
+                   help="record at each grasp how much of attention's target mask shows a target (truth)")
     r.add_argument("--canonical-colours", action="store_true",
                    help="the network sees the colour crop in the default palette (the candidate rule "
                         "canonical_colours; --with canonical_colours does the same)")
