@@ -20,7 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-OBJECT_HEIGHT = 0.01  # m: cells higher than this are objects (attention's density.occupied_height)
+from .decision import OBJECT_HEIGHT  # m: cells higher than this are objects (what a grasp needs)
+
 REFERENCE_RGB = {"target": (234.0, 64.0, 42.0), "product": (37.0, 118.0, 201.0),
                  "table": (160.0, 160.0, 160.0)}
 MIN_INTENSITY = 1.0  # RGB mean below which a class's median counts as this (an all-black class)
