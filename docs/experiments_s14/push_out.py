@@ -106,10 +106,9 @@ def run_one(task: tuple) -> dict:
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
-        rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())), params)
-        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(
-            SHIPPED_CHECKPOINT, rules=rules,
-            canonical_colours=True if rule_params.get("canonical_colours") else None))
+        canonical = ("canonical_colours",) if rule_params.get("canonical_colours") else ()
+        rules = RulePipeline(preset.names + tuple(rule_params.get("with", ())) + canonical, params)
+        _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
     steps, where, decided = [], [], []
     world = _WORKER["world"]
@@ -372,8 +371,8 @@ def main(argv=None) -> int:
     r.add_argument("--mask-truth", action="store_true",
                    help="record at each grasp how much of attention's target mask shows a target (truth)")
     r.add_argument("--canonical-colours", action="store_true",
-                   help="the network sees the colour crop in the default palette (the candidate rule "
-                        "canonical_colours; --with canonical_colours does the same)")
+                   help="the candidate input rule canonical_colours added, as --with canonical_colours, but "
+                        "recorded as the twenty-third session's runs were (params canonical_colours)")
     r.add_argument("--heap-threshold", type=float, default=None,
                    help="attention's verifier_heap_threshold (default: AttentionParams' own, off)")
     r.add_argument("--verifier", default=None,

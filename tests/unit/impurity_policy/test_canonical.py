@@ -49,6 +49,7 @@ def test_a_policy_with_canonical_colours_gives_the_same_q_maps_under_either_pale
 
     from impurity_policy.core.network import NetworkConfig, QNetwork
     from impurity_policy.core.policy import MODE_TARGET, Observation, Policy
+    from impurity_policy.core.rules import RulePipeline
 
     torch.manual_seed(0)
     network = QNetwork(NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=16))
@@ -57,7 +58,7 @@ def test_a_policy_with_canonical_colours_gives_the_same_q_maps_under_either_pale
         color, height, mask = crop(product=product, impurity=impurity, size=112)
         return policy.q_maps(Observation(MODE_TARGET, color, height, mask, (0, 0), height))
 
-    canonical, plain = Policy(network, canonical_colours=True), Policy(network)
+    canonical, plain = Policy(network, rules=RulePipeline(("canonical_colours",))), Policy(network)
     one, two = ((100, 100, 60), (90, 90, 90)), ((50, 150, 40), (200, 40, 200))  # shaded faces exactly 0.6
     assert np.allclose(q(canonical, *one), q(canonical, *two), atol=1e-5)
     assert not np.allclose(q(plain, *one), q(plain, *two), atol=1e-3)

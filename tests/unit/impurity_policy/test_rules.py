@@ -481,4 +481,4 @@ def test_the_input_rule_rules_nothing_out_and_tells_the_policy_to_repaint_the_co
     assert not Policy(QNetwork(SMALL), rules=cell).canonical_colours  # a candidate, in no preset
     assert Policy(QNetwork(SMALL), rules=RulePipeline(cell.names + ("canonical_colours",))).canonical_colours
     assert not Policy(QNetwork(SMALL), rules=RulePipeline.preset("none")).canonical_colours  # the paper's
-    assert Policy(QNetwork(SMALL), canonical_colours=True).canonical_colours  # or said outright
+    assert Policy(QNetwork(SMALL), rules=RulePipeline(("canonical_colours",))).canonical_colours  # alone

@@ -92,24 +92,19 @@ class Policy:
     network: QNetwork (eval mode); pose_rules: pose.PoseRules (heights of pushes and grasps);
     grasp_needs_object: grasps only where the height crop shows something (as in training);
     rules: rules.RulePipeline (default: none, the paper's method: the network's argmax over the valid
-    actions); canonical_colours: whether the network sees the colour crop repainted in the default palette
-    (canonical.canonical_colours); None: as the rules say (the candidate input rule canonical_colours, in
-    no preset)."""
+    actions). With the candidate input rule canonical_colours among the rules, the network sees the colour
+    crop repainted in the default palette (canonical.canonical_colours)."""
 
     def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(),
-                 grasp_needs_object: bool = True, rules: RulePipeline | None = None,
-                 canonical_colours: bool | None = None):
+                 grasp_needs_object: bool = True, rules: RulePipeline | None = None):
         self.network = network.eval()
-        self._canonical_colours = canonical_colours
         self.device = next(network.parameters()).device  # the network's: load_network(device=...)
         self.pose_rules, self.grasp_needs_object = pose_rules, grasp_needs_object
         self.rules = rules if rules is not None else RulePipeline()
 
     @property
     def canonical_colours(self) -> bool:
-        """Whether the network's colour input is repainted (the constructor's choice, else the rules')."""
-        if self._canonical_colours is not None:
-            return self._canonical_colours
+        """Whether the network's colour input is repainted: the rules hold the rule canonical_colours."""
         return "canonical_colours" in self.rules.names
 
     @classmethod
