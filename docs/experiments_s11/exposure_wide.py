@@ -110,9 +110,8 @@ def main() -> None:
     params = AttentionParams()
     if args.model:
         from impurity_attention.core.verifier import RegionVerifier
-        fields = json.loads(args.model.read_text())
-        params = dataclasses.replace(params, verifier=RegionVerifier(**{
-            k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}))
+        model = RegionVerifier.from_dict(json.loads(args.model.read_text()))
+        params = dataclasses.replace(params, verifier=model)
     if args.last_look is not None:
         params = dataclasses.replace(params, verifier_last_look=args.last_look)
     records = collect(args.count_scale, args.seed_base)

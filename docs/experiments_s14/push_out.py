@@ -75,8 +75,7 @@ def nearest(poses: dict, ids, x: float, y: float) -> float:
 def verifier_from_json(path):
     """A RegionVerifier from calibrate_attention.py verifier-fit --model-json's file."""
     from impurity_attention.core.verifier import RegionVerifier
-    fields = json.loads(pathlib.Path(path).read_text())
-    return RegionVerifier(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
+    return RegionVerifier.from_dict(json.loads(pathlib.Path(path).read_text()))
 
 
 def run_one(task: tuple) -> dict:

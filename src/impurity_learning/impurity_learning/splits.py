@@ -184,6 +184,10 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 6100 --start 400: the twenty-third session's second invisible test of canonical "
               "colours on tuning palettes, shipped and canonical arms on the same seeds; then the shipped "
               "cell on the default palette (--palette blocks) on them, for the gap between the palettes"),
+    SeedBlock(6_700, 7_100, "docs/experiments_s14/push_out.py",
+              "--seed-base 6700: the twenty-fourth session's picking test of the boosted-trees verifier, "
+              "invisible 6 700-6 899, random 6 900-6 999 (--start 200), challenging 7 000-7 099 (--start "
+              "300), shipped and trees arms on the same seeds, tuning palettes"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),

@@ -1,0 +1,108 @@
+"""Twenty-fourth session, tuning data only: does a model with more capacity than the shipped logistic
+regression separate impurity regions better on palettes it never saw?
+
+`collect` computes the verifier's training rows once (calibrate_attention.verifier_rows on the shipped
+recipe's scenes: rule-sweep's tuning first views, the tuning palettes' own layouts, the twenty-first
+session's picking-loop views) and saves them; `compare` refits each candidate model in palette-grouped
+folds (GroupKFold, VERIFIER_FOLDS: every scene scored by a model that never saw its palette) and prints, at
+the threshold each model's out-of-fold first views put at 1 % false TARGET on scenes without a visible
+impurity (calibrate_attention.VERIFIER_FALSE_TARGET), found / false TARGET on first views and on loop views.
+
+    python docs/experiments_s24/verifier_models.py collect runs/s24/rows.npz \
+        runs/s21/views_inv.npz runs/s21/views_chal.npz runs/s21/views_rand.npz
+    python docs/experiments_s24/verifier_models.py compare runs/s24/rows.npz
+"""
+import sys
+
+import numpy as np
+
+sys.path.insert(0, "scripts")
+import calibrate_attention as ca  # noqa: E402
+
+from impurity_attention.core import evaluation  # noqa: E402
+from impurity_attention.core.attention import AttentionParams  # noqa: E402
+from impurity_attention.core.verifier import FEATURES, default_verifier  # noqa: E402
+
+
+def collect(out: str, loop_paths: list) -> None:
+    params = AttentionParams()
+    records, _ = ca.rule_sweep_records()
+    records = records + ca.collect_palettes("tuning", own_layouts=True)
+    loop = [r for path in loop_paths for r in evaluation.load_records(path)]
+    kinds = [r.category() for r in records + loop if r.category() in evaluation.CATEGORIES]
+    first = sum(r.category() in evaluation.CATEGORIES for r in records)
+    features, on, scene, group, visible = ca.verifier_rows(records + loop, params)
+    np.savez(out, features=features, on=on, scene=scene, group=group, visible=visible,
+             kind=np.array(kinds), first=first)
+    print(f"{out}: {len(visible)} scenes ({first} first views), {len(features)} regions")
+
+
+def models():
+    from sklearn.ensemble import GradientBoostingClassifier, HistGradientBoostingClassifier
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.neural_network import MLPClassifier
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import PolynomialFeatures, StandardScaler
+
+    return {
+        "logistic (shipped recipe)": lambda: make_pipeline(
+            StandardScaler(), LogisticRegression(C=1.0, max_iter=5000)),
+        "logistic, pairwise products": lambda: make_pipeline(
+            StandardScaler(), PolynomialFeatures(2), StandardScaler(),
+            LogisticRegression(C=0.1, max_iter=5000)),
+        "MLP 16, alpha 1e-2": lambda: make_pipeline(StandardScaler(), MLPClassifier(
+            (16,), alpha=1e-2, max_iter=2000, random_state=0)),
+        "MLP 32-16, alpha 1e-2": lambda: make_pipeline(StandardScaler(), MLPClassifier(
+            (32, 16), alpha=1e-2, max_iter=2000, random_state=0)),
+        "gradient boosting": lambda: HistGradientBoostingClassifier(
+            max_iter=300, learning_rate=0.05, max_leaf_nodes=15, l2_regularization=1.0, random_state=0),
+        "gradient boosting, 150 x 7 leaves": lambda: HistGradientBoostingClassifier(
+            max_iter=150, learning_rate=0.1, max_leaf_nodes=7, l2_regularization=1.0, random_state=0),
+        "gradient boosting, 600 x 31 leaves": lambda: HistGradientBoostingClassifier(
+            max_iter=600, learning_rate=0.025, max_leaf_nodes=31, l2_regularization=1.0, random_state=0),
+        "GradientBoosting 200 x depth 3": lambda: GradientBoostingClassifier(
+            n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0),
+        "GradientBoosting 300 x depth 4": lambda: GradientBoostingClassifier(
+            n_estimators=300, learning_rate=0.05, max_depth=4, subsample=0.8, random_state=0),
+    }
+
+
+def compare(path: str, only: tuple = ()) -> None:
+    from sklearn.model_selection import GroupKFold
+
+    data = np.load(path)
+    features, on, scene, group, visible, kind = (data[k] for k in ("features", "on", "scene", "group",
+                                                                      "visible", "kind"))
+    first, count = int(data["first"]), len(data["visible"])
+    columns = [FEATURES.index(name) for name in default_verifier().features]
+    features = features[:, columns]
+    filled = np.where(np.isnan(features), np.nanmean(features, axis=0), features)  # NaN: the mean, as shipped
+    print(f"{count} scenes ({first} first views, {count - first} loop views), {len(features)} regions, "
+          f"{len(set(group))} palettes")
+    print("model                         | first views: found   clean  invisible | loop: found  none in view")
+    for name, make in models().items():
+        if only and not any(o in name for o in only):
+            continue
+        out_of_fold = np.zeros(len(features))
+        for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
+            out_of_fold[test] = make().fit(filled[train], on[train]).predict_proba(filled[test])[:, 1]
+        best, hit = ca.scene_decisions(out_of_fold, on, scene, count)
+        least = ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
+        cells = []
+        for part in (slice(0, first), slice(first, None)):
+            taken, shown, what = best[part] >= least, visible[part], kind[part]
+            cells.append((100 * np.mean(taken[shown] & hit[part][shown]),
+                          100 * np.mean(taken[what == "no_impurity"]) if np.any(what == "no_impurity") else 0,
+                          100 * np.mean(taken[what == "invisible"]) if np.any(what == "invisible") else 0,
+                          100 * np.mean(taken[~shown])))
+        (f, c, i, _), (lf, _, _, ln) = cells
+        print(f"{name:29s} | {f:5.1f} %  {c:5.1f} %  {i:5.1f} %      | {lf:5.1f} %  {ln:5.1f} %   "
+              f"(t {least:.3f})")
+        sys.stdout.flush()
+
+
+if __name__ == "__main__":
+    if sys.argv[1] == "collect":
+        collect(sys.argv[2], sys.argv[3:])
+    else:
+        compare(sys.argv[2], tuple(sys.argv[3:]))
