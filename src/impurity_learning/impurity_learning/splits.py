@@ -188,6 +188,9 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 6700: the twenty-fourth session's picking test of the boosted-trees verifier, "
               "invisible 6 700-6 899, random 6 900-6 999 (--start 200), challenging 7 000-7 099 (--start "
               "300), shipped and trees arms on the same seeds, tuning palettes"),
+    SeedBlock(55_100, 59_220, "docs/experiments_s11/exposure_wide.py",
+              "report --seed-base 55100 --count-scale 2 [--model runs/s24/verifier_trees.json]: the "
+              "twenty-fourth session's exposure check of the boosted-trees verifier"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
