@@ -672,7 +672,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     (VERIFIER_FOLDS folds; each fold's palettes unseen by its model, as held-out palettes are), with the
     threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
-    VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
+    VERIFIER_FALSE_TARGET of the scenes without a visible impurity (for trees counted on the out-of-fold
+    probabilities); written to verifier_model.py with
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
@@ -752,6 +753,7 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
             nested[k] += (np.sum(decided & test_hit & visible), np.sum(unseen & visible),
                           np.sum(decided & ~visible), np.sum(unseen & ~visible))
     best, hit = scene_decisions(out_of_fold, on, scene, count)
+    unseen_best = best
     print("palette-grouped cross-validation, found (false TARGET) within a false-TARGET cap:")
     for k, cap in enumerate(caps):
         least = threshold_at(best, visible, cap)
@@ -766,7 +768,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     first = sum(r.category() in evaluation.CATEGORIES
                 for r in records[:len(records) - len(loop)])
     counted = first if threshold_on == "first-views" else count
-    least = threshold_at(best[:counted], visible[:counted], VERIFIER_FALSE_TARGET)
+    # the threshold: on the model's own probabilities for the logistic model (in sample and out of fold
+    # agree within a point); on the out-of-fold ones for trees, whose in-sample probabilities of clean
+    # scenes are optimistic (docs/experiments.md, twenty-fourth section)
+    least = threshold_at((unseen_best if model == "trees" else best)[:counted], visible[:counted],
+                         VERIFIER_FALSE_TARGET)
     scaler, fitted_model = fitted
     if model == "trees":
         trees, intercept = tree_ensemble(fitted_model, np.where(np.isnan(features), scaler.mean_, features))
