@@ -101,7 +101,8 @@ def run_one(task: tuple) -> dict:
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
-                          "verifier_last_look", "canonical_colours", "mask_truth")
+                          "verifier_last_look", "canonical_colours", "mask_truth",
+                          "grasp_geometry")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -159,10 +160,43 @@ def run_one(task: tuple) -> dict:
                                 "object_m": nearest(poses, truth.object_ids, x, y),
                                 "probability": float(found.group(1)) if found else None,
                                 "last_look": bool(attention.last_look), "heap": heap is not None,
-                                "stall": self.fired, **(mask_truth(attention) if with_mask_truth else {})})
+                                "stall": self.fired, **(mask_truth(attention) if with_mask_truth else {}),
+                                **(grasp_geometry(action) if with_geometry and action.kind == "grasp"
+                                   else {})})
             return action
 
     with_mask_truth = bool(rule_params.get("mask_truth"))
+    with_geometry = bool(rule_params.get("grasp_geometry"))
+
+    def grasp_geometry(action) -> dict:
+        """Twenty-fourth session: the nearest target at a grasp decision, from the simulator (reads only; the
+        episode is unchanged). shape, dims (m); tilt: degrees between its own z axis and the vertical;
+        closing: degrees between the gripper's closing axis (the action's yaw) and the block's x axis, folded
+        to [0, 90]; base_above_table: m from the table to the block's lowest corner (> 0: resting on
+        something); touching: product bodies in contact with it, and the height (m) of their highest point
+        above the target's top."""
+        pb, truth = world.pb, world.ground_truth()
+        x, y, _ = action.position
+        poses = world.poses()
+        target = min(truth.target_ids, key=lambda b: math.hypot(poses[b][0][0] - x, poses[b][0][1] - y),
+                     default=None)
+        if target is None:
+            return {}
+        spec, orientation = world.specs[target], poses[target][1]
+        rotation = np.array(pb.getMatrixFromQuaternion(orientation)).reshape(3, 3)
+        tilt = math.degrees(math.acos(min(1.0, abs(rotation[2, 2]))))
+        block_yaw = math.atan2(rotation[1, 0], rotation[0, 0])
+        closing = abs(math.degrees(action.yaw - block_yaw)) % 180.0
+        closing = min(closing, 180.0 - closing)
+        low, high = pb.getAABB(target)
+        touching = {c[2] for c in pb.getContactPoints(bodyA=target) if c[2] in world.specs and c[2] != target}
+        over = max((pb.getAABB(b)[1][2] - high[2] for b in touching), default=None)
+        return {"g_shape": spec.shape, "g_dims": [round(d, 4) for d in spec.dims], "g_tilt": round(tilt, 1),
+                "g_closing": round(closing, 1), "g_base": round(low[2] - world_table_top(), 4),
+                "g_touching": len(touching), "g_over": None if over is None else round(over, 4)}
+
+    def world_table_top() -> float:
+        return world.pb.getAABB(world.table)[1][2]
 
     def mask_truth(attention) -> dict:
         """Twenty-third session: the target mask (m_t grown) and the salient region m_t against the truth,
@@ -218,7 +252,8 @@ def run_one(task: tuple) -> dict:
                "last_look": decided[index]["last_look"], "heap": decided[index]["heap"],
                "stall": decided[index]["stall"],
                **{k: decided[index][k] for k in ("mask_precision", "mask_cells", "mask_bodies",
-                                                  "region_precision") if k in decided[index]}}
+                                                  "region_precision") if k in decided[index]},
+               **{k: v for k, v in decided[index].items() if k.startswith("g_")}}
               for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
             "termination": summary["termination_reason"], "completed": summary["completed"],
@@ -243,6 +278,8 @@ def run(args) -> None:
         rule_params["canonical_colours"] = True
     if args.mask_truth:
         rule_params["mask_truth"] = True
+    if args.grasp_geometry:
+        rule_params["grasp_geometry"] = True
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -367,6 +404,8 @@ def main(argv=None) -> int:
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
+    r.add_argument("--grasp-geometry", action="store_true",
+                   help="record the nearest target's pose and contacts at each grasp (grasp_geometry)")
     r.add_argument("--mask-truth", action="store_true",
                    help="record at each grasp how much of attention's target mask shows a target (truth)")
     r.add_argument("--canonical-colours", action="store_true",

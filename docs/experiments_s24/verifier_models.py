@@ -146,9 +146,93 @@ def even(path: str, out: str) -> None:
           f"threshold {least:.3f}")
 
 
+def exposure_rows(out: str, seed_base: int = 55100, count_scale: float = 2.0) -> None:
+    """The verifier's rows of the default palette's exposure scenes (exposure_wide.py's) at each exposure."""
+    params = AttentionParams()
+    records = ca.collect_exposure_scenes(seed_base, count_scale)
+    saved = {}
+    for exposure in ca.EXPOSURES:
+        features, on, scene, group, visible = ca.verifier_rows([r.exposed(exposure) for r in records], params)
+        for name, values in zip(("features", "on", "scene", "visible"), (features, on, scene, visible),
+                                strict=True):
+            saved[f"{name}_{exposure:g}"] = values
+    np.savez(out, **saved)
+
+
+def screen(path: str, exposure_path: str, names: tuple) -> None:
+    """Each candidate fitted on all the tuning rows, its threshold out of fold (1 % of the first views without
+    a visible impurity), then read on the exposure rows: false TARGET / found per exposure (the main
+    threshold only: no last look)."""
+    from sklearn.model_selection import GroupKFold
+    data, exposed = np.load(path), np.load(exposure_path)
+    features, on, scene, group, visible = (data[k] for k in ("features", "on", "scene", "group", "visible"))
+    first, count = int(data["first"]), len(visible)
+    columns = [FEATURES.index(name) for name in default_verifier().features]
+    mean = np.nanmean(features[:, columns], axis=0)
+
+    def fill(rows):
+        rows = rows[:, columns]
+        return np.where(np.isnan(rows), mean, rows)
+
+    filled = fill(features)
+    for name, make in candidates().items():
+        if names and not any(n in name for n in names):
+            continue
+        unseen = np.zeros(len(filled))
+        for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
+            unseen[test] = make().fit(filled[train], on[train]).predict_proba(filled[test])[:, 1]
+        best, hit = ca.scene_decisions(unseen, on, scene, count)
+        least = ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
+        found = [100 * np.mean((best[part] >= least)[visible[part]] & hit[part][visible[part]])
+                 for part in (slice(0, first), slice(first, None))]
+        loop_false = 100 * np.mean((best[first:] >= least)[~visible[first:]])
+        model = make().fit(filled, on)
+        cells = []
+        for exposure in ca.EXPOSURES:
+            e = f"{exposure:g}"
+            shown = exposed[f"visible_{e}"]
+            p = model.predict_proba(fill(exposed[f"features_{e}"]))[:, 1]
+            eb, eh = ca.scene_decisions(p, exposed[f"on_{e}"], exposed[f"scene_{e}"], len(shown))
+            cells.append(f"x{e} {int(np.sum((eb >= least) & ~shown))}/{int(np.sum(~shown))} "
+                         f"found {int(np.sum((eb >= least) & eh & shown))}/{int(shown.sum())}")
+        print(f"{name:34s} t {least:.3f} | OOF first {found[0]:5.1f} loop {found[1]:5.1f} (false {loop_false:.1f})"
+              f" | {'; '.join(cells)}")
+        sys.stdout.flush()
+
+
+def candidates():
+    from sklearn.ensemble import GradientBoostingClassifier
+    from sklearn.linear_model import LogisticRegression
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    def logistic():
+        return make_pipeline(StandardScaler(), LogisticRegression(C=1.0, max_iter=5000))
+
+    return {
+        "logistic (shipped recipe)": logistic,
+        "trees 200 x depth 3": lambda: GradientBoostingClassifier(**ca.VERIFIER_TREES),
+        "logistic + trees 50 x depth 2": lambda: GradientBoostingClassifier(
+            init=logistic(), n_estimators=50, max_depth=2, learning_rate=0.1, subsample=0.8, random_state=0),
+        "logistic + trees 100 x depth 2": lambda: GradientBoostingClassifier(
+            init=logistic(), n_estimators=100, max_depth=2, learning_rate=0.1, subsample=0.8, random_state=0),
+        "logistic + trees 100 x depth 3": lambda: GradientBoostingClassifier(
+            init=logistic(), n_estimators=100, max_depth=3, learning_rate=0.1, subsample=0.8, random_state=0),
+        "trees 200 x depth 2": lambda: GradientBoostingClassifier(
+            n_estimators=200, max_depth=2, learning_rate=0.1, subsample=0.8, random_state=0),
+        "trees 400 x depth 3, min leaf 50": lambda: GradientBoostingClassifier(
+            n_estimators=400, max_depth=3, learning_rate=0.05, subsample=0.8, min_samples_leaf=50,
+            random_state=0),
+    }
+
+
 if __name__ == "__main__":
     if sys.argv[1] == "collect":
         collect(sys.argv[2], sys.argv[3:])
+    elif sys.argv[1] == "exposure-rows":
+        exposure_rows(sys.argv[2], *(int(a) for a in sys.argv[3:4]), *(float(a) for a in sys.argv[4:5]))
+    elif sys.argv[1] == "screen":
+        screen(sys.argv[2], sys.argv[3], tuple(sys.argv[4:]))
     elif sys.argv[1] == "even":
         even(sys.argv[2], sys.argv[3])
     else:
