@@ -564,27 +564,6 @@ def rule_sweep(params: AttentionParams) -> AttentionParams:
 VERIFIER_FOLDS = 5  # verifier-fit: palette-grouped cross-validation folds
 VERIFIER_FALSE_TARGET = 0.01  # verifier-fit: the threshold allows this share of false TARGETs (tuning scenes)
 VERIFIER_MODEL = ROOT / "src" / "impurity_attention" / "impurity_attention" / "core" / "verifier_model.py"
-VERIFIER_TREES = dict(n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0)
-# verifier-fit --model trees: GradientBoostingClassifier's settings (docs/experiments.md, twenty-fourth
-# section: chosen among the rows of docs/experiments_s24/verifier_models.py compare, out of fold on tuning
-# palettes)
-
-
-def tree_ensemble(fitted, rows) -> tuple:
-    """(verifier.TreeEnsemble, intercept) of a fitted GradientBoostingClassifier (binary); the intercept is
-    the model's initial log-odds, read as its decision function minus the trees' sum on the first row."""
-    from impurity_attention.core.verifier import TreeEnsemble
-    trees = TreeEnsemble.of_gradient_boosting(fitted)
-    first = np.asarray(rows[:1], dtype=np.float64)
-    return trees, float(fitted.decision_function(first)[0] - trees.logit(first)[0])
-
-
-def _full_rows(features, feature_names) -> np.ndarray:
-    """(N, len(FEATURES)) rows holding a model's columns (feature_names) where RegionVerifier reads them."""
-    from impurity_attention.core.verifier import FEATURES
-    full = np.zeros((len(features), len(FEATURES)))
-    full[:, [FEATURES.index(name) for name in feature_names]] = features
-    return full
 
 
 def verifier_rows(records, params: AttentionParams) -> tuple:
@@ -646,34 +625,24 @@ def model_source(verifier) -> str:
     lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
     names = ", ".join(repr(name) for name in verifier.features)
     lines += ["    features=("] + [f"        {chunk}" for chunk in textwrap.wrap(names, 100)] + ["    ),"]
-    imports = "RegionVerifier"
-    if verifier.trees is not None:
-        imports = "RegionVerifier, TreeEnsemble"
-        lines += ["    trees=TreeEnsemble("]
-        for name in ("feature", "threshold", "left", "right", "value", "roots"):
-            values = ", ".join(repr(v) for v in getattr(verifier.trees, name))
-            lines += [f"        {name}=("] + [f"            {chunk}" for chunk in textwrap.wrap(values, 96)]
-            lines += ["        ),"]
-        lines += ["    ),"]
     return ('"""The shipped region verifier (verifier.py), written by\n'
             '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
             '(tuning palettes and seeds only). Features named in `features`, in that order. Do not edit by '
-            f'hand: refit."""\n\nfrom .verifier import {imports}\n\n'
+            'hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
             "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
 
 
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
                  exposure_scenes: bool = False, loop_views: tuple = (),
                  model_json: pathlib.Path | None = None, threshold_on: str = "all",
-                 feature_names: tuple | None = None, model: str = "logistic"):
+                 feature_names: tuple | None = None):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
     (VERIFIER_FOLDS folds; each fold's palettes unseen by its model, as held-out palettes are), with the
     threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
-    VERIFIER_FALSE_TARGET of the scenes without a visible impurity (for trees counted on the out-of-fold
-    probabilities); written to verifier_model.py with
+    VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
@@ -682,18 +651,12 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
     model is also written there as JSON (RegionVerifier's fields). threshold_on: "all" scenes and views, or
     "first-views" (the loop views left out of the threshold's count). feature_names: the model's features, a
-    subset of verifier.FEATURES (default all of them). model: "logistic" (the recipe to the twenty-third
-    session) or "trees" (twenty-fourth: scikit-learn's GradientBoostingClassifier, VERIFIER_TREES, on the
-    features with an unknown value read as its mean; written as RegionVerifier.trees, coef 0, docs/
-    experiments.md twenty-fourth section). Returns the fitted RegionVerifier."""
-    from sklearn.ensemble import GradientBoostingClassifier
+    subset of verifier.FEATURES (default all of them). Returns the fitted RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
 
     from impurity_attention.core.verifier import FEATURES, RegionVerifier
-    if model not in ("logistic", "trees"):
-        raise ValueError(f"verifier_fit: model must be 'logistic' or 'trees', got {model!r}")
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
     if exposure_scenes:
@@ -724,16 +687,12 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
 
     def fit(rows, labels):
         scaler = StandardScaler().fit(rows)  # means and spreads over the known values of each feature
-        if model == "trees":  # an unknown value is the fitted mean, as RegionVerifier.probability reads it
-            return scaler, GradientBoostingClassifier(**VERIFIER_TREES).fit(
-                np.where(np.isnan(rows), scaler.mean_, rows), labels)
-        return scaler, LogisticRegression(C=1.0, max_iter=5000).fit(standardised(scaler, rows), labels)
+        model = LogisticRegression(C=1.0, max_iter=5000).fit(standardised(scaler, rows), labels)
+        return scaler, model
 
     def predict(fitted, rows):
-        scaler, fitted_model = fitted
-        if model == "trees":
-            return fitted_model.predict_proba(np.where(np.isnan(rows), scaler.mean_, rows))[:, 1]
-        return fitted_model.predict_proba(standardised(scaler, rows))[:, 1]
+        scaler, model = fitted
+        return model.predict_proba(standardised(scaler, rows))[:, 1]
 
     caps = (0.01, 0.02, 0.05)
     out_of_fold = np.zeros(len(features))
@@ -753,7 +712,6 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
             nested[k] += (np.sum(decided & test_hit & visible), np.sum(unseen & visible),
                           np.sum(decided & ~visible), np.sum(unseen & ~visible))
     best, hit = scene_decisions(out_of_fold, on, scene, count)
-    unseen_best = best
     print("palette-grouped cross-validation, found (false TARGET) within a false-TARGET cap:")
     for k, cap in enumerate(caps):
         least = threshold_at(best, visible, cap)
@@ -768,29 +726,15 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     first = sum(r.category() in evaluation.CATEGORIES
                 for r in records[:len(records) - len(loop)])
     counted = first if threshold_on == "first-views" else count
-    # the threshold: on the model's own probabilities for the logistic model (in sample and out of fold
-    # agree within a point); on the out-of-fold ones for trees, whose in-sample probabilities of clean
-    # scenes are optimistic (docs/experiments.md, twenty-fourth section)
-    least = threshold_at((unseen_best if model == "trees" else best)[:counted], visible[:counted],
-                         VERIFIER_FALSE_TARGET)
-    scaler, fitted_model = fitted
-    if model == "trees":
-        trees, intercept = tree_ensemble(fitted_model, np.where(np.isnan(features), scaler.mean_, features))
-        coef = (0.0,) * len(feature_names)
-    else:
-        trees, intercept = None, round(float(fitted_model.intercept_[0]), 6)
-        coef = tuple(round(float(v), 6) for v in fitted_model.coef_[0])
-    verifier = RegionVerifier(mean=tuple(float(v) for v in scaler.mean_) if trees else
-                              tuple(round(float(v), 6) for v in scaler.mean_),
+    least = threshold_at(best[:counted], visible[:counted], VERIFIER_FALSE_TARGET)
+    scaler, model = fitted
+    verifier = RegionVerifier(mean=tuple(round(float(v), 6) for v in scaler.mean_),
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
-                              coef=coef, intercept=intercept, threshold=round(least, 6),
+                              coef=tuple(round(float(v), 6) for v in model.coef_[0]),
+                              intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
                               low=tuple(round(float(v), 6) for v in np.nanmin(features, axis=0)),
                               high=tuple(round(float(v), 6) for v in np.nanmax(features, axis=0)),
-                              features=feature_names, trees=trees)
-    if trees is not None:  # the numpy reading of the trees is scikit-learn's, on every fitting row
-        numpy_read = verifier.probability(_full_rows(features, feature_names))
-        gap = np.max(np.abs(numpy_read - predict(fitted, features)))
-        print(f"trees read in numpy against scikit-learn: largest probability difference {gap:.2e}")
+                              features=feature_names)
 
     def rates(part: slice) -> str:
         shown, taken = visible[part], (best >= least)[part]
@@ -902,8 +846,6 @@ def main() -> None:
     parser.add_argument("--features", default=None,
                         help="verifier-fit: the model's features, comma-separated names of verifier.FEATURES "
                              "(default all; before the twentieth session: every one but oriented_*)")
-    parser.add_argument("--model", choices=("logistic", "trees"), default="logistic",
-                        help="verifier-fit: logistic regression, or boosted trees (VERIFIER_TREES)")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -934,8 +876,7 @@ def main() -> None:
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
                      model_json=args.model_json, threshold_on=args.threshold_on,
-                     feature_names=tuple(args.features.split(",")) if args.features else None,
-                     model=args.model)
+                     feature_names=tuple(args.features.split(",")) if args.features else None)
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

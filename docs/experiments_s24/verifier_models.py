@@ -11,10 +11,12 @@ impurity (calibrate_attention.VERIFIER_FALSE_TARGET), found / false TARGET on fi
     python docs/experiments_s24/verifier_models.py collect runs/s24/rows.npz \
         runs/s21/views_inv.npz runs/s21/views_chal.npz runs/s21/views_rand.npz
     python docs/experiments_s24/verifier_models.py compare runs/s24/rows.npz
-    # the last look's check (docs/experiments_s21/last_look.py) needs a trees model not fitted on the loop
-    # views it reads: the recipe of verifier-fit --model trees on the same rows without the odd-index
-    # palettes' loop views (loop_views.py subset odd), as the twenty-first session's verifier_even.json
-    python docs/experiments_s24/verifier_models.py even runs/s24/rows.npz runs/s24/verifier_trees_even.json
+    python docs/experiments_s24/verifier_models.py exposure-rows runs/s24/exposure_rows.npz 55100 2
+    python docs/experiments_s24/verifier_models.py screen runs/s24/rows.npz runs/s24/exposure_rows.npz
+
+The trees the cell could read (RegionVerifier.trees, `verifier-fit --model trees`) and this script's `even`
+command (the even-palette trees for the last look) existed at commit 7f29852 only; they were taken back when the
+trees failed their exposure check (docs/experiments.md, twenty-fourth section).
 """
 import sys
 
@@ -105,45 +107,7 @@ def compare(path: str, only: tuple = ()) -> None:
         sys.stdout.flush()
 
 
-def even(path: str, out: str) -> None:
-    import dataclasses
-    import json
-
-    from sklearn.ensemble import GradientBoostingClassifier
-
-    from impurity_attention.core.verifier import RegionVerifier
-    sys.path.insert(0, "docs/experiments_s17")
-    import loop_views
-
-    data = np.load(path)
-    features, on, scene, group, visible = (data[k] for k in ("features", "on", "scene", "group", "visible"))
-    first = int(data["first"])
-    odd = set(loop_views.collection_palettes()[1::2])
-    keep = ~((scene >= first) & np.isin(group, list(odd)))
-    names = default_verifier().features
-    features = features[keep][:, [FEATURES.index(name) for name in names]]
-    on, scene = on[keep], scene[keep]
-    mean, scale = np.nanmean(features, axis=0), np.nanstd(features, axis=0)
-    filled = np.where(np.isnan(features), mean, features)
-    from sklearn.model_selection import GroupKFold
-    group = group[keep]
-    unseen = np.zeros(len(on))
-    for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
-        fold = GradientBoostingClassifier(**ca.VERIFIER_TREES).fit(filled[train], on[train])
-        unseen[test] = fold.predict_proba(filled[test])[:, 1]
-    fitted = GradientBoostingClassifier(**ca.VERIFIER_TREES).fit(filled, on)
-    trees, intercept = ca.tree_ensemble(fitted, filled)
-    best, _ = ca.scene_decisions(unseen, on, scene, len(visible))  # the threshold out of fold, as verifier-fit
-    least = ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
-    model = RegionVerifier(mean=tuple(float(v) for v in mean), scale=tuple(float(v) for v in scale),
-                           coef=(0.0,) * len(names), intercept=intercept, threshold=round(least, 6),
-                           low=tuple(float(v) for v in np.nanmin(features, axis=0)),
-                           high=tuple(float(v) for v in np.nanmax(features, axis=0)), features=names,
-                           trees=trees, provenance=f"{__file__} even: trees without the odd palettes' loop views")
-    pathlib_out = __import__("pathlib").Path(out)
-    pathlib_out.write_text(json.dumps(dataclasses.asdict(model), indent=1))
-    print(f"{out}: {int(keep.sum())} regions ({int((~keep).sum())} odd-palette loop regions left out), "
-          f"threshold {least:.3f}")
+TREES = dict(n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0)  # the candidate
 
 
 def exposure_rows(out: str, seed_base: int = 55100, count_scale: float = 2.0) -> None:
@@ -211,7 +175,7 @@ def candidates():
 
     return {
         "logistic (shipped recipe)": logistic,
-        "trees 200 x depth 3": lambda: GradientBoostingClassifier(**ca.VERIFIER_TREES),
+        "trees 200 x depth 3": lambda: GradientBoostingClassifier(**TREES),
         "logistic + trees 50 x depth 2": lambda: GradientBoostingClassifier(
             init=logistic(), n_estimators=50, max_depth=2, learning_rate=0.1, subsample=0.8, random_state=0),
         "logistic + trees 100 x depth 2": lambda: GradientBoostingClassifier(
@@ -233,7 +197,5 @@ if __name__ == "__main__":
         exposure_rows(sys.argv[2], *(int(a) for a in sys.argv[3:4]), *(float(a) for a in sys.argv[4:5]))
     elif sys.argv[1] == "screen":
         screen(sys.argv[2], sys.argv[3], tuple(sys.argv[4:]))
-    elif sys.argv[1] == "even":
-        even(sys.argv[2], sys.argv[3])
     else:
         compare(sys.argv[2], tuple(sys.argv[3:]))

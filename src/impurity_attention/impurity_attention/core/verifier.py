@@ -95,79 +95,11 @@ LOG_I_FLOOR = 0.02  # log I of the orientation fit: intensities below this count
 
 
 @dataclass(frozen=True)
-class TreeEnsemble:
-    """Boosted regression trees on the logit scale (gradient boosting, Friedman 2001; fitted with
-    scikit-learn's GradientBoostingClassifier, read here in numpy). All trees' nodes in flat arrays, one
-    value per node: `feature` the column split on (an index into the model's features; -1 at a leaf),
-    `threshold` (a row goes left when its float32 value is <= it, as scikit-learn's trees compare),
-    `left` / `right` the children's node indices, `value` a leaf's contribution to the logit (the learning
-    rate already applied; 0 at a split); `roots` each tree's first node."""
-
-    feature: tuple
-    threshold: tuple
-    left: tuple
-    right: tuple
-    value: tuple
-    roots: tuple
-
-    def __post_init__(self):
-        nodes = len(self.feature)
-        for name in ("threshold", "left", "right", "value"):
-            if len(getattr(self, name)) != nodes:
-                raise ValueError(f"TreeEnsemble.{name} needs one value per node ({nodes}), got "
-                                 f"{len(getattr(self, name))}")
-        if not self.roots or not all(0 <= r < nodes for r in self.roots):
-            raise ValueError(f"TreeEnsemble.roots must be node indices in [0, {nodes}), got {self.roots}")
-        splits = [k for k in range(nodes) if self.feature[k] >= 0]
-        if not all(0 <= self.left[k] < nodes and 0 <= self.right[k] < nodes for k in splits):
-            raise ValueError("TreeEnsemble: a split's children must be node indices")
-        object.__setattr__(self, "_arrays", (
-            np.asarray(self.feature, np.int64), np.asarray(self.threshold, np.float64),
-            np.asarray(self.left, np.int64), np.asarray(self.right, np.int64),
-            np.asarray(self.value, np.float64), np.asarray(self.roots, np.int64)))
-
-    @classmethod
-    def of_gradient_boosting(cls, fitted) -> TreeEnsemble:
-        """The trees of a fitted scikit-learn GradientBoostingClassifier (binary), from their public arrays
-        (estimators_[k, 0].tree_: children_left / children_right, -1 at a leaf; feature; threshold; value),
-        leaf values times its learning_rate. Its initial log-odds is not a tree: it is the verifier's
-        intercept. No scikit-learn import: only the fitted object's arrays are read."""
-        feature, threshold, left, right, value, roots = [], [], [], [], [], []
-        for estimator in fitted.estimators_[:, 0]:
-            tree, offset = estimator.tree_, len(feature)
-            roots.append(offset)
-            for k in range(tree.node_count):
-                leaf = tree.children_left[k] < 0
-                feature.append(-1 if leaf else int(tree.feature[k]))
-                threshold.append(0.0 if leaf else float(tree.threshold[k]))
-                left.append(0 if leaf else int(tree.children_left[k]) + offset)
-                right.append(0 if leaf else int(tree.children_right[k]) + offset)
-                value.append(float(fitted.learning_rate * tree.value[k, 0, 0]) if leaf else 0.0)
-        return cls(tuple(feature), tuple(threshold), tuple(left), tuple(right), tuple(value), tuple(roots))
-
-    def logit(self, rows: np.ndarray) -> np.ndarray:
-        """(N, F) float64 (no NaN) -> (N,) the trees' summed leaf values."""
-        feature, threshold, left, right, value, roots = self._arrays
-        rows = np.asarray(rows, dtype=np.float32).astype(np.float64)  # compared as scikit-learn does
-        node = np.broadcast_to(roots, (len(rows), len(roots))).copy()
-        index = np.arange(len(rows))[:, None]
-        while True:
-            split = feature[node] >= 0
-            if not split.any():
-                return value[node].sum(axis=1)
-            goes_left = rows[index, np.maximum(feature[node], 0)] <= threshold[node]
-            node = np.where(split, np.where(goes_left, left[node], right[node]), node)
-
-
-@dataclass(frozen=True)
 class RegionVerifier:
-    """A logistic model over FEATURES, optionally with boosted trees: p = 1 / (1 + exp(-(coef . (x - mean) /
-    scale + intercept + trees(x)))), x = clip(features, low, high) with an unknown value (NaN) read as its
-    mean. mean, scale, coef, low, high: one value per feature (low / high: the range the fitting rows
-    spanned; a feature outside it counts as its nearest end, so a view unlike any the model was fitted on
-    cannot drive the score anywhere); trees: a TreeEnsemble over the same x (None: the linear model alone;
-    a trees model has coef 0 and its prior log-odds as intercept); threshold: the least probability that
-    makes a target."""
+    """A logistic model over FEATURES: p = 1 / (1 + exp(-(coef . (clip(x, low, high) - mean) / scale +
+    intercept))). mean, scale, coef, low, high: one value per feature (low / high: the range the fitting
+    rows spanned; a feature outside it counts as its nearest end, so a view unlike any the model was fitted
+    on cannot drive the linear score anywhere); threshold: the least probability that makes a target."""
 
     mean: tuple
     scale: tuple
@@ -178,7 +110,6 @@ class RegionVerifier:
     high: tuple
     provenance: str = ""
     features: tuple = FEATURES  # the names it was fitted on, a subset of FEATURES, in the order of its values
-    trees: TreeEnsemble | None = None
 
     def __post_init__(self):
         unknown = [name for name in self.features if name not in FEATURES]
@@ -196,18 +127,12 @@ class RegionVerifier:
         if not 0.0 < self.threshold < 1.0:
             raise ValueError(f"RegionVerifier.threshold must be a probability in (0, 1), got "
                              f"{self.threshold}")
-        if self.trees is not None and max(self.trees.feature) >= len(self.features):
-            raise ValueError(f"RegionVerifier.trees split on feature {max(self.trees.feature)}, but the "
-                             f"model has {len(self.features)} ({', '.join(self.features)})")
 
     @classmethod
     def from_dict(cls, fields: dict) -> RegionVerifier:
         """A model from its fields as dataclasses.asdict gives them (the JSON of `calibrate_attention.py
-        verifier-fit --model-json`): lists read as tuples, `trees` as a TreeEnsemble."""
-        fields = {k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()}
-        if fields.get("trees") is not None:
-            fields["trees"] = TreeEnsemble(**{k: tuple(v) for k, v in fields["trees"].items()})
-        return cls(**fields)
+        verifier-fit --model-json`): lists read as tuples."""
+        return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
 
     @property
     def reads_oriented(self) -> bool:
@@ -222,8 +147,6 @@ class RegionVerifier:
         features = np.clip(features, self.low, self.high)  # NaN stays NaN
         z = np.nan_to_num((features - np.asarray(self.mean)) / np.asarray(self.scale), nan=0.0)
         logit = z @ np.asarray(self.coef) + self.intercept
-        if self.trees is not None:
-            logit = logit + self.trees.logit(np.where(np.isnan(features), np.asarray(self.mean), features))
         return 1.0 / (1.0 + np.exp(-logit))
 
 
