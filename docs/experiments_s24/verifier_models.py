@@ -14,9 +14,9 @@ impurity (calibrate_attention.VERIFIER_FALSE_TARGET), found / false TARGET on fi
     python docs/experiments_s24/verifier_models.py exposure-rows runs/s24/exposure_rows.npz 55100 2
     python docs/experiments_s24/verifier_models.py screen runs/s24/rows.npz runs/s24/exposure_rows.npz
 
-The trees the cell could read (RegionVerifier.trees, `verifier-fit --model trees`) and this script's `even`
-command (the even-palette trees for the last look) existed at commit 7f29852 only; they were taken back when the
-trees failed their exposure check (docs/experiments.md, twenty-fourth section).
+The trees the cell could read (RegionVerifier.trees, `verifier-fit --model trees`) and this script's
+`even` command (the even-palette trees for the last look) existed at commit 7f29852 only; they were taken
+back when the trees failed their exposure check (docs/experiments.md, twenty-fourth section).
 """
 import sys
 
@@ -159,8 +159,8 @@ def screen(path: str, exposure_path: str, names: tuple) -> None:
             eb, eh = ca.scene_decisions(p, exposed[f"on_{e}"], exposed[f"scene_{e}"], len(shown))
             cells.append(f"x{e} {int(np.sum((eb >= least) & ~shown))}/{int(np.sum(~shown))} "
                          f"found {int(np.sum((eb >= least) & eh & shown))}/{int(shown.sum())}")
-        print(f"{name:34s} t {least:.3f} | OOF first {found[0]:5.1f} loop {found[1]:5.1f} (false {loop_false:.1f})"
-              f" | {'; '.join(cells)}")
+        print(f"{name:34s} t {least:.3f} | OOF first {found[0]:5.1f} loop {found[1]:5.1f} "
+              f"(false {loop_false:.1f}) | {'; '.join(cells)}")
         sys.stdout.flush()
 
 
@@ -168,13 +168,16 @@ def candidates():
     from sklearn.ensemble import GradientBoostingClassifier
     from sklearn.linear_model import LogisticRegression
     from sklearn.pipeline import make_pipeline
-    from sklearn.preprocessing import StandardScaler
+    from sklearn.preprocessing import PolynomialFeatures, StandardScaler
 
     def logistic():
         return make_pipeline(StandardScaler(), LogisticRegression(C=1.0, max_iter=5000))
 
     return {
         "logistic (shipped recipe)": logistic,
+        "logistic, pairwise products": lambda: make_pipeline(
+            StandardScaler(), PolynomialFeatures(2), StandardScaler(),
+            LogisticRegression(C=0.1, max_iter=5000)),
         "trees 200 x depth 3": lambda: GradientBoostingClassifier(**TREES),
         "logistic + trees 50 x depth 2": lambda: GradientBoostingClassifier(
             init=logistic(), n_estimators=50, max_depth=2, learning_rate=0.1, subsample=0.8, random_state=0),
