@@ -269,6 +269,41 @@ def outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
     return step
 
 
+FACE_MIN_CELLS = 20  # face_direction: a target mask with fewer cells has no outline to read
+
+
+def face_direction(mask: np.ndarray, min_fill: float) -> float | None:
+    """The direction (rad in [0, pi/2), image = base_link yaw) of a face normal of the target's top outline,
+    or None when the outline is not a rectangle. The target is the largest connected part of the mask's cells
+    (mask > 0); its least-area rectangle (cv2.minAreaRect over the cells' centres, +col = +x, +row = +y) gives
+    the faces when the cells fill at least `min_fill` of it (a square or rectangular top: a cube or a slab
+    seen from above fills about 0.9-1.0 of it; a disc fills pi/4, 0.79 of its square). Fewer than
+    FACE_MIN_CELLS cells: None. The other normal is this + pi/2."""
+    count, labels, stats, _ = cv2.connectedComponentsWithStats((mask > 0).astype(np.uint8), connectivity=8)
+    if count < 2:
+        return None
+    largest = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+    rows, cols = np.nonzero(labels == largest)
+    if len(rows) < FACE_MIN_CELLS:
+        return None
+    points = np.stack([cols, rows], axis=1).astype(np.float32)
+    (_, _), (width, height), angle = cv2.minAreaRect(points)
+    area = (width + 1.0) * (height + 1.0)  # the rectangle through the cells' centres, plus half a cell around
+    if len(rows) < min_fill * area:
+        return None
+    return math.radians(angle) % (math.pi / 2)
+
+
+def closing_off_faces(face: float, min_skew: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
+    """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw) lies at least
+    `min_skew` (rad) from both face normals, `face` and face + pi/2 (rad): closing across the corners of a
+    rectangular top rather than a little skewed to its faces."""
+    yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
+    quarter = math.pi / 2
+    difference = np.abs((yaws - face + quarter / 2) % quarter - quarter / 2)  # folded to [0, pi/4]
+    return difference >= min_skew - 1e-9
+
+
 def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
     """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw, an axis: r and r + R/2
     close alike) lies within `max_angle` (rad) of `direction` (rad)."""

@@ -18,7 +18,9 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
                                          when no grasp is left there, the policy pushes)
  11. grasp_along_ridge             pref  with a target whose top has a crest (an upright prism), grasps
                                          closing along the crest, not across it
- 12. canonical_colours             input the network sees the colour crop in the default palette
+ 12. grasp_across_corners          pref  with a target whose top is a rectangle, grasps closing at least
+                                         corner_min_skew_deg off both its face normals (a candidate)
+ 13. canonical_colours             input the network sees the colour crop in the default palette
                                          (canonical.canonical_colours): attention has said which cells
                                          are the target (a candidate: tested twice, not adopted)
 
@@ -52,6 +54,8 @@ from .network import GRASP, PUSH, valid_action_mask
 from .pose import (
     PoseRules,
     closing_along,
+    closing_off_faces,
+    face_direction,
     grasp_clearance,
     heap_top,
     pixels_near,
@@ -92,6 +96,11 @@ class RuleParams:
     grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
     ridge_min_slope: float = 0.4  # grasp_along_ridge: root-mean-square slope (m/m) of a top with a crest
     # (pose.ridge_direction; flat tops about 0.1, a half cylinder 0.6, an upright prism 1.3)
+    face_min_fill: float = 0.85  # grasp_across_corners: the share of its least-area rectangle the target's
+    # mask fills for its top to count as a rectangle (pose.face_direction)
+    corner_min_skew_deg: float = 20.0  # grasp_across_corners: closing axes at least this far from both face
+    # normals (twenty-fourth section of docs/experiments.md: upright cubes lifted 83 % of grasps closing
+    # 7.5-22.5 deg off their faces, 95 % of the others)
     ridge_max_angle_deg: float = 35.0  # grasp_along_ridge: closing axes at most this far from the crest
     # (in the simulator an upright prism alone held from 45 deg off across on and slipped out within 34 deg
     # of across; beside others one slipped at 47 deg: docs/experiments.md, nineteenth section)
@@ -108,6 +117,12 @@ class RuleParams:
                      "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= self.face_min_fill <= 1.0:
+            raise ValueError(f"face_min_fill must be in [0, 1] (a share of the rectangle), got "
+                             f"{self.face_min_fill}")
+        if not 0.0 <= self.corner_min_skew_deg <= 45.0:
+            raise ValueError(f"corner_min_skew_deg must be in [0, 45] (deg from a face normal), got "
+                             f"{self.corner_min_skew_deg}")
         if not 0.0 <= self.ridge_max_angle_deg <= 90.0:
             raise ValueError(f"ridge_max_angle_deg must be in [0, 90] (deg from the crest), got "
                              f"{self.ridge_max_angle_deg}")
@@ -361,6 +376,26 @@ class GraspAlongRidge(Rule):
         return (Keep(GRASP, along[:, None, None]),)
 
 
+class GraspAcrossCorners(Rule):
+    """With a target in view whose top outline is a rectangle (pose.face_direction: a cube or a slab seen
+    from above), a grasp whose closing axis lies within `corner_min_skew_deg` of one of its face normals.
+    In the simulator upright cubes slipped from a sixth of the grasps closing 7.5-22.5 deg skewed to their
+    faces and a twentieth of the others (docs/experiments.md, twenty-fourth section). A candidate; a
+    preference after grasp_at_target_core: where no such grasp is left at the target's middle it gives way."""
+
+    name = "grasp_across_corners"
+    kind = PREFERENCE
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view:
+            return ()
+        face = face_direction(ctx.obs.mask, ctx.params.face_min_fill)
+        if face is None:
+            return ()
+        skewed = closing_off_faces(face, math.radians(ctx.params.corner_min_skew_deg), ctx.rotations)
+        return (Keep(GRASP, skewed[:, None, None]),)
+
+
 class CanonicalColours(Rule):
     """The network's colour crop repainted in the default palette (canonical.canonical_colours; Policy.q_maps
     reads whether the pipeline holds this rule). The network learnt on the default palette first; under
@@ -379,10 +414,10 @@ class CanonicalColours(Rule):
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
                                       PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
                                       GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore,
-                                      GraspAlongRidge, CanonicalColours)}
+                                      GraspAlongRidge, GraspAcrossCorners, CanonicalColours)}
 RULE_ORDER = tuple(RULES)
-CANDIDATES = ("grasp_along_ridge", "canonical_colours")  # rules under test (docs/experiments.md), in no
-# preset until adopted
+# rules under test (docs/experiments.md), in no preset until adopted
+CANDIDATES = ("grasp_along_ridge", "grasp_across_corners", "canonical_colours")
 PRESETS = {"none": (), "cell": tuple(name for name in RULE_ORDER if name not in CANDIDATES)}
 
 

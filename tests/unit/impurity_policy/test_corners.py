@@ -1,0 +1,106 @@
+"""A rectangular target top's faces (pose.face_direction) and the candidate rule that grasps across its
+corners rather than a little skewed to its faces (rules.GraspAcrossCorners)."""
+
+import math
+
+import numpy as np
+import pytest
+
+from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
+from impurity_policy.core.network import GRASP, PUSH
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation
+from impurity_policy.core.pose import PoseRules, closing_off_faces, face_direction
+from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams, RulePipeline
+
+CROP, ROTATIONS = 112, cell.NUM_ROTATIONS
+
+
+def _top(yaw, width_px=20, length_px=20, shape="rectangle"):
+    """(S, S) uint8 mask of a target's top at the crop's centre: a rectangle whose first side runs along
+    `yaw` (rad, +col = +x, +row = +y), or a disc of diameter width_px."""
+    rows, cols = np.mgrid[:CROP, :CROP].astype(np.float64) - CROP / 2
+    if shape == "disc":
+        inside = np.hypot(rows, cols) <= width_px / 2
+    else:
+        along = cols * math.cos(yaw) + rows * math.sin(yaw)
+        across = -cols * math.sin(yaw) + rows * math.cos(yaw)
+        inside = (np.abs(along) <= length_px / 2) & (np.abs(across) <= width_px / 2)
+    return (inside * 255).astype(np.uint8)
+
+
+def _folded(a, b):
+    quarter = math.pi / 2
+    return abs((a - b + quarter / 2) % quarter - quarter / 2)
+
+
+@pytest.mark.parametrize("yaw_deg", [0.0, 10.0, 30.0, 44.0, 67.0, 81.0])
+def test_the_faces_of_a_square_or_rectangular_top_are_found_at_any_yaw(yaw_deg):
+    for width, length in ((20, 20), (16, 28)):
+        face = face_direction(_top(math.radians(yaw_deg), width, length), min_fill=0.85)
+        assert face is not None and 0.0 <= face < math.pi / 2
+        assert _folded(face, math.radians(yaw_deg)) < math.radians(4.0)  # a face normal, to a few degrees
+
+
+def test_a_round_top_a_sliver_or_no_mask_has_no_faces():
+    assert face_direction(_top(0.0, 24, shape="disc"), min_fill=0.85) is None  # a disc fills pi/4 of it
+    assert face_direction(_top(0.3, 3, 5), min_fill=0.85) is None  # fewer cells than FACE_MIN_CELLS
+    assert face_direction(np.zeros((CROP, CROP), np.uint8), min_fill=0.85) is None
+
+
+def test_closing_off_faces_keeps_the_axes_at_least_the_skew_from_both_normals():
+    kept = closing_off_faces(0.0, math.radians(20.0), ROTATIONS)  # faces square to the rotation grid
+    assert kept.shape == (ROTATIONS,)
+    assert [r for r in range(ROTATIONS) if kept[r]] == [1, 2, 3, 5, 6, 7, 9, 10, 11, 13, 14, 15]
+    for yaw in np.linspace(0.0, math.pi / 2, 19):  # at any yaw, two closing axes in four are kept
+        assert closing_off_faces(yaw, math.radians(20.0), ROTATIONS).sum() >= ROTATIONS // 2
+    assert closing_off_faces(0.3, 0.0, ROTATIONS).all()
+
+
+def _observation(mode, mask):
+    height_crop = np.where(mask > 0, 0.04, 0.0).astype(np.float32)
+    height = np.zeros((224, 224), np.float32)
+    height[56:168, 56:168] = height_crop
+    return Observation(mode, np.full((CROP, CROP, 3), 150, np.uint8), height_crop, mask, (56, 56), height,
+                       HeightmapGrid())
+
+
+def _kept(obs, q=None):
+    q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32) if q is None else q
+    valid = np.ones((2, CROP, CROP), bool)
+    return np.isfinite(RulePipeline(["grasp_across_corners"]).apply(q, obs, valid, PoseRules(), obs.grid))
+
+
+def test_grasps_closing_a_little_skewed_to_a_cubes_faces_are_ruled_out_and_every_push_kept():
+    mask = _top(math.radians(10.0))
+    kept = _kept(_observation(MODE_TARGET, mask))
+    skewed = closing_off_faces(face_direction(mask, 0.85), math.radians(20.0), ROTATIONS)
+    assert [bool(kept[r, GRASP].all()) for r in range(ROTATIONS)] == list(skewed)
+    assert not kept[0, GRASP].any() and not kept[1, GRASP].any()  # 10 and 12.5 deg off a face: ruled out
+    assert kept[2, GRASP].all()  # 35 deg off: kept
+    assert kept[:, PUSH].all()
+
+
+def test_it_gives_way_when_no_grasp_across_the_corners_is_left():
+    obs = _observation(MODE_TARGET, _top(0.0))
+    q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32)
+    q[[1, 2, 3, 5, 6, 7, 9, 10, 11, 13, 14, 15], GRASP] = -np.inf
+    assert _kept(obs, q)[0, GRASP].all()
+
+
+def test_it_does_nothing_on_a_round_target_or_without_a_target_in_view():
+    assert _kept(_observation(MODE_TARGET, _top(0.0, 24, shape="disc"))).all()
+    assert _kept(_observation(MODE_OCCLUDED_REGION, _top(0.2))).all()
+    assert _kept(_observation(MODE_TARGET, np.zeros((CROP, CROP), np.uint8))).all()
+
+
+@pytest.mark.parametrize("field, value", [("face_min_fill", 1.5), ("corner_min_skew_deg", 50.0),
+                                          ("corner_min_skew_deg", -1.0)])
+def test_corner_parameters_out_of_range_are_refused_by_name(field, value):
+    with pytest.raises(ValueError, match=field):
+        RuleParams(**{field: value})
+
+
+def test_it_is_a_candidate_in_no_preset():
+    assert "grasp_across_corners" in CANDIDATES
+    assert all("grasp_across_corners" not in rules for rules in PRESETS.values())
