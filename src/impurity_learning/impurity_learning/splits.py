@@ -194,6 +194,9 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(7_100, 7_300, "docs/experiments_s14/push_out.py",
               "--seed-base 7100: the twenty-fourth session's invisible test of the candidate rule "
               "grasp_across_corners on tuning palettes, shipped and rule arms on the same seeds"),
+    SeedBlock(7_300, 7_500, "docs/experiments_s14/push_out.py",
+              "--seed-base 7300: the twenty-fourth session's second invisible test of grasp_across_corners, "
+              "tuning palettes, shipped and rule arms on the same seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
