@@ -1,6 +1,15 @@
-"""Hand-built height maps shared by the pose and rules specifications (224 x 224 px at 2 mm)."""
+"""Hand-built height maps shared by the pose and rules specifications (224 x 224 px at 2 mm), and the
+target observations and one-rule decisions built on them."""
 
 import numpy as np
+
+from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
+from impurity_policy.core.policy import Observation
+from impurity_policy.core.pose import PoseRules
+from impurity_policy.core.rules import RulePipeline
+
+CROP = 112  # px, the policy's crop
 
 
 def block(height: np.ndarray, centre, half_px: int, top: float) -> None:
@@ -14,3 +23,19 @@ def covered_heap(top: float = 0.09) -> np.ndarray:
     block(height, (112, 112), 20, 0.05)
     block(height, (112, 112), 5, top)
     return height
+
+
+def crop_observation(mode, height_crop: np.ndarray, mask: np.ndarray) -> Observation:
+    """An observation in attention `mode` of a CROP px crop at origin (56, 56) of a 224 px map that is flat
+    outside it, its colour a uniform grey; height_crop (m) and mask (uint8, > 0: the target) CROP x CROP."""
+    height = np.zeros((224, 224), np.float32)
+    height[56:56 + CROP, 56:56 + CROP] = height_crop
+    return Observation(mode, np.full((CROP, CROP, 3), 150, np.uint8), height_crop, mask, (56, 56), height,
+                       HeightmapGrid())
+
+
+def kept_by(rule: str, obs: Observation, q: np.ndarray | None = None) -> np.ndarray:
+    """(R, 2, CROP, CROP) bool: the actions the one rule `rule` leaves on Q maps q (default all 0)."""
+    q = np.zeros((cell.NUM_ROTATIONS, 2, CROP, CROP), np.float32) if q is None else q
+    valid = np.ones((2, CROP, CROP), bool)
+    return np.isfinite(RulePipeline([rule]).apply(q, obs, valid, PoseRules(), obs.grid))

@@ -5,13 +5,13 @@ import math
 
 import numpy as np
 import pytest
+from height_scenes import crop_observation, kept_by
 
 from impurity_common import cell
-from impurity_common.grid import HeightmapGrid
 from impurity_policy.core.network import GRASP, PUSH
-from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation
-from impurity_policy.core.pose import PoseRules, closing_off_faces, face_direction
-from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams, RulePipeline
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
+from impurity_policy.core.pose import closing_off_faces, face_direction
+from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams
 
 CROP, ROTATIONS = 112, cell.NUM_ROTATIONS
 
@@ -58,17 +58,12 @@ def test_closing_off_faces_keeps_the_axes_at_least_the_skew_from_both_normals():
 
 
 def _observation(mode, mask):
-    height_crop = np.where(mask > 0, 0.04, 0.0).astype(np.float32)
-    height = np.zeros((224, 224), np.float32)
-    height[56:168, 56:168] = height_crop
-    return Observation(mode, np.full((CROP, CROP, 3), 150, np.uint8), height_crop, mask, (56, 56), height,
-                       HeightmapGrid())
+    """A flat-topped block 40 mm tall under the mask."""
+    return crop_observation(mode, np.where(mask > 0, 0.04, 0.0).astype(np.float32), mask)
 
 
 def _kept(obs, q=None):
-    q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32) if q is None else q
-    valid = np.ones((2, CROP, CROP), bool)
-    return np.isfinite(RulePipeline(["grasp_across_corners"]).apply(q, obs, valid, PoseRules(), obs.grid))
+    return kept_by("grasp_across_corners", obs, q)
 
 
 def test_grasps_closing_a_little_skewed_to_a_cubes_faces_are_ruled_out_and_every_push_kept():

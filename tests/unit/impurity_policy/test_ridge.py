@@ -4,13 +4,14 @@ import math
 
 import numpy as np
 import pytest
+from height_scenes import crop_observation, kept_by
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
 from impurity_policy.core.network import GRASP, PUSH
-from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET, Observation
-from impurity_policy.core.pose import PoseRules, closing_along, ridge_direction
-from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams, RulePipeline
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
+from impurity_policy.core.pose import closing_along, ridge_direction
+from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams
 
 CROP, ROTATIONS = 112, cell.NUM_ROTATIONS
 RESOLUTION = HeightmapGrid().resolution  # m per px
@@ -88,21 +89,12 @@ def test_closing_along_keeps_the_axes_within_the_angle_of_the_crest_both_ways_ro
     assert closing_along(0.0, math.radians(90), ROTATIONS).all()
 
 
-def _observation(mode, height_crop, mask):
-    height = np.zeros((224, 224), np.float32)
-    height[56:168, 56:168] = height_crop
-    return Observation(mode, np.full((CROP, CROP, 3), 150, np.uint8), height_crop, mask, (56, 56), height,
-                       HeightmapGrid())
-
-
 def _kept(obs, q=None):
-    q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32) if q is None else q
-    valid = np.ones((2, CROP, CROP), bool)
-    return np.isfinite(RulePipeline(["grasp_along_ridge"]).apply(q, obs, valid, PoseRules(), obs.grid))
+    return kept_by("grasp_along_ridge", obs, q)
 
 
 def test_grasp_along_ridge_keeps_grasps_closing_along_a_prisms_crest_and_every_push():
-    obs = _observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))  # crest along +x (rotation 0)
+    obs = crop_observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))  # crest along +x (rotation 0)
     kept = _kept(obs)
     along = [r for r in range(ROTATIONS) if kept[r, GRASP].all()]
     assert along == [0, 1, 7, 8, 9, 15]  # within 35 deg of the crest, both ways round
@@ -111,17 +103,17 @@ def test_grasp_along_ridge_keeps_grasps_closing_along_a_prisms_crest_and_every_p
 
 
 def test_grasp_along_ridge_gives_way_when_no_grasp_along_the_crest_is_left():
-    obs = _observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))
+    obs = crop_observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))
     q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32)
     q[[0, 1, 7, 8, 9, 15], GRASP] = -np.inf  # nothing along the crest left by earlier rules
     assert _kept(obs, q)[4, GRASP].all()
 
 
 def test_grasp_along_ridge_does_nothing_on_a_flat_target_or_without_a_target_in_view():
-    assert _kept(_observation(MODE_TARGET, *_block_top(flat))).all()
+    assert _kept(crop_observation(MODE_TARGET, *_block_top(flat))).all()
     height, mask = _block_top(prism)
-    assert _kept(_observation(MODE_OCCLUDED_REGION, height, np.full((CROP, CROP), 255, np.uint8))).all()
-    assert _kept(_observation(MODE_TARGET, height, np.zeros((CROP, CROP), np.uint8))).all()
+    assert _kept(crop_observation(MODE_OCCLUDED_REGION, height, np.full((CROP, CROP), 255, np.uint8))).all()
+    assert _kept(crop_observation(MODE_TARGET, height, np.zeros((CROP, CROP), np.uint8))).all()
 
 
 @pytest.mark.parametrize("field, value", [("ridge_max_angle_deg", 95.0), ("ridge_max_angle_deg", -1.0),
