@@ -43,6 +43,37 @@ def collect(out: str, loop_paths: list) -> None:
     print(f"{out}: {len(visible)} scenes ({first} first views), {len(features)} regions")
 
 
+TREES = dict(n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0)  # the candidate
+
+
+def load_rows(path: str) -> tuple:
+    """(the saved rows, fill): fill(rows) keeps the shipped model's columns of (N, len(FEATURES)) rows and
+    reads an unknown value (NaN) as that column's mean over the saved rows, as the shipped model does."""
+    data = np.load(path)
+    columns = [FEATURES.index(name) for name in default_verifier().features]
+    mean = np.nanmean(data["features"][:, columns], axis=0)
+
+    def fill(rows):
+        rows = rows[:, columns]
+        return np.where(np.isnan(rows), mean, rows)
+
+    return data, fill
+
+
+def out_of_fold(make, filled, data) -> tuple:
+    """(best, hit, least): each scene's likeliest region probability from a model (make()) that never saw its
+    palette (GroupKFold, VERIFIER_FOLDS), whether that region is on the impurity, and the threshold those
+    probabilities put at VERIFIER_FALSE_TARGET of the first views without a visible impurity."""
+    from sklearn.model_selection import GroupKFold
+    on, scene, group, visible, first = (data[k] for k in ("on", "scene", "group", "visible", "first"))
+    unseen = np.zeros(len(filled))
+    for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
+        unseen[test] = make().fit(filled[train], on[train]).predict_proba(filled[test])[:, 1]
+    best, hit = ca.scene_decisions(unseen, on, scene, len(visible))
+    first = int(first)
+    return best, hit, ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
+
+
 def models():
     from sklearn.ensemble import GradientBoostingClassifier, HistGradientBoostingClassifier
     from sklearn.linear_model import LogisticRegression
@@ -66,34 +97,24 @@ def models():
             max_iter=150, learning_rate=0.1, max_leaf_nodes=7, l2_regularization=1.0, random_state=0),
         "gradient boosting, 600 x 31 leaves": lambda: HistGradientBoostingClassifier(
             max_iter=600, learning_rate=0.025, max_leaf_nodes=31, l2_regularization=1.0, random_state=0),
-        "GradientBoosting 200 x depth 3": lambda: GradientBoostingClassifier(
-            n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0),
+        "GradientBoosting 200 x depth 3": lambda: GradientBoostingClassifier(**TREES),
         "GradientBoosting 300 x depth 4": lambda: GradientBoostingClassifier(
             n_estimators=300, learning_rate=0.05, max_depth=4, subsample=0.8, random_state=0),
     }
 
 
 def compare(path: str, only: tuple = ()) -> None:
-    from sklearn.model_selection import GroupKFold
-
-    data = np.load(path)
-    features, on, scene, group, visible, kind = (data[k] for k in ("features", "on", "scene", "group",
-                                                                      "visible", "kind"))
-    first, count = int(data["first"]), len(data["visible"])
-    columns = [FEATURES.index(name) for name in default_verifier().features]
-    features = features[:, columns]
-    filled = np.where(np.isnan(features), np.nanmean(features, axis=0), features)  # NaN: the mean, as shipped
-    print(f"{count} scenes ({first} first views, {count - first} loop views), {len(features)} regions, "
+    data, fill = load_rows(path)
+    filled = fill(data["features"])
+    group, visible, kind = data["group"], data["visible"], data["kind"]
+    first, count = int(data["first"]), len(visible)
+    print(f"{count} scenes ({first} first views, {count - first} loop views), {len(filled)} regions, "
           f"{len(set(group))} palettes")
     print("model                         | first views: found   clean  invisible | loop: found  none in view")
     for name, make in models().items():
         if only and not any(o in name for o in only):
             continue
-        out_of_fold = np.zeros(len(features))
-        for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
-            out_of_fold[test] = make().fit(filled[train], on[train]).predict_proba(filled[test])[:, 1]
-        best, hit = ca.scene_decisions(out_of_fold, on, scene, count)
-        least = ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
+        best, hit, least = out_of_fold(make, filled, data)
         cells = []
         for part in (slice(0, first), slice(first, None)):
             taken, shown, what = best[part] >= least, visible[part], kind[part]
@@ -105,9 +126,6 @@ def compare(path: str, only: tuple = ()) -> None:
         print(f"{name:29s} | {f:5.1f} %  {c:5.1f} %  {i:5.1f} %      | {lf:5.1f} %  {ln:5.1f} %   "
               f"(t {least:.3f})")
         sys.stdout.flush()
-
-
-TREES = dict(n_estimators=200, learning_rate=0.1, max_depth=3, subsample=0.8, random_state=0)  # the candidate
 
 
 def exposure_rows(out: str, seed_base: int = 55100, count_scale: float = 2.0) -> None:
@@ -127,26 +145,12 @@ def screen(path: str, exposure_path: str, names: tuple) -> None:
     """Each candidate fitted on all the tuning rows, its threshold out of fold (1 % of the first views without
     a visible impurity), then read on the exposure rows: false TARGET / found per exposure (the main
     threshold only: no last look)."""
-    from sklearn.model_selection import GroupKFold
-    data, exposed = np.load(path), np.load(exposure_path)
-    features, on, scene, group, visible = (data[k] for k in ("features", "on", "scene", "group", "visible"))
-    first, count = int(data["first"]), len(visible)
-    columns = [FEATURES.index(name) for name in default_verifier().features]
-    mean = np.nanmean(features[:, columns], axis=0)
-
-    def fill(rows):
-        rows = rows[:, columns]
-        return np.where(np.isnan(rows), mean, rows)
-
-    filled = fill(features)
+    (data, fill), exposed = load_rows(path), np.load(exposure_path)
+    filled, on, visible, first = fill(data["features"]), data["on"], data["visible"], int(data["first"])
     for name, make in candidates().items():
         if names and not any(n in name for n in names):
             continue
-        unseen = np.zeros(len(filled))
-        for train, test in GroupKFold(n_splits=ca.VERIFIER_FOLDS).split(filled, on, group):
-            unseen[test] = make().fit(filled[train], on[train]).predict_proba(filled[test])[:, 1]
-        best, hit = ca.scene_decisions(unseen, on, scene, count)
-        least = ca.threshold_at(best[:first], visible[:first], ca.VERIFIER_FALSE_TARGET)
+        best, hit, least = out_of_fold(make, filled, data)
         found = [100 * np.mean((best[part] >= least)[visible[part]] & hit[part][visible[part]])
                  for part in (slice(0, first), slice(first, None))]
         loop_false = 100 * np.mean((best[first:] >= least)[~visible[first:]])
