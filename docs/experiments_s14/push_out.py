@@ -150,7 +150,8 @@ def run_one(task: tuple) -> dict:
         def decide(self, view):
             action = super().decide(view)
             if action is not None:
-                truth, poses = world.ground_truth(), world.poses()
+                truth = world.ground_truth()
+                poses = truth.poses
                 x, y, _ = action.position
                 attention = self._sensed.attention
                 found = re.search(r"probability (\d+\.\d+)", attention.reason)
@@ -160,24 +161,24 @@ def run_one(task: tuple) -> dict:
                                 "object_m": nearest(poses, truth.object_ids, x, y),
                                 "probability": float(found.group(1)) if found else None,
                                 "last_look": bool(attention.last_look), "heap": heap is not None,
-                                "stall": self.fired, **(mask_truth(attention) if with_mask_truth else {}),
-                                **(grasp_geometry(action) if with_geometry and action.kind == "grasp"
+                                "stall": self.fired,
+                                **(mask_truth(attention, truth) if with_mask_truth else {}),
+                                **(grasp_geometry(action, truth) if with_geometry and action.kind == "grasp"
                                    else {})})
             return action
 
     with_mask_truth = bool(rule_params.get("mask_truth"))
     with_geometry = bool(rule_params.get("grasp_geometry"))
 
-    def grasp_geometry(action) -> dict:
+    def grasp_geometry(action, truth) -> dict:
         """Twenty-fourth session: the nearest target at a grasp decision, from the simulator (reads only; the
-        episode is unchanged). shape, dims (m); tilt: degrees between its own z axis and the vertical;
-        closing: degrees between the gripper's closing axis (the action's yaw) and the block's x axis, folded
-        to [0, 90]; base_above_table: m from the table to the block's lowest corner (> 0: resting on
-        something); touching: product bodies in contact with it, and the height (m) of their highest point
-        above the target's top."""
-        pb, truth = world.pb, world.ground_truth()
+        episode is unchanged; truth: world.ground_truth() at the decision). g_shape, g_dims (m); g_tilt:
+        degrees between its own z axis and the vertical; g_closing: degrees between the gripper's closing
+        axis (the action's yaw) and the block's x axis, folded to [0, 90]; g_base: m from the table's top to
+        the block's lowest corner (> 0: resting on something); g_touching: bodies in contact with it; g_over:
+        the height (m) of their highest point above the target's top."""
+        pb, poses = world.pb, truth.poses
         x, y, _ = action.position
-        poses = world.poses()
         target = min(truth.target_ids, key=lambda b: math.hypot(poses[b][0][0] - x, poses[b][0][1] - y),
                      default=None)
         if target is None:
@@ -192,13 +193,10 @@ def run_one(task: tuple) -> dict:
         touching = {c[2] for c in pb.getContactPoints(bodyA=target) if c[2] in world.specs and c[2] != target}
         over = max((pb.getAABB(b)[1][2] - high[2] for b in touching), default=None)
         return {"g_shape": spec.shape, "g_dims": [round(d, 4) for d in spec.dims], "g_tilt": round(tilt, 1),
-                "g_closing": round(closing, 1), "g_base": round(low[2] - world_table_top(), 4),
+                "g_closing": round(closing, 1), "g_base": round(low[2] - pb.getAABB(world.table)[1][2], 4),
                 "g_touching": len(touching), "g_over": None if over is None else round(over, 4)}
 
-    def world_table_top() -> float:
-        return world.pb.getAABB(world.table)[1][2]
-
-    def mask_truth(attention) -> dict:
+    def mask_truth(attention, truth) -> dict:
         """Twenty-third session: the target mask (m_t grown) and the salient region m_t against the truth,
         from a frame rendered with segmentation at decision time (no depth noise: the episode is unchanged).
         mask_precision: the share of the mask's cells that show a target; mask_cells: its size;
@@ -210,7 +208,7 @@ def run_one(task: tuple) -> dict:
         frame = world.render()
         labels = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose,
                                     HeightmapGrid(), labels=frame.segmentation).labels
-        targets = np.isin(labels, list(world.ground_truth().target_ids))
+        targets = np.isin(labels, list(truth.target_ids))
         mask = attention.target_mask
         ids, counts = np.unique(labels[mask], return_counts=True)
         region = attention.target_region.mask if attention.target_region is not None else mask
