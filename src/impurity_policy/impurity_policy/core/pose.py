@@ -298,18 +298,21 @@ def closing_off_faces(face: float, min_skew: float, num_rotations: int = cell.NU
     """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw) lies at least
     `min_skew` (rad) from both face normals, `face` and face + pi/2 (rad): closing across the corners of a
     rectangular top rather than a little skewed to its faces."""
+    return closing_offsets(face, math.pi / 2, num_rotations) >= min_skew - 1e-9
+
+
+def closing_offsets(direction: float, period: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
+    """(R,) rad: each rotation's grasp closing axis (cell.rotation_yaw) from `direction` (rad), directions
+    `period` apart counting alike (pi: an axis; pi/2: a rectangle's two face normals), folded to
+    [0, period / 2]."""
     yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
-    quarter = math.pi / 2
-    difference = np.abs((yaws - face + quarter / 2) % quarter - quarter / 2)  # folded to [0, pi/4]
-    return difference >= min_skew - 1e-9
+    return np.abs((yaws - direction + period / 2) % period - period / 2)
 
 
 def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
     """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw, an axis: r and r + R/2
     close alike) lies within `max_angle` (rad) of `direction` (rad)."""
-    yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
-    difference = np.abs((yaws - direction + math.pi / 2) % math.pi - math.pi / 2)
-    return difference <= max_angle + 1e-9
+    return closing_offsets(direction, math.pi, num_rotations) <= max_angle + 1e-9
 
 
 def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:
