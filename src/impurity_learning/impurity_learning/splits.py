@@ -197,6 +197,10 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(7_300, 7_500, "docs/experiments_s14/push_out.py",
               "--seed-base 7300: the twenty-fourth session's second invisible test of grasp_across_corners, "
               "tuning palettes, shipped and rule arms on the same seeds"),
+    SeedBlock(7_500, 7_900, "docs/experiments_s14/push_out.py",
+              "--seed-base 7500: the twenty-fifth session's test of grasp_across_corners on flat tops only, "
+              "challenging 7 500-7 599, random 7 600-7 699 (--start 100), invisible 7 700-7 899 (--start "
+              "200), tuning palettes, shipped and rule arms on the same seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),

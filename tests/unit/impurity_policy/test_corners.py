@@ -8,9 +8,10 @@ import pytest
 from height_scenes import crop_observation, kept_by
 
 from impurity_common import cell
+from impurity_common.grid import HeightmapGrid
 from impurity_policy.core.network import GRASP, PUSH
 from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
-from impurity_policy.core.pose import closing_off_faces, face_direction
+from impurity_policy.core.pose import closing_off_faces, face_direction, top_slope
 from impurity_policy.core.rules import CANDIDATES, PRESETS, RuleParams
 
 CROP, ROTATIONS = 112, cell.NUM_ROTATIONS
@@ -89,8 +90,39 @@ def test_it_does_nothing_on_a_round_target_or_without_a_target_in_view():
     assert _kept(_observation(MODE_TARGET, np.zeros((CROP, CROP), np.uint8))).all()
 
 
+def _curved(mask, profile):
+    """Heights (m) under a 20 px square mask whose top falls across its rows: 'half_cylinder' a half
+    cylinder of radius 10 px lying along the cols, 'prism' a ridge of two faces at 50 deg, 'tilted' a flat
+    face tilted by 10 deg, 'flat' 40 mm everywhere."""
+    rows = np.mgrid[:CROP, :CROP][0].astype(np.float64) - CROP / 2
+    res = HeightmapGrid().resolution
+    across = np.clip(np.abs(rows), 0, 10) * res
+    top = {"half_cylinder": np.sqrt(np.maximum((10 * res) ** 2 - across ** 2, 0.0)),
+           "prism": 0.03 - across * math.tan(math.radians(50.0)),
+           "tilted": 0.02 + rows * res * math.tan(math.radians(10.0)),
+           "flat": np.full_like(rows, 0.04)}[profile]
+    return np.where(mask > 0, np.maximum(top, 0.002), 0.0).astype(np.float32)
+
+
+def test_a_square_outline_with_a_curved_or_ridged_top_is_not_read_as_a_cube():
+    mask = _top(math.radians(10.0))
+    res = HeightmapGrid().resolution
+    slopes = {profile: top_slope(_curved(mask, profile), mask, res)
+              for profile in ("flat", "tilted", "half_cylinder", "prism")}
+    flat_most = RuleParams().corner_max_slope
+    assert slopes["flat"] < flat_most and slopes["tilted"] < flat_most  # tan(10 deg) = 0.18, plus the edges
+    assert slopes["half_cylinder"] > 2 * flat_most and slopes["prism"] > 3 * flat_most
+    for profile in ("half_cylinder", "prism"):  # the rule leaves every grasp
+        obs = crop_observation(MODE_TARGET, _curved(mask, profile), mask)
+        assert _kept(obs).all(), profile
+    for profile in ("flat", "tilted"):  # a flat top, level or a little tilted, is still a cube's
+        obs = crop_observation(MODE_TARGET, _curved(mask, profile), mask)
+        assert not _kept(obs)[0, GRASP].any(), profile
+    assert top_slope(_curved(mask, "flat"), np.zeros_like(mask), res) is None  # no inner cells
+
+
 @pytest.mark.parametrize("field, value", [("face_min_fill", 1.5), ("corner_min_skew_deg", 50.0),
-                                          ("corner_min_skew_deg", -1.0)])
+                                          ("corner_min_skew_deg", -1.0), ("corner_max_slope", -0.1)])
 def test_corner_parameters_out_of_range_are_refused_by_name(field, value):
     with pytest.raises(ValueError, match=field):
         RuleParams(**{field: value})

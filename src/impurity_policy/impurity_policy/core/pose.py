@@ -200,6 +200,33 @@ RIDGE_MAX_OUTLINE_STEP = 0.018  # m, ridge_direction: the outline's step over wh
 RIDGE_OUTLINE_RING_PX = 3  # ridge_direction: cells beyond the outline compared with it
 
 
+def _top_slopes(height_crop: np.ndarray, mask: np.ndarray, resolution: float):
+    """The slopes of the target's top, as ridge_direction and top_slope read them, or None with fewer than
+    RIDGE_MIN_CELLS inner cells: (inner (S, S) bool: the mask's cells RIDGE_ERODE_PX in from its edge, heights
+    (S, S) m with NaN as 0, smooth: heights after a RIDGE_SMOOTHING_PX Gaussian, gx and gy (N,) m/m: the
+    height gradient at the inner cells, +x = +col, +y = +row, (low, high): the eigenvalues of the slope tensor
+    J = mean(g g^T), fall (2,): the unit eigenvector of `high`)."""
+    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
+    if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
+        return None
+    heights = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
+    smooth = cv2.GaussianBlur(heights, (0, 0), RIDGE_SMOOTHING_PX)
+    g_row, g_col = np.gradient(smooth)
+    gx, gy = g_col[inner] / resolution, g_row[inner] / resolution  # +col = +x, +row = +y (module docstring)
+    tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])
+    (low, high), vectors = np.linalg.eigh(tensor)
+    return inner, heights, smooth, gx, gy, (low, high), vectors[:, 1]
+
+
+def top_slope(height_crop: np.ndarray, mask: np.ndarray, resolution: float) -> float | None:
+    """m/m: the root-mean-square slope of the target's top along its steepest axis, sqrt(l1) of
+    ridge_direction's slope tensor over the mask's inner cells (heights in m, `resolution` m per px). A flat
+    top reads about 0.1, a half cylinder lying down 0.6, an upright prism 1.3, a flat face tilted by t about
+    tan(t) (docs/experiments.md, nineteenth section). None with fewer than RIDGE_MIN_CELLS inner cells."""
+    slopes = _top_slopes(height_crop, mask, resolution)
+    return None if slopes is None else math.sqrt(max(slopes[5][1], 0.0))
+
+
 def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
                     min_slope: float) -> float | None:
     """The direction (rad in [0, pi), image = base_link yaw) of the crest of the target's top, or None when
@@ -224,16 +251,10 @@ def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float
         lying down curves in under its widest line, so its outline stands about a radius up, and its round
         ends slip from fingers closing along it; a half cylinder's or a prism's flanks reach the table.
     The crest runs across e1. Figures: docs/experiments.md, nineteenth section."""
-    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
-    if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
+    slopes = _top_slopes(height_crop, mask, resolution)
+    if slopes is None:
         return None
-    heights = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
-    smooth = cv2.GaussianBlur(heights, (0, 0), RIDGE_SMOOTHING_PX)
-    g_row, g_col = np.gradient(smooth)
-    gx, gy = g_col[inner] / resolution, g_row[inner] / resolution  # +col = +x, +row = +y (module docstring)
-    tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])
-    (low, high), vectors = np.linalg.eigh(tensor)
-    fall = vectors[:, 1]
+    inner, heights, smooth, gx, gy, (low, high), fall = slopes
     along = gx * fall[0] + gy * fall[1]
     if (math.sqrt(max(high, 0.0)) < min_slope or (high - low) < RIDGE_MIN_ANISOTROPY * (high + low)
             or abs(along.mean()) > RIDGE_MAX_ONE_SIDED * np.abs(along).mean()):

@@ -18,8 +18,8 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
                                          when no grasp is left there, the policy pushes)
  11. grasp_along_ridge             pref  with a target whose top has a crest (an upright prism), grasps
                                          closing along the crest, not across it
- 12. grasp_across_corners          pref  with a target whose top is a rectangle, grasps closing at least
-                                         corner_min_skew_deg off both its face normals (a candidate)
+ 12. grasp_across_corners          pref  with a target whose top is a flat rectangle, grasps closing at
+                                         least corner_min_skew_deg off both its face normals (a candidate)
  13. canonical_colours             input the network sees the colour crop in the default palette
                                          (canonical.canonical_colours): attention has said which cells
                                          are the target (a candidate: tested twice, not adopted)
@@ -66,6 +66,7 @@ from .pose import (
     ridge_direction,
     target_core,
     target_on_top,
+    top_slope,
 )
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = (AttentionMode.NONE, AttentionMode.TARGET,
@@ -101,6 +102,9 @@ class RuleParams:
     corner_min_skew_deg: float = 20.0  # grasp_across_corners: closing axes at least this far from both face
     # normals (twenty-fourth section of docs/experiments.md: upright cubes lifted 83 % of grasps closing
     # 7.5-22.5 deg off their faces, 95 % of the others)
+    corner_max_slope: float = 0.3  # grasp_across_corners: the most root-mean-square slope (m/m) of a top
+    # that counts as flat (pose.top_slope; flat tops 0.05-0.12, a half cylinder lying down 0.6, a prism 1.3:
+    # nineteenth section; the rule lost grasps on those two in challenging scenes: twenty-fourth section)
     ridge_max_angle_deg: float = 35.0  # grasp_along_ridge: closing axes at most this far from the crest
     # (in the simulator an upright prism alone held from 45 deg off across on and slipped out within 34 deg
     # of across; beside others one slipped at 47 deg: docs/experiments.md, nineteenth section)
@@ -114,7 +118,8 @@ class RuleParams:
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
-                     "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope"):
+                     "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope",
+                     "corner_max_slope"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.face_min_fill <= 1.0:
@@ -378,7 +383,9 @@ class GraspAlongRidge(Rule):
 
 class GraspAcrossCorners(Rule):
     """With a target in view whose top outline is a rectangle (pose.face_direction: a cube or a slab seen
-    from above), a grasp whose closing axis lies within `corner_min_skew_deg` of one of its face normals.
+    from above) and whose top is flat (pose.top_slope at most `corner_max_slope`: not a half cylinder or a
+    prism lying down, whose outlines are rectangles too), a grasp whose closing axis lies within
+    `corner_min_skew_deg` of one of its face normals.
     In the simulator upright cubes slipped from a sixth of the grasps closing 7.5-22.5 deg skewed to their
     faces and a twentieth of the others (docs/experiments.md, twenty-fourth section). A candidate; a
     preference after grasp_at_target_core: where no such grasp is left at the target's middle it gives way."""
@@ -391,6 +398,9 @@ class GraspAcrossCorners(Rule):
             return ()
         face = face_direction(ctx.obs.mask, ctx.params.face_min_fill)
         if face is None:
+            return ()
+        slope = top_slope(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution)
+        if slope is None or slope > ctx.params.corner_max_slope:
             return ()
         skewed = closing_off_faces(face, math.radians(ctx.params.corner_min_skew_deg), ctx.rotations)
         return (Keep(GRASP, skewed[:, None, None]),)
