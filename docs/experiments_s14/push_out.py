@@ -102,7 +102,7 @@ def run_one(task: tuple) -> dict:
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
                           "verifier_last_look", "canonical_colours", "mask_truth",
-                          "grasp_geometry")
+                          "grasp_geometry", "temporal")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -124,11 +124,19 @@ def run_one(task: tuple) -> dict:
         stalled = 0
         fired = False  # the current view's TARGET came from the stall-breaker
 
+        previous = None  # the view before the current one (Sensed), for temporal()
+
+        first = None  # the episode's first view (Sensed), for temporal()
+
         def reset(self, request):
             self.stalled = 0
-            return super().reset(request)
+            self._sensed = None
+            targets = super().reset(request)
+            self.first = self._sensed
+            return targets
 
         def _sense(self):
+            self.previous = self._sensed
             super()._sense()
             self.fired = False
             if stall is None:
@@ -163,11 +171,48 @@ def run_one(task: tuple) -> dict:
                                 "last_look": bool(attention.last_look), "heap": heap is not None,
                                 "stall": self.fired,
                                 **(mask_truth(attention, truth) if with_mask_truth else {}),
+                                **(temporal(attention, self._sensed.maps, self.previous, self.first)
+                                   if with_temporal else {}),
                                 **(grasp_geometry(action, truth) if with_geometry and action.kind == "grasp"
                                    else {})})
             return action
 
     with_mask_truth = bool(rule_params.get("mask_truth"))
+    with_temporal = bool(rule_params.get("temporal"))
+
+    def temporal(attention, maps, previous, first) -> dict:
+        """Twenty-fifth session: what the target mask's cells were in the view before (a real cell has that
+        view too; nothing here reads the simulator). t_first: no view before; t_prev_mode: attention's mode
+        then; t_changed: the share of the mask's cells whose height moved by more than 5 mm; t_dcolour: the
+        median colour change of its cells (RGB 0-255, Euclidean); t_prev_overlap: the share of the mask
+        inside the previous view's target mask (None when that view had none); t_seen_4 / 8 / 12: the share of
+        the episode's first view's object cells (5 mm above the table or more) whose colour lies within CIE76
+        dE 4 / 8 / 12 of the mask's median colour (Lab), how common that colour was before anything moved."""
+        mask = attention.target_mask
+        if mask is None or not mask.any():
+            return {}
+        if previous is None:
+            return {"t_first": True}
+        before = previous.maps
+        moved = np.abs(np.nan_to_num(maps.height[mask]) - np.nan_to_num(before.height[mask])) > 0.005
+        dcolour = np.linalg.norm(maps.color[mask].astype(float) - before.color[mask].astype(float), axis=1)
+        old = previous.attention.target_mask
+        was_target = int(previous.attention.mode) == AttentionMode.TARGET
+        overlap = round(float(old[mask].mean()), 3) if was_target and old is not None and old.any() else None
+        import cv2
+
+        def lab(rgb):
+            scaled = rgb.reshape(-1, 1, 3).astype(np.float32) / 255.0
+            return cv2.cvtColor(scaled, cv2.COLOR_RGB2Lab).reshape(-1, 3)
+
+        region = np.median(lab(maps.color[mask]), axis=0)
+        objects = np.nan_to_num(first.maps.height) > 0.005
+        distance = np.linalg.norm(lab(first.maps.color[objects]) - region, axis=1)
+        seen = {f"t_seen_{r}": round(float((distance <= r).mean()), 4) if distance.size else 0.0
+                for r in (4, 8, 12)}
+        return {**seen, "t_first": False, "t_prev_mode": int(previous.attention.mode),
+                "t_changed": round(float(moved.mean()), 3), "t_dcolour": round(float(np.median(dcolour)), 1),
+                "t_prev_overlap": overlap}
     with_geometry = bool(rule_params.get("grasp_geometry"))
 
     def grasp_geometry(action, truth) -> dict:
@@ -251,6 +296,7 @@ def run_one(task: tuple) -> dict:
                "stall": decided[index]["stall"],
                **{k: decided[index][k] for k in ("mask_precision", "mask_cells", "mask_bodies",
                                                   "region_precision") if k in decided[index]},
+               **{k: v for k, v in decided[index].items() if k.startswith("t_")},
                **{k: v for k, v in decided[index].items() if k.startswith("g_")}}
               for index, step in enumerate(steps) if step.kind == "grasp"]
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
@@ -278,6 +324,8 @@ def run(args) -> None:
         rule_params["mask_truth"] = True
     if args.grasp_geometry:
         rule_params["grasp_geometry"] = True
+    if args.temporal:
+        rule_params["temporal"] = True
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -404,6 +452,9 @@ def main(argv=None) -> int:
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
     r.add_argument("--grasp-geometry", action="store_true",
                    help="record the nearest target's pose and contacts at each grasp (grasp_geometry)")
+    r.add_argument("--temporal", action="store_true",
+                   help="record at each decision what the target mask's cells were in the view before "
+                        "(temporal)")
     r.add_argument("--mask-truth", action="store_true",
                    help="record at each grasp how much of attention's target mask shows a target (truth)")
     r.add_argument("--canonical-colours", action="store_true",
