@@ -102,7 +102,7 @@ def run_one(task: tuple) -> dict:
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
                           "verifier_last_look", "canonical_colours", "mask_truth",
-                          "grasp_geometry", "temporal")
+                          "grasp_geometry", "temporal", "known_product")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -274,7 +274,9 @@ def run_one(task: tuple) -> dict:
                                 verifier=verifier)
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
-    summary = picking.run_episode(RecordingCell(_WORKER["world"], _WORKER["agent"], attention),
+    recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention,
+                              remember_product=bool(rule_params.get("known_product")))
+    summary = picking.run_episode(recording,
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
     events, outside = [], 0
@@ -326,6 +328,8 @@ def run(args) -> None:
         rule_params["grasp_geometry"] = True
     if args.temporal:
         rule_params["temporal"] = True
+    if args.known_product:
+        rule_params["known_product"] = True
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -452,6 +456,9 @@ def main(argv=None) -> int:
     r.add_argument("--seed-base", type=int, default=SEED_BASE, help="episode k's seed is this + k")
     r.add_argument("--grasp-geometry", action="store_true",
                    help="record the nearest target's pose and contacts at each grasp (grasp_geometry)")
+    r.add_argument("--known-product", action="store_true",
+                   help="remember the first view's colours when it shows no target, and pass over regions "
+                        "coloured like them (attention.attend's known_product)")
     r.add_argument("--temporal", action="store_true",
                    help="record at each decision what the target mask's cells were in the view before "
                         "(temporal)")

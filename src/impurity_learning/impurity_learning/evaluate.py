@@ -14,7 +14,10 @@ small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
 
 from __future__ import annotations
 
+import numpy as np
+
 from impurity_attention.core.attention import AttentionParams
+from impurity_attention.core.product_memory import ProductColours
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 from impurity_policy.core import picking
@@ -32,21 +35,28 @@ class SimCell:
     privilege, and the only place where truth meets the loop."""
 
     def __init__(self, world, agent, attention_params: AttentionParams = AttentionParams(),
-                 grid: HeightmapGrid = HeightmapGrid()):
+                 grid: HeightmapGrid = HeightmapGrid(), remember_product: bool = False):
         self.world, self.agent, self.attention_params, self.grid = world, agent, attention_params, grid
+        self.remember_product = remember_product
         self._projectors: dict = {}
         self._sensed = None
+        self.known_product = None  # product_memory.ProductColours of the episode's first view, or None
 
     def _sense(self):
         self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params,
-                             self.grid)
+                             self.grid, known_product=self.known_product)
 
     def reset(self, request: EpisodeRequest) -> picking.Targets:
         self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
                                num_objects=request.num_objects, scene_file=request.scene_file or None,
                                palette=request.palette)
         self.agent.reset(request.seed)
+        self.known_product = None
         self._sense()
+        if self.remember_product and int(self._sensed.attention.mode) != AttentionMode.TARGET:
+            maps = self._sensed.maps
+            self.known_product = ProductColours.from_view(
+                maps.color, np.nan_to_num(maps.height) > self.attention_params.density.occupied_height)
         return self._targets()
 
     def observe(self) -> picking.View:

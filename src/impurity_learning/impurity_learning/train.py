@@ -173,9 +173,9 @@ class Sensed:
     attention: object  # impurity_attention AttentionOutput (saliency, target mask, clusters)
 
 
-def sense(world, projectors: dict, method: str, attention_params, grid) -> Sensed:
+def sense(world, projectors: dict, method: str, attention_params, grid, known_product=None) -> Sensed:
     """Render the sim camera -> heightmaps -> attention -> the method's observation; `projectors`
-    caches the camera projection."""
+    caches the camera projection; known_product: attend's (product_memory.ProductColours or None)."""
     from impurity_attention.core.attention import attend
     from impurity_attention.core.heightmap import HeightmapProjector
 
@@ -184,7 +184,7 @@ def sense(world, projectors: dict, method: str, attention_params, grid) -> Sense
         projectors["camera"] = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape,
                                                   grid)
     maps = projectors["camera"].project(frame.color, frame.depth)
-    attention = attend(maps.color, maps.height, attention_params, grid)
+    attention = attend(maps.color, maps.height, attention_params, grid, known_product=known_product)
     obs = observe(method, attention, maps.height, maps.color, grid)
     return Sensed(obs, world.ground_truth(frame), maps, attention)
 

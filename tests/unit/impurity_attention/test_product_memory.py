@@ -1,0 +1,66 @@
+"""Attention with a known product (product_memory, attend's known_product): the colours of a view that showed
+product only. A revealed impurity is still found; a region coloured like much of the known product is passed
+over, whatever the verifier's probability.
+
+Synthetic scenes of test_attention_palettes (no simulator): the clean version of a scene is the view before
+anything was revealed."""
+
+import numpy as np
+import pytest
+from test_attention_palettes import PALETTES, scene
+
+from impurity_attention.core import attention as att
+from impurity_attention.core.product_memory import ProductColours, lab, mask_colour
+
+
+def known(palette: str, seed: int, with_impurity: bool = False) -> ProductColours:
+    color, height, _ = scene(palette, seed, with_impurity=with_impurity)
+    return ProductColours.from_view(color, height > att.AttentionParams().density.occupied_height)
+
+
+def test_a_view_remembers_the_colours_of_its_objects():
+    product = known("cream_grey", 0)
+    shades, impurity = PALETTES["cream_grey"]
+    assert product.samples.shape[1] == 3
+    assert product.share_near(lab(np.array(shades[0], np.uint8))[0], 8.0) > 0.2
+    assert product.share_near(lab(np.array(impurity, np.uint8))[0], 8.0) == 0.0
+    assert product.share_near(lab(np.array(shades[0], np.uint8))[0], 200.0) == 1.0  # every colour lies within
+
+
+def test_a_view_without_objects_remembers_nothing_and_bad_shapes_are_refused():
+    color = np.zeros((8, 8, 3), np.uint8)
+    assert ProductColours.from_view(color, np.zeros((8, 8), bool)) is None
+    with pytest.raises(ValueError, match="objects"):
+        ProductColours.from_view(color, np.zeros((8, 9), bool))
+
+
+@pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "brown_dark", "green_light", "blue_red"])
+def test_a_revealed_impurity_is_found_as_before_when_the_product_is_known(palette):
+    color, height, impurity = scene(palette, 1)
+    plain = att.attend(color, height)
+    remembered = att.attend(color, height, known_product=known(palette, 1))
+    assert remembered.mode == att.AttentionMode.TARGET, remembered.reason
+    assert np.array_equal(remembered.target_mask, plain.target_mask)
+    assert np.count_nonzero(remembered.target_mask & impurity) > 0.5 * np.count_nonzero(remembered.target_mask)
+
+
+@pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "green_light"])
+def test_a_region_coloured_like_the_known_product_is_passed_over(palette):
+    color, height, impurity = scene(palette, 0)
+    plain = att.attend(color, height)
+    assert plain.mode == att.AttentionMode.TARGET
+    # a memory that holds the impurity's colour too (as if the first view had shown it and been called clean)
+    product = known(palette, 0, with_impurity=True)
+    share = product.share_near(mask_colour(color, plain.target_mask), att.AttentionParams().known_product_delta_e)
+    assert share > att.AttentionParams().known_product_max_share
+    remembered = att.attend(color, height, known_product=product)
+    assert "known product" in remembered.reason
+    if remembered.mode == att.AttentionMode.TARGET:  # another region may be called, never the impurity
+        assert not np.any(remembered.target_mask & impurity)
+
+
+@pytest.mark.parametrize("field, value", [("known_product_delta_e", 0.0), ("known_product_max_share", 1.0),
+                                          ("known_product_max_share", -0.1)])
+def test_known_product_parameters_out_of_range_are_refused_by_name(field, value):
+    with pytest.raises(ValueError, match=field):
+        att.AttentionParams(**{field: value})
