@@ -201,6 +201,10 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 7500: the twenty-fifth session's test of grasp_across_corners on flat tops only, "
               "challenging 7 500-7 599, random 7 600-7 699 (--start 100), invisible 7 700-7 899 (--start "
               "200), tuning palettes, shipped and rule arms on the same seeds"),
+    SeedBlock(7_900, 8_300, "docs/experiments_s14/push_out.py",
+              "--seed-base 7900: the twenty-fifth session's test of the known product while a heap is left, "
+              "invisible 7 900-8 099, challenging 8 100-8 199 (--start 200), random 8 200-8 299 (--start "
+              "300), tuning palettes, shipped and rule arms on the same seeds"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),

@@ -41,22 +41,35 @@ def test_a_revealed_impurity_is_found_as_before_when_the_product_is_known(palett
     remembered = att.attend(color, height, known_product=known(palette, 1))
     assert remembered.mode == att.AttentionMode.TARGET, remembered.reason
     assert np.array_equal(remembered.target_mask, plain.target_mask)
-    assert np.count_nonzero(remembered.target_mask & impurity) > 0.5 * np.count_nonzero(remembered.target_mask)
+    mask = remembered.target_mask
+    assert np.count_nonzero(mask & impurity) > 0.5 * np.count_nonzero(mask)
 
 
 @pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "green_light"])
-def test_a_region_coloured_like_the_known_product_is_passed_over(palette):
-    color, height, impurity = scene(palette, 0)
+def test_with_a_heap_left_a_region_coloured_like_the_known_product_is_passed_over(palette):
+    color, height, impurity = scene(palette, 0, heap=True)
     plain = att.attend(color, height)
     assert plain.mode == att.AttentionMode.TARGET
-    # a memory that holds the impurity's colour too (as if the first view had shown it and been called clean)
+    # a memory that holds the impurity's colour too (as if the first view had shown it, called clean)
     product = known(palette, 0, with_impurity=True)
-    share = product.share_near(mask_colour(color, plain.target_mask), att.AttentionParams().known_product_delta_e)
-    assert share > att.AttentionParams().known_product_max_share
+    defaults = att.AttentionParams()
+    share = product.share_near(mask_colour(color, plain.target_mask), defaults.known_product_delta_e)
+    assert share > defaults.known_product_max_share
     remembered = att.attend(color, height, known_product=product)
     assert "known product" in remembered.reason
     if remembered.mode == att.AttentionMode.TARGET:  # another region may be called, never the impurity
         assert not np.any(remembered.target_mask & impurity)
+    else:
+        assert remembered.mode == att.AttentionMode.OCCLUDED_REGION  # the heap is pushed instead
+
+
+def test_with_no_heap_left_the_verifier_decides_alone():
+    color, height, _ = scene("cream_grey", 0)  # no heap could hide anything
+    plain = att.attend(color, height)
+    remembered = att.attend(color, height, known_product=known("cream_grey", 0, with_impurity=True))
+    assert remembered.mode == plain.mode == att.AttentionMode.TARGET
+    assert np.array_equal(remembered.target_mask, plain.target_mask)
+    assert "known product" not in remembered.reason
 
 
 @pytest.mark.parametrize("field, value", [("known_product_delta_e", 0.0), ("known_product_max_share", 1.0),

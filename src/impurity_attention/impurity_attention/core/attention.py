@@ -212,12 +212,14 @@ class AttentionParams:
     # threshold above and the last look apply as before. docs/experiments.md, sixteenth section.
     verifier_heap_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
-    # verifier, with a known_product (product_memory.ProductColours) handed to attend: a region whose grown
-    # mask's median colour lies within known_product_delta_e (CIE76) of more than known_product_max_share of
-    # the remembered product colours is product, whatever its probability; the next likeliest region is
-    # judged instead. From 60 invisible tuning episodes with a grasp on product (twenty-fifth section of
-    # docs/experiments.md, docs/experiments_s25/temporal_screen.py): dE 4 and 1 % kept 98 % of the TARGET
-    # grasps on a target and caught 90 % of those on product. Without a known_product nothing changes.
+    # verifier, with a known_product (product_memory.ProductColours) handed to attend, while a heap that could
+    # hide a target is left (density.select_occluded_region): a region whose grown mask's median colour lies
+    # within known_product_delta_e (CIE76) of more than known_product_max_share of the remembered product
+    # colours is product, whatever its probability; the next likeliest region is judged instead. With no heap
+    # left the cell would otherwise call the scene clean, so the verifier decides alone. From 60 invisible
+    # tuning episodes with a grasp on product (twenty-fifth section of docs/experiments.md,
+    # docs/experiments_s25/temporal_screen.py): dE 4 and 1 % kept 98 % of the TARGET grasps on a target and
+    # caught 90 % of those on product. Without a known_product nothing changes.
     known_product_delta_e: float = 4.0
     known_product_max_share: float = 0.01
 
@@ -438,8 +440,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
            grid: HeightmapGrid = HeightmapGrid(),
            known_product: ProductColours | None = None) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m. known_product: the
-    colours of an earlier view that showed product only (product_memory); with the verifier, a region coloured
-    like them is not a target (AttentionParams.known_product_max_share)."""
+    colours of an earlier view that showed product only (product_memory); with the verifier and a heap left, a
+    region coloured like them is not a target (AttentionParams.known_product_max_share)."""
     color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
     saliency, conspicuity = scene_maps(color, objects, params)
@@ -499,7 +501,7 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                 probability = model.probability(np.array(features))
             known = ""  # regions passed over as the known product's colour
             order = [int(i) for i in np.argsort(-probability, kind="stable")]
-            if known_product is not None:
+            if known_product is not None and select_occluded_region(dense_clusters()) is not None:
                 for i in list(order):
                     share = known_product.share_near(mask_colour(color, grown(candidates[i])),
                                                      params.known_product_delta_e)

@@ -10,9 +10,10 @@ target and caught 90 % of those on product.
 
 `ProductColours.from_view` keeps a view's object colours (CIE L*a*b*, OpenCV's float scale: L* 0-100);
 `share_near` answers what share of them lies within a colour distance of a given colour. attention.attend
-takes one as `known_product` and passes over a region whose grown mask is coloured like more than
-`AttentionParams.known_product_max_share` of it. Who decides that a view shows product only (the picking loop,
-from attention's answer on the episode's first view) is the caller's business: this module only remembers.
+takes one as `known_product` and, while a heap that could hide a target is left, passes over a region whose
+grown mask is coloured like more than `AttentionParams.known_product_max_share` of it. Who decides that a view
+shows product only (the picking loop, from attention's answer on the episode's first view) is the caller's
+business: this module only remembers.
 """
 
 from __future__ import annotations
