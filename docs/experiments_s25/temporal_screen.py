@@ -1,8 +1,8 @@
-"""Twenty-fifth session, tuning data only: does the colour of a false TARGET after pushes look like the episode's
-first view? Reads episodes recorded with `push_out.py run ... --mask-truth --temporal` and sorts TARGET-mode
-grasps by what their mask showed (mask_precision < 0.5: product; >= 0.9: a target).
+"""Twenty-fifth session, tuning data only: does the colour of a false TARGET after pushes look like the
+episode's first view? Reads episodes recorded with `push_out.py run ... --mask-truth --temporal` and sorts
+TARGET-mode grasps by what their mask showed (mask_precision < 0.5: product; >= 0.9: a target).
 
-    python docs/experiments_s25/temporal_screen.py runs/s25/temporal_*.jsonl
+    python docs/experiments_s25/temporal_screen.py runs/s25/temporal_*.jsonl [--plot out.png]
 
 For each radius r (t_seen_r: the share of the first view's object cells within dE r of the mask's median
 colour) it prints both groups' quantiles and, for bounds b, the share of grasps on a target with t_seen_r <= b
@@ -57,9 +57,39 @@ def main(paths) -> None:
             print(f"   {g['palette']:22s} {g['seed']} {g['t_seen_8']:.4f} {g['target']}")
     print("== grasps on product (palette, seed, t_seen_4 / 8 / 12, lifted product)")
     for g in sorted(on_product, key=lambda g: g["t_seen_8"]):
-        print(f"   {g['palette']:22s} {g['seed']} {g['t_seen_4']:.4f} {g['t_seen_8']:.4f} {g['t_seen_12']:.4f} "
-              f"{g['lifted'] and not g['target']}")
+        print(f"   {g['palette']:22s} {g['seed']} {g['t_seen_4']:.4f} {g['t_seen_8']:.4f} "
+              f"{g['t_seen_12']:.4f} {g['lifted'] and not g['target']}")
+
+
+def plot(paths, out: str) -> None:
+    """One picture: t_seen_4 of the grasps on a target and of those on product (log scale, zeros left)."""
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    on_product, on_target = groups(paths)
+    floor = 1e-4  # zeros drawn here
+    bins = np.logspace(-4, 0, 33)
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    for rows, label, colour in ((on_target, f"mask on a target ({len(on_target)} grasps)", "tab:green"),
+                                (on_product, f"mask on product ({len(on_product)} grasps)", "tab:red")):
+        values = np.maximum([g["t_seen_4"] for g in rows], floor)
+        ax.hist(values, bins=bins, alpha=0.6, label=label, color=colour)
+    ax.axvline(0.01, color="k", linestyle="--", label="known_product_max_share 1 %")
+    ax.set_xscale("log")
+    ax.set_xlabel("share of the first view's object cells within dE 4 of the mask's colour (0 drawn at 1e-4)")
+    ax.set_ylabel("TARGET grasps")
+    ax.set_title("Invisible tuning episodes with a grasp on product: how common was the grasped colour?")
+    ax.title.set_fontsize(9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
 
 
 if __name__ == "__main__":
-    main(sys.argv[1:])
+    args = sys.argv[1:]
+    if "--plot" in args:
+        at = args.index("--plot")
+        plot(args[:at] + args[at + 2:], args[at + 1])
+        args = args[:at] + args[at + 2:]
+    main(args)
