@@ -125,7 +125,6 @@ def run_one(task: tuple) -> dict:
         fired = False  # the current view's TARGET came from the stall-breaker
 
         previous = None  # the view before the current one (Sensed), for temporal()
-
         first = None  # the episode's first view (Sensed), for temporal()
 
         def reset(self, request):
@@ -199,13 +198,9 @@ def run_one(task: tuple) -> dict:
         old = previous.attention.target_mask
         was_target = int(previous.attention.mode) == AttentionMode.TARGET
         overlap = round(float(old[mask].mean()), 3) if was_target and old is not None and old.any() else None
-        import cv2
+        from impurity_attention.core.product_memory import lab, mask_colour
 
-        def lab(rgb):
-            scaled = rgb.reshape(-1, 1, 3).astype(np.float32) / 255.0
-            return cv2.cvtColor(scaled, cv2.COLOR_RGB2Lab).reshape(-1, 3)
-
-        region = np.median(lab(maps.color[mask]), axis=0)
+        region = mask_colour(maps.color, mask)
         objects = np.nan_to_num(first.maps.height) > 0.005
         distance = np.linalg.norm(lab(first.maps.color[objects]) - region, axis=1)
         seen = {f"t_seen_{r}": round(float((distance <= r).mean()), 4) if distance.size else 0.0

@@ -224,7 +224,10 @@ def top_slope(height_crop: np.ndarray, mask: np.ndarray, resolution: float) -> f
     top reads about 0.1, a half cylinder lying down 0.6, an upright prism 1.3, a flat face tilted by t about
     tan(t) (docs/experiments.md, nineteenth section). None with fewer than RIDGE_MIN_CELLS inner cells."""
     slopes = _top_slopes(height_crop, mask, resolution)
-    return None if slopes is None else math.sqrt(max(slopes[5][1], 0.0))
+    if slopes is None:
+        return None
+    _, _, _, _, _, (_, high), _ = slopes
+    return math.sqrt(max(high, 0.0))
 
 
 def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
