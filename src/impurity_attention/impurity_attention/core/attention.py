@@ -510,6 +510,8 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                         known += (f"; region {i + 1} ({probability[i]:.2f}) coloured like "
                                   f"{100 * share:.1f} % of the known product > "
                                   f"{100 * params.known_product_max_share:.1f} %")
+                    else:
+                        break  # the likeliest region left decides: the others' masks need not be grown
             if not order:
                 order, probability = [0], np.zeros(len(candidates))
             k = order[0]
