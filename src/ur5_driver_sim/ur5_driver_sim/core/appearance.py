@@ -275,6 +275,19 @@ PALETTES = {p.name: p for p in (
              light_direction=(-0.4, 0.4, 1.0), exposure=1.05),
     _palette("pa_flakes_wood", [(238, 236, 228), (228, 226, 218)], [(176, 130, 82)],
              "white nylon flakes with wood splinters", product_jitter=0.015, exposure=0.9),
+    # Added 2026-12-03 (twenty-sixth session) as the eleventh held-out set, fixed before any was rendered.
+    _palette("oat_groats_husks", [(196, 170, 122), (184, 158, 112)], [(224, 206, 148)],
+             "light brown oat groats with pale straw husks", product_jitter=0.02,
+             light_direction=(0.3, 0.3, 1.0)),
+    _palette("black_pepper_stones", [(48, 40, 36), (58, 48, 42), (40, 34, 32)], [(126, 122, 116)],
+             "black peppercorns of several shades with grey stones", product_jitter=0.015,
+             ambient=0.55, diffuse=0.5, exposure=1.1),
+    _palette("pine_nuts_shells", [(232, 214, 176), (222, 202, 162)], [(86, 60, 44)],
+             "ivory pine nut kernels with dark brown shell pieces", product_jitter=0.015,
+             light_direction=(-0.3, -0.3, 1.0)),
+    _palette("pet_flakes_green", [(190, 208, 222), (178, 198, 214)], [(82, 150, 98), (160, 162, 168)],
+             "clear blue-tinted PET flakes with green PET and aluminium pieces", product_jitter=0.02,
+             exposure=0.95),
 )}
 
 
