@@ -80,7 +80,8 @@ RETIRED_SETS = (
      range(7000, 8000)),
     (("soybeans_stones", "macadamia_shells", "red_lentils_stones", "barley_stones"), range(8000, 9000)),
     (("peanuts_stones", "quinoa_stones", "pecans_shells", "abs_flakes_metal"), range(9000, 10_000)),
-    (("sesame_stones", "buckwheat_stones", "mung_beans_stones", "pa_flakes_wood"), range(1_000_000, 1_001_000)),
+    (("sesame_stones", "buckwheat_stones", "mung_beans_stones", "pa_flakes_wood"),
+     range(1_000_000, 1_001_000)),
 )
 RETIRED_NAMED = tuple(name for names, _ in RETIRED_SETS for name in names)
 TRAINING_RANDOM_SEEDS = range(10_000, 1_000_000)  # random-<seed> drawn while training
