@@ -198,7 +198,7 @@ def run_one(task: tuple) -> dict:
         old = previous.attention.target_mask
         was_target = int(previous.attention.mode) == AttentionMode.TARGET
         overlap = round(float(old[mask].mean()), 3) if was_target and old is not None and old.any() else None
-        from impurity_attention.core.product_memory import lab, mask_colour
+        from impurity_common.colour import lab, mask_colour
 
         region = mask_colour(maps.color, mask)
         objects = np.nan_to_num(first.maps.height) > 0.005
@@ -269,11 +269,11 @@ def run_one(task: tuple) -> dict:
                                 verifier=verifier)
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
-    recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention,
-                              remember_product=bool(rule_params.get("known_product")))
+    recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention)
+    limits = picking.EpisodeLimits(known_product=rule_params.get("known_product", True))
     summary = picking.run_episode(recording,
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
-                                  on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
+                                  limits, on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
     events, outside = [], 0
     for index, step in enumerate(steps):
         if step.targets_outside > outside:
@@ -323,8 +323,8 @@ def run(args) -> None:
         rule_params["grasp_geometry"] = True
     if args.temporal:
         rule_params["temporal"] = True
-    if args.known_product:
-        rule_params["known_product"] = True
+    if args.no_known_product:  # the known product is the loop's default since the twenty-sixth session
+        rule_params["known_product"] = False
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
@@ -452,8 +452,10 @@ def main(argv=None) -> int:
     r.add_argument("--grasp-geometry", action="store_true",
                    help="record the nearest target's pose and contacts at each grasp (grasp_geometry)")
     r.add_argument("--known-product", action="store_true",
-                   help="remember the first view's colours when it shows no target, and pass over regions "
-                        "coloured like them (attention.attend's known_product)")
+                   help="the loop's default since the twenty-sixth session (kept so that earlier commands "
+                        "run): the first view without target is the known product (picking.EpisodeLimits)")
+    r.add_argument("--no-known-product", action="store_true",
+                   help="the cell as shipped before the twenty-sixth session: no known product")
     r.add_argument("--temporal", action="store_true",
                    help="record at each decision what the target mask's cells were in the view before "
                         "(temporal)")

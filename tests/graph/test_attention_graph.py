@@ -1,12 +1,13 @@
 """Graph test: camera frames in -> /heightmap -> /attention/result out, through the real executables
-(heightmap_node, attention_node) as separate processes; bad frames are dropped, never fatal."""
+(heightmap_node, attention_node) as separate processes; bad frames are dropped, never fatal. A known product
+on /attention/known_product (latched) is attended with until an empty heightmap clears it."""
 
 import numpy as np
 import pytest
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
 
-from impurity_attention.core.synthetic import random_boxes, render_boxes
+from impurity_attention.core.synthetic import Box, random_boxes, render_boxes
 from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_common.enums import AttentionMode
@@ -187,3 +188,42 @@ def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ro
         heightmaps.destroy()
         results.destroy()
         ros_node.destroy_publisher(publisher)
+
+
+def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clears_it(ros_node, launch):
+    from impurity_attention.core.heightmap import rgbd_to_heightmaps
+
+    # product scattered, a heap that could hide a target, and a red impurity apart: a target as it is
+    boxes = (random_boxes(6, num_product=20, num_impurities=0) + random_boxes(106, 15, 0, heap=True)
+             + [Box(0.62, 0.12, 0.03, 0.03, 0.03, (220, 60, 40), 99)])
+    frame = render_boxes(boxes)
+    maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
+    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    known = ros_node.create_publisher(Heightmap, names.KNOWN_PRODUCT_TOPIC, latched)
+    # the known product (here a view that held the red colour too) is sent before the node starts, as
+    # after a restart mid-episode: the latched message still reaches it
+    known.publish(heightmap_message(500_000_000, maps.color, maps.height))
+    attention = launch("impurity_attention", "attention_node")
+    publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
+    results = TopicRecorder(ros_node, AttentionResult, names.ATTENTION_TOPIC, RELIABLE)
+    try:
+        spin_until(ros_node, lambda: "known product: " in attention.output(), 30.0,
+                   "the attention node's known-product line", (attention,))
+        first = publish_until_answered(ros_node, publisher,
+                                       lambda: heightmap_message(1_000_000_000, maps.color, maps.height),
+                                       results, processes=(attention,))
+        # the red region is coloured like the known product: the heap is pushed instead
+        assert first.mode == AttentionMode.OCCLUDED_REGION
+        known.publish(Heightmap())  # an episode's reset
+        spin_until(ros_node, lambda: "known product cleared" in attention.output(), 30.0,
+                   "the attention node's cleared line", (attention,))
+        publisher.publish(heightmap_message(2_000_000_000, maps.color, maps.height))
+        cleared = results.wait_for(1, 30.0, with_stamp(2_000_000_000), (attention,))[0]
+        assert cleared.mode == AttentionMode.TARGET
+        row, col = cleared.center_row, cleared.center_col
+        assert np.array_equal(maps.color[row, col], (220, 60, 40))  # the red box
+    finally:
+        results.destroy()
+        ros_node.destroy_publisher(publisher)
+        ros_node.destroy_publisher(known)

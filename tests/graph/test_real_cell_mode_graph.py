@@ -22,16 +22,17 @@ import rclpy
 from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Point
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Header
 
 from impurity_common import names
+from impurity_common.conversions import time_to_ns
 from impurity_interfaces.action import RunEpisode
-from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
 from impurity_interfaces.srv import GetGroundTruth
 from impurity_learning.splits import EVAL_SEED_BASE
 from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, read_steps
-from ros_harness import ROOT, ActionHelper, NodeProcess, call_service, ros_args
+from ros_harness import ROOT, ActionHelper, NodeProcess, TopicRecorder, call_service, ros_args
 
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 PERCEPTION = [("impurity_attention", "heightmap_node"), ("impurity_attention", "attention_node"),
@@ -75,6 +76,7 @@ class Episode:
     summary: dict
     truth_before: object
     truth_after: object
+    known_products: list  # the heightmaps heard on /attention/known_product during the episode
 
 
 @pytest.fixture(scope="module")
@@ -88,9 +90,12 @@ def real_cell_episodes(ros_node, tmp_path_factory):
     processes.append(NodeProcess("impurity_policy", "episode_node", ros_args(
         {"record_dir": str(record_dir), **REAL_CELL_EPISODE}, params_file=CONFIG)))
     episodes = []
+    known = TopicRecorder(ros_node, Heightmap, names.KNOWN_PRODUCT_TOPIC, QoSProfile(
+        depth=1, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL))
     try:
         action = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=processes)
         for scenario, seed, targets, objects, max_actions in EPISODES:
+            heard = len(known.messages)
             before = call_service(ros_node, GetGroundTruth, "/cell/ground_truth", GetGroundTruth.Request(),
                                   processes=processes, resend_after=5.0)
             handle, wrapped = action.run(RunEpisode.Goal(scenario=scenario, seed=seed, num_targets=targets,
@@ -104,9 +109,10 @@ def real_cell_episodes(ros_node, tmp_path_factory):
             episodes.append(Episode(scenario, seed, max_actions, result, records[0],
                                     [r for r in records if r["event"] == "step"],
                                     json.loads((ROOT / result.record_path / "summary.json").read_text()),
-                                    before, after))
+                                    before, after, known.messages[heard:]))
         action.destroy()
     finally:
+        known.destroy()
         for process in processes:
             process.stop()
     print_figures(episodes)
@@ -152,6 +158,23 @@ def test_real_cell_mode_runs_without_counts_or_truth_and_records_the_truth_besid
                                           for s in grasps_of(e))
         assert e.summary["verdicts_agreeing"] == r.verdicts_agreeing
         assert e.summary["termination_reason"] == r.termination_reason
+
+
+def test_a_first_view_without_target_is_sent_to_attention_as_the_known_product(real_cell_episodes):
+    """picking's known product through the graph: each reset clears it (an empty heightmap); an episode
+    whose first decision came from a view without target sends that view's heightmap, once."""
+    first_modes = set()
+    for e in real_cell_episodes:
+        assert e.known_products and e.known_products[0].color.width == 0, f"{e.scenario} {e.seed}: no clear"
+        sent = e.known_products[1:]
+        first = e.steps[0]
+        first_modes.add(first["attention_mode"])
+        if first["attention_mode"] == "TARGET":
+            assert not sent, f"{e.scenario} {e.seed}: a first view with a target sent as the known product"
+        else:
+            assert len(sent) == 1 and sent[0].color.width > 0, f"{e.scenario} {e.seed}: {len(sent)} sent"
+            assert time_to_ns(sent[0].header.stamp) == first["decision_stamp_ns"]
+    assert first_modes == {"TARGET", "OCCLUDED_REGION"}  # both cases ran (invisible scenes start hidden)
 
 
 # This block, run once with the final settings (2026-11-30, fifth session, in `make test`): 10/10 episodes

@@ -1,13 +1,16 @@
 """Attention node: /heightmap -> /attention/result (paper Algorithm 1) and /attention/debug_image.
 
 Thin shell around impurity_attention.core.attention.attend: one AttentionResult per heightmap, with the
-heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line.
+heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line. A heightmap on
+/attention/known_product (transient local; the episode node sends the episode's first view when it showed no
+target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
+cells, sent at each episode's reset) clears it.
 """
 
 from dataclasses import asdict, dataclass
 
 from rclpy.node import Node
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
 from impurity_attention.core.attention import (
@@ -19,6 +22,7 @@ from impurity_attention.core.attention import (
     debug_image,
 )
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
+from impurity_attention.core.product_memory import known_product
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_attention.core.verifier import default_verifier
 from impurity_common import cell, names
@@ -138,6 +142,13 @@ class AttentionNodeParameters:
                                            "probability of a target while a heap that could hide one is "
                                            "left; 0, or a value at or below the threshold used elsewhere: no "
                                            "change. With no heap left nothing changes", low=0.0, high=0.999)
+    known_product_delta_e: float = param(DEFAULTS.known_product_delta_e, "verifier, with a known product "
+                                         "(/attention/known_product) and a heap left: CIE76 distance within "
+                                         "which a product colour counts as the region's colour",
+                                         low=0.1, high=100.0)
+    known_product_max_share: float = param(DEFAULTS.known_product_max_share, "verifier, with a known product "
+                                           "and a heap left: a region whose colour is that of more than this "
+                                           "share of the known product is passed over", low=0.0, high=0.999)
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -166,6 +177,8 @@ class AttentionNodeParameters:
             verifier_last_look=self.verifier_last_look,
             verifier_clipped_threshold=self.verifier_clipped_threshold,
             verifier_heap_threshold=self.verifier_heap_threshold,
+            known_product_delta_e=self.known_product_delta_e,
+            known_product_max_share=self.known_product_max_share,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
@@ -179,6 +192,10 @@ class AttentionNode(Node):
         self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
                                  QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
         self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
+        self._known_product = None  # colour.ProductReference of the known product, or None
+        self.create_subscription(Heightmap, names.KNOWN_PRODUCT_TOPIC, self._on_known_product,
+                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                                            durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         p = self._params
@@ -193,12 +210,32 @@ class AttentionNode(Node):
         self.get_logger().warning(f"heightmap dropped: {reason}",
                                   throttle_duration_sec=self.params.log_throttle)
 
+    def _on_known_product(self, msg: Heightmap) -> None:
+        if msg.color.width * msg.color.height == 0:
+            if self._known_product is not None:
+                self.get_logger().info("known product cleared (a new episode)")
+            self._known_product = None
+            return
+        try:
+            product = known_product(image_to_numpy(msg.color, ("rgb8",)),
+                                    image_to_numpy(msg.height, ("32FC1",)), self._params)
+        except (ImageFormatError, ValueError) as error:
+            self._known_product = None
+            self.get_logger().warning(f"known product dropped, none is used: {error}")
+            return
+        self._known_product = product
+        self.get_logger().info(
+            f"known product: {0 if product is None else len(product.colors)} object colours from the view "
+            f"stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like more than "
+            f"{100 * self._params.known_product_max_share:.1f} % of them are passed over while a heap is "
+            "left")
+
     def _on_heightmap(self, msg: Heightmap) -> None:
         try:
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
             grid = grid_from_heightmap(msg)
-            output = attend(color, height, self._params, grid)
+            output = attend(color, height, self._params, grid, known_product=self._known_product)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))
             return

@@ -1,18 +1,24 @@
 """How far a colour stands apart from a product's colours: a Mahalanobis distance from the colours of the
-product's cells (issue 17: decisions relative to the scene, not to a palette). Pure numpy; no ROS.
+product's cells (issue 17: decisions relative to the scene, not to a palette). numpy and OpenCV (the L*a*b*
+conversion); no ROS.
 
 Used by attention (is the best salient region's colour unlike the other objects'?) and by the grasp
 verdict (is the lifted region's colour unlike the product's in the episode's first view?), each with its
-own least spread (`min_spread`, chosen with its thresholds on tuning scenes).
+own least spread (`min_spread`, chosen with its thresholds on tuning scenes). Attention also takes a
+reference as the known product (a view that showed product only) and asks what share of its colours lies
+near a region's colour in CIE L*a*b* (`share_near`, core/product_memory.py of impurity_attention).
 
     reference = ProductReference.from_view(color, height, target_mask, min_spread=4.0)
     reference.contrast(rgb)  # dimensionless: about 1 for the product's own colours
+    reference.share_near(mask_colour(color, mask), 4.0)  # 0-1: the share within CIE76 dE 4
 """
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass, field
 
+import cv2
 import numpy as np
 
 # Shading (Lambertian: a face turned from the light scales the surface's RGB by a factor) moves a colour
@@ -110,6 +116,30 @@ class ProductReference:
         product's own shading (darker faces of the same hue) lies along its covariance and counts little."""
         offset = np.asarray(rgb, dtype=np.float64)[self.channels] - self.mean
         return float(np.sqrt(offset @ np.linalg.solve(self.covariance, offset)))
+
+    @functools.cached_property
+    def lab_colors(self) -> np.ndarray:
+        """(N, 3) float32: `colors` in CIE L*a*b* (lab()), converted once."""
+        return lab(self.colors)
+
+    def share_near(self, colour_lab, delta_e: float) -> float:
+        """The share (0-1) of the product's colours within CIE76 distance `delta_e` of the L*a*b* colour
+        `colour_lab` (3,) (lab() scale): how common that colour is in the product."""
+        distance = np.linalg.norm(self.lab_colors - np.asarray(colour_lab, dtype=np.float32), axis=1)
+        return float(np.mean(distance <= delta_e))
+
+
+def lab(color: np.ndarray) -> np.ndarray:
+    """RGB colours (..., 3), 0-255 (uint8 or float) -> (N, 3) float32 CIE L*a*b* (OpenCV's scale for float
+    input: L* 0-100, a* and b* about -128..127; D65 white)."""
+    rgb = np.asarray(color, dtype=np.float32).reshape(-1, 1, 3) / 255.0
+    return cv2.cvtColor(rgb, cv2.COLOR_RGB2Lab).reshape(-1, 3)
+
+
+def mask_colour(color: np.ndarray, mask: np.ndarray) -> np.ndarray:
+    """(3,) the median L*a*b* colour (lab()) of the cells of `mask` (H, W) bool, not empty, in `color`
+    (H, W, 3) uint8."""
+    return np.median(lab(np.asarray(color)[np.asarray(mask, dtype=bool)]), axis=0)
 
 
 def region_contrast(color: np.ndarray, region: np.ndarray, objects: np.ndarray,

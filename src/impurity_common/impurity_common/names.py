@@ -18,6 +18,9 @@ CAMERA_INFO_TOPIC = "/camera/camera/color/camera_info"  # sensor_msgs/CameraInfo
 HEIGHTMAP_TOPIC = "/heightmap"  # impurity_interfaces/Heightmap
 ATTENTION_TOPIC = "/attention/result"  # impurity_interfaces/AttentionResult
 ATTENTION_DEBUG_TOPIC = "/attention/debug_image"  # sensor_msgs/Image rgb8, the saliency overlay
+# impurity_interfaces/Heightmap, transient local: the episode's first view when attention found no target in
+# it (the known product, core/picking.py); an empty heightmap (no cells) at each episode's reset clears it
+KNOWN_PRODUCT_TOPIC = "/attention/known_product"
 
 # Decisions and episodes
 PRIMITIVE_TOPIC = "/policy/primitive"  # impurity_interfaces/Primitive
@@ -43,9 +46,9 @@ RESET_SCENE_SERVICE = "/cell/reset_scene"  # impurity_interfaces/srv/ResetScene
 GROUND_TRUTH_SERVICE = "/cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth
 
 # What a recording of an episode holds (bag_recorder's default): the camera in, every decision out, and
-# what a 3-D view of the bag needs (TF, the robot model, the markers; /tf_static, /robot_description and
-# /cell/markers are transient local: the recorder asks for that when every publisher offers it, so the
-# latched messages published before it started are in the bag too).
-EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, ATTENTION_TOPIC,
-                  PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC, JOINT_STATES_TOPIC, TF_TOPIC, TF_STATIC_TOPIC,
-                  ROBOT_DESCRIPTION_TOPIC, MARKERS_TOPIC)
+# what a 3-D view of the bag needs (TF, the robot model, the markers; /tf_static, /robot_description,
+# /cell/markers and /attention/known_product are transient local: the recorder asks for that when every
+# publisher offers it, so the latched messages published before it started are in the bag too).
+EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, KNOWN_PRODUCT_TOPIC,
+                  ATTENTION_TOPIC, PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC, JOINT_STATES_TOPIC, TF_TOPIC,
+                  TF_STATIC_TOPIC, ROBOT_DESCRIPTION_TOPIC, MARKERS_TOPIC)

@@ -14,10 +14,8 @@ small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
 
 from __future__ import annotations
 
-import numpy as np
-
 from impurity_attention.core.attention import AttentionParams
-from impurity_attention.core.product_memory import ProductColours
+from impurity_attention.core.product_memory import known_product
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 from impurity_policy.core import picking
@@ -35,12 +33,11 @@ class SimCell:
     privilege, and the only place where truth meets the loop."""
 
     def __init__(self, world, agent, attention_params: AttentionParams = AttentionParams(),
-                 grid: HeightmapGrid = HeightmapGrid(), remember_product: bool = False):
+                 grid: HeightmapGrid = HeightmapGrid()):
         self.world, self.agent, self.attention_params, self.grid = world, agent, attention_params, grid
-        self.remember_product = remember_product
         self._projectors: dict = {}
         self._sensed = None
-        self.known_product = None  # product_memory.ProductColours of the episode's first view, or None
+        self.known_product = None  # product_memory.known_product of a view the loop handed over, or None
 
     def _sense(self):
         self._sensed = sense(self.world, self._projectors, self.agent.method, self.attention_params,
@@ -53,11 +50,13 @@ class SimCell:
         self.agent.reset(request.seed)
         self.known_product = None
         self._sense()
-        if self.remember_product and int(self._sensed.attention.mode) != AttentionMode.TARGET:
-            maps = self._sensed.maps
-            self.known_product = ProductColours.from_view(
-                maps.color, np.nan_to_num(maps.height) > self.attention_params.density.occupied_height)
         return self._targets()
+
+    def know_product(self, view: picking.View) -> None:
+        """The loop's word that `view` (one of this cell's) shows product only: the following views are
+        attended with its colours as the known product (picking's module docstring), until the next reset."""
+        maps = view.source.maps
+        self.known_product = known_product(maps.color, maps.height, self.attention_params)
 
     def observe(self) -> picking.View:
         return picking.View(self._sensed.obs.mode, self._sensed.maps.color, self._sensed)

@@ -98,6 +98,9 @@ class EpisodeParameters:
     scene_service_timeout: float = param(3.0, "Without ground truth: s to wait for a simulated cell's "
                                          "reset and ground-truth services (a real cell has none; 0: never "
                                          "ask)", low=0.0)
+    known_product: bool = param(True, "When attention finds no target in an episode's first view, send that "
+                                "view to attention as the known product (/attention/known_product): while "
+                                "a heap is left, regions coloured like much of it are not targets")
     verdict_min_height_drop: float = param(VERDICT.min_height_drop, "Grasp verdict: m a target cell's "
                                            "height must fall to count as changed", low=0.001)
     verdict_min_color_change: float = param(VERDICT.min_color_change, "Grasp verdict: RGB distance "
@@ -149,7 +152,8 @@ class EpisodeNode(Node):
             self.params.none_frames_to_finish, self.params.max_actions_uncounted,
             VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
                           self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening,
-                          self.params.verdict_min_target_score, self.params.verdict_min_color_contrast))
+                          self.params.verdict_min_target_score, self.params.verdict_min_color_contrast),
+            self.params.known_product)
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self.create_service(Trigger, names.STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)

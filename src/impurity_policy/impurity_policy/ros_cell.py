@@ -13,6 +13,8 @@
     targets_remaining  /cell/ground_truth (use_ground_truth only: in and outside the workspace)
     truth            without use_ground_truth, /cell/ground_truth where a simulated cell offers it: only
                      recorded beside the perception verdicts (None on a real cell)
+    know_product     the view's heightmap on /attention/known_product (transient local) for the attention
+                     node; reset publishes an empty heightmap first, which clears it
 
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
 Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
@@ -30,13 +32,13 @@ import threading
 import time
 from dataclasses import dataclass
 
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from impurity_common import names
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.conversions import image_to_numpy, time_to_ns
 from impurity_interfaces.action import ExecutePrimitive
-from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.picking import (
@@ -98,6 +100,10 @@ class RosCell:
         self._reset = node.create_client(ResetScene, names.RESET_SCENE_SERVICE, callback_group=callback_group)
         self._ground_truth = node.create_client(GetGroundTruth, names.GROUND_TRUTH_SERVICE,
                                                 callback_group=callback_group)
+        self._known_product = node.create_publisher(
+            Heightmap, names.KNOWN_PRODUCT_TOPIC,
+            QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
+                       durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self._truth_offered = False  # without use_ground_truth: a simulated cell's truth, for the records
         self.last_primitive: Primitive | None = None  # the message of the action under way
         self.last_finished = None  # builtin_interfaces/Time of the last motion's end
@@ -124,7 +130,10 @@ class RosCell:
 
     def reset(self, request: EpisodeRequest) -> Targets | None:
         """Targets in the scene from /cell/reset_scene (in and outside the workspace) with
-        use_ground_truth; else None (see the module docstring)."""
+        use_ground_truth; else None (see the module docstring). Clears the known product first."""
+        cleared = Heightmap()
+        cleared.header.stamp = self.node.get_clock().now().to_msg()
+        self._known_product.publish(cleared)
         self._after_ns = self.node.get_clock().now().nanoseconds
         self._after_what = "the scene reset"
         if not self.use_ground_truth:
@@ -179,6 +188,16 @@ class RosCell:
             return None
         return Truth(int(truth.targets_remaining), int(truth.targets_outside_workspace),
                      int(truth.targets_removed))
+
+    def know_product(self, view: View) -> None:
+        """The loop's word that `view` (one of this cell's) shows product only: its heightmap goes to the
+        attention node as the known product (/attention/known_product), which attends the following frames
+        with it until the next reset clears it."""
+        attention, _ = view.source
+        self._known_product.publish(attention.heightmap)
+        stamp = time_to_ns(attention.heightmap.header.stamp)
+        self.node.get_logger().info(f"known product: the first view (stamp {stamp} ns) showed no target; "
+                                    f"sent on {names.KNOWN_PRODUCT_TOPIC}")
 
     def observe(self) -> View:
         """The first decision (and its attention result) from a frame stamped after the last motion and

@@ -1,6 +1,6 @@
-"""Attention with a known product (product_memory, attend's known_product): the colours of a view that showed
-product only. A revealed impurity is still found; a region coloured like much of the known product is passed
-over, whatever the verifier's probability.
+"""Attention with a known product (product_memory.known_product, attend's known_product): the colours of
+a view that showed product only. A revealed impurity is still found; a region coloured like much of the known
+product is passed over, whatever the verifier's probability.
 
 Synthetic scenes of test_attention_palettes (no simulator): the clean version of a scene is the view before
 anything was revealed."""
@@ -10,28 +10,40 @@ import pytest
 from test_attention_palettes import PALETTES, scene
 
 from impurity_attention.core import attention as att
-from impurity_attention.core.product_memory import ProductColours, lab, mask_colour
+from impurity_attention.core.product_memory import known_product
+from impurity_common.colour import REFERENCE_CELLS, ProductReference, lab, mask_colour
 
 
-def known(palette: str, seed: int, with_impurity: bool = False) -> ProductColours:
+def known(palette: str, seed: int, with_impurity: bool = False) -> ProductReference:
     color, height, _ = scene(palette, seed, with_impurity=with_impurity)
-    return ProductColours.from_view(color, height > att.AttentionParams().density.occupied_height)
+    return known_product(color, height)
 
 
 def test_a_view_remembers_the_colours_of_its_objects():
     product = known("cream_grey", 0)
     shades, impurity = PALETTES["cream_grey"]
-    assert product.samples.shape[1] == 3
+    assert 0 < len(product.colors) <= REFERENCE_CELLS
     assert product.share_near(lab(np.array(shades[0], np.uint8))[0], 8.0) > 0.2
     assert product.share_near(lab(np.array(impurity, np.uint8))[0], 8.0) == 0.0
     assert product.share_near(lab(np.array(shades[0], np.uint8))[0], 200.0) == 1.0  # every colour lies within
 
 
+def test_only_object_cells_are_remembered_and_nan_heights_are_no_objects():
+    color = np.zeros((8, 8, 3), np.uint8)
+    color[:4] = (200, 30, 30)  # the table half is red, the object half black
+    height = np.zeros((8, 8), np.float32)
+    height[4:] = 0.02
+    height[0, 0] = np.nan
+    product = known_product(color, height)
+    assert len(product.colors) == 32
+    assert product.share_near(lab(np.array([0, 0, 0], np.uint8))[0], 1.0) == 1.0
+
+
 def test_a_view_without_objects_remembers_nothing_and_bad_shapes_are_refused():
     color = np.zeros((8, 8, 3), np.uint8)
-    assert ProductColours.from_view(color, np.zeros((8, 8), bool)) is None
-    with pytest.raises(ValueError, match="objects"):
-        ProductColours.from_view(color, np.zeros((8, 9), bool))
+    assert known_product(color, np.zeros((8, 8), np.float32)) is None
+    with pytest.raises(ValueError, match="share one"):
+        known_product(color, np.zeros((8, 9), np.float32))
 
 
 @pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "brown_dark", "green_light", "blue_red"])

@@ -50,3 +50,18 @@ def test_an_episode_counted_by_perception_records_the_truth_beside_each_verdict(
     agreeing = sum(s["target_grasped"] == s["truth_target_grasped"] for s in grasps)
     assert summary["verdicts_agreeing"] == agreeing
     assert summary["targets_picked"] == sum(s["target_grasped"] for s in grasps)
+
+
+def test_a_view_handed_over_as_the_known_product_is_attended_with_until_the_next_reset(world):
+    cell = PerceptionSimCell(world, make_agent("ours", SHIPPED_CHECKPOINT, "cell"))
+    request = EpisodeRequest("invisible", seed=50_002)
+    cell.reset(request)
+    assert cell.known_product is None
+    view = cell.observe()
+    cell.know_product(view)
+    product = cell.known_product
+    assert product is not None and len(product.colors) > 100  # the heap's object cells
+    cell.execute(cell.decide(view))
+    assert cell.known_product is product
+    cell.reset(request)
+    assert cell.known_product is None

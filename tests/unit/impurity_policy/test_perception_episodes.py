@@ -266,3 +266,38 @@ def test_a_last_look_answered_by_a_push_was_in_vain_too():
     summary, cell = run([last_look(), last_look(), last_look(), last_look(), last_look()], [push()])
     assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
     assert summary["actions"] == 1 and cell.calls.count("decide") == 1
+
+
+# ---- the known product (picking's module docstring) ------------------------------------------------------
+class KnowingCell(RealCell):
+    """RealCell whose attention can take a known product: know_product's calls are logged."""
+
+    def know_product(self, v):
+        self.calls.append(("know_product", v))
+
+
+def run_knowing(views, script, limits=EpisodeLimits(none_frames_to_finish=3)):
+    cell = KnowingCell(views, script)
+    return run_episode(cell, EpisodeRequest("invisible", seed=1), "ep-1", limits), cell
+
+
+def test_a_first_view_without_target_is_handed_to_the_cell_as_the_known_product_once_before_deciding():
+    first = view(MODE_OCCLUDED_REGION, target_there=False)
+    summary, cell = run_knowing([first, view(MODE_OCCLUDED_REGION), view(), NONE, NONE, NONE],
+                                [push(), push(), grasp()])
+    handed = [c for c in cell.calls if isinstance(c, tuple)]
+    assert handed == [("know_product", first)]
+    assert cell.calls[:4] == ["reset", "observe", ("know_product", first), "decide"]
+    assert summary["actions"] == 3
+
+
+def test_a_first_view_with_a_target_is_not_a_known_product_nor_is_any_later_view():
+    _, cell = run_knowing([view(), view(MODE_OCCLUDED_REGION), NONE, NONE, NONE], [grasp(), push()])
+    assert not [c for c in cell.calls if isinstance(c, tuple)]
+
+
+def test_the_known_product_can_be_switched_off():
+    limits = EpisodeLimits(none_frames_to_finish=3, known_product=False)
+    first = view(MODE_OCCLUDED_REGION, target_there=False)
+    _, cell = run_knowing([first, NONE, NONE, NONE], [push()], limits)
+    assert not [c for c in cell.calls if isinstance(c, tuple)]

@@ -51,13 +51,12 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.cell import crop_centered  # noqa: F401 (part of this module's API)
-from impurity_common.colour import region_contrast
+from impurity_common.colour import ProductReference, mask_colour, region_contrast
 from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
 from impurity_common.grid import HeightmapGrid
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
 from .heightmap import clipped_view
-from .product_memory import ProductColours, mask_colour
 from .saliency import (
     CELL_SALIENCY,
     CHANNELS,
@@ -212,7 +211,7 @@ class AttentionParams:
     # threshold above and the last look apply as before. docs/experiments.md, sixteenth section.
     verifier_heap_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
-    # verifier, with a known_product (product_memory.ProductColours) handed to attend, while a heap that could
+    # verifier, with a known_product (product_memory.known_product) handed to attend, while a heap that could
     # hide a target is left (density.select_occluded_region): a region whose grown mask's median colour lies
     # within known_product_delta_e (CIE76) of more than known_product_max_share of the remembered product
     # colours is product, whatever its probability; the next likeliest region is judged instead. With no heap
@@ -438,7 +437,7 @@ def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegi
 
 def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
            grid: HeightmapGrid = HeightmapGrid(),
-           known_product: ProductColours | None = None) -> AttentionOutput:
+           known_product: ProductReference | None = None) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m. known_product: the
     colours of an earlier view that showed product only (product_memory); with the verifier and a heap left, a
     region coloured like them is not a target (AttentionParams.known_product_max_share)."""

@@ -19,6 +19,14 @@ A cell (duck-typed, see `Cell`):
                                      should_stop() and raises EpisodeCanceled when it says so
     truth() -> Truth | None          optional: the simulator's truth, recorded beside the perception
                                      verdicts when reset returned None; never read by the loop's decisions
+    know_product(view)               optional: the view shows product only; attention may take its
+                                     colours as the known product until the next reset (below)
+
+The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
+episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
+The cell's attention then passes over regions coloured like much of it while a heap is left
+(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth and twenty-sixth sections). A
+cell forgets it at its next reset.
 
 Two ways to count:
 - by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
@@ -187,6 +195,7 @@ class EpisodeLimits:
     none_frames_to_finish: int = DEFAULT_NONE_FRAMES_TO_FINISH  # consecutive NONE views that end it
     max_actions_uncounted: int = DEFAULT_MAX_ACTIONS_UNCOUNTED  # when a request's max_actions is 0
     verdict: VerdictParams = VerdictParams()
+    known_product: bool = True  # hand a first view without target to the cell's know_product (module doc)
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
@@ -282,6 +291,10 @@ class _Episode:
             self.recorder.write_first_view(view.color)
         if self.reference is None and view.color is not None and view.height is not None:
             self.reference = product_reference(view.color, view.height, view.target_mask, self.limits.verdict)
+        if self.first_view and self.limits.known_product and view.mode != AttentionMode.TARGET:
+            know_product = getattr(self.cell, "know_product", None)
+            if know_product is not None:
+                know_product(view)
         self.first_view = False
         return view
 
