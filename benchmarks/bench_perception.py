@@ -4,8 +4,9 @@ attention module (224x224 heightmaps in), p50/p95 over repeated calls. Printed, 
 
 Scenes are synthetic (impurity_attention.core.synthetic, seeded) so the figures do not depend on the
 simulator; pass --sim to also time frames rendered by the PyBullet cell. Also printed: the depth sanity
-check and, for cameras coarser than the cells, the cost of filling the gaps. Aims (issue 4): heightmap
-<= 20 ms, attention <= 30 ms p50.
+check and, for cameras coarser than the cells, the cost of filling the gaps, and what the known product
+(core/product_memory.py) adds to attention on a view with a visible impurity and a heap left. Aims (issue 4):
+heightmap <= 20 ms, attention <= 30 ms p50.
 """
 
 import argparse
@@ -17,7 +18,8 @@ from timing import timed
 
 from impurity_attention.core.attention import AttentionParams, attend
 from impurity_attention.core.heightmap import HeightmapProjector, depth_to_meters
-from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
+from impurity_attention.core.product_memory import known_product
+from impurity_attention.core.synthetic import Box, overhead_camera, random_boxes, render_boxes
 
 
 def report(name: str, times: tuple, aim_ms: float) -> float:
@@ -74,6 +76,25 @@ def main() -> None:
             p50[decision] = report(f"attention 224x224, {name}, {decision} [{mode[:8]}]",
                                    timed(run, args.repeats), 30)
         print(f"{'':48s} verifier / rule: {p50['verifier'] / p50['rule']:.2f}x")
+
+    # the known product: product scattered, a heap left and a red impurity apart (as in tests/graph's test of
+    # it); remembered from the same view without the impurity (it is kept: one region judged) and with it
+    # (passed over: every region judged, then the heap is pushed)
+    product = random_boxes(args.seed + 6, 20, 0) + random_boxes(args.seed + 106, 15, 0, heap=True)
+    red = [Box(0.62, 0.12, 0.03, 0.03, 0.03, (220, 60, 40), 99)]
+    seen, clean = (render_boxes(boxes) for boxes in (product + red, product))
+    maps, clean = (projector.project(f.color, f.depth) for f in (seen, clean))
+    report("known product from a 224x224 view (once an episode)",
+           timed(lambda: known_product(clean.color, clean.height), args.repeats), 30)
+    memories = {"none": None, "product only": known_product(clean.color, clean.height),
+                "with the impurity": known_product(maps.color, maps.height)}
+    p50 = {}
+    for name, memory in memories.items():
+        mode = attend(maps.color, maps.height, params, known_product=memory).mode.name
+        run = lambda m=memory: attend(maps.color, maps.height, params, known_product=m)  # noqa: E731
+        p50[name] = report(f"attention, heap left, known: {name} [{mode[:8]}]", timed(run, args.repeats), 30)
+    print(f"{'':48s} known product / none: {p50['product only'] / p50['none']:.2f}x (region kept), "
+          f"{p50['with the impurity'] / p50['none']:.2f}x (passed over)")
 
     if args.sim:
         from ur5_driver_sim.core.world import CellWorld
