@@ -189,13 +189,15 @@ class AttentionNode(Node):
         self._params = self.params.attention()
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
-        self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
-                                 QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
-        self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
+        # the known product's subscription first: with a clear and a heightmap both waiting, the executor
+        # takes ready subscriptions in the order they were made, so the clear is applied first
         self._known_product = None  # colour.ProductReference of the known product, or None
         self.create_subscription(Heightmap, names.KNOWN_PRODUCT_TOPIC, self._on_known_product,
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
+                                 QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
+        self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         p = self._params
@@ -228,7 +230,9 @@ class AttentionNode(Node):
             f"known product: {0 if product is None else len(product.colors)} object colours from the view "
             f"stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like more than "
             f"{100 * self._params.known_product_max_share:.1f} % of them are passed over while a heap is "
-            "left")
+            "left" + ("" if self._params.decision == "verifier" and self._params.contrast == "relative" else
+                      f" (not with decision {self._params.decision}, contrast {self._params.contrast}: "
+                      "only the verifier reads it)"))
 
     def _on_heightmap(self, msg: Heightmap) -> None:
         try:

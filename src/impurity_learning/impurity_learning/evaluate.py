@@ -52,9 +52,13 @@ class SimCell:
         self._sense()
         return self._targets()
 
-    def know_product(self, view: picking.View) -> None:
+    def know_product(self, view: picking.View | None) -> None:
         """The loop's word that `view` (one of this cell's) shows product only: the following views are
-        attended with its colours as the known product (picking's module docstring), until the next reset."""
+        attended with its colours as the known product (picking's module docstring), until the next reset;
+        None forgets it."""
+        if view is None:
+            self.known_product = None
+            return
         maps = view.source.maps
         self.known_product = known_product(maps.color, maps.height, self.attention_params)
 

@@ -175,7 +175,7 @@ class Sensed:
 
 def sense(world, projectors: dict, method: str, attention_params, grid, known_product=None) -> Sensed:
     """Render the sim camera -> heightmaps -> attention -> the method's observation; `projectors`
-    caches the camera projection; known_product: attend's (product_memory.ProductColours or None)."""
+    caches the camera projection; known_product: attend's (product_memory.known_product, or None)."""
     from impurity_attention.core.attention import attend
     from impurity_attention.core.heightmap import HeightmapProjector
 

@@ -14,7 +14,8 @@
     truth            without use_ground_truth, /cell/ground_truth where a simulated cell offers it: only
                      recorded beside the perception verdicts (None on a real cell)
     know_product     the view's heightmap on /attention/known_product (transient local) for the attention
-                     node; reset publishes an empty heightmap first, which clears it
+                     node; an empty heightmap clears it: at the episode's end (know_product(None)) and
+                     first thing in each reset
 
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
 Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
@@ -131,9 +132,7 @@ class RosCell:
     def reset(self, request: EpisodeRequest) -> Targets | None:
         """Targets in the scene from /cell/reset_scene (in and outside the workspace) with
         use_ground_truth; else None (see the module docstring). Clears the known product first."""
-        cleared = Heightmap()
-        cleared.header.stamp = self.node.get_clock().now().to_msg()
-        self._known_product.publish(cleared)
+        self.know_product(None)
         self._after_ns = self.node.get_clock().now().nanoseconds
         self._after_what = "the scene reset"
         if not self.use_ground_truth:
@@ -189,10 +188,15 @@ class RosCell:
         return Truth(int(truth.targets_remaining), int(truth.targets_outside_workspace),
                      int(truth.targets_removed))
 
-    def know_product(self, view: View) -> None:
+    def know_product(self, view: View | None) -> None:
         """The loop's word that `view` (one of this cell's) shows product only: its heightmap goes to the
         attention node as the known product (/attention/known_product), which attends the following frames
-        with it until the next reset clears it."""
+        with it until the next reset clears it; None (the episode ended) clears it at once."""
+        if view is None:
+            cleared = Heightmap()
+            cleared.header.stamp = self.node.get_clock().now().to_msg()
+            self._known_product.publish(cleared)
+            return
         attention, _ = view.source
         self._known_product.publish(attention.heightmap)
         stamp = time_to_ns(attention.heightmap.header.stamp)

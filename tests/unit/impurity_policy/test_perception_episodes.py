@@ -286,9 +286,17 @@ def test_a_first_view_without_target_is_handed_to_the_cell_as_the_known_product_
     summary, cell = run_knowing([first, view(MODE_OCCLUDED_REGION), view(), NONE, NONE, NONE],
                                 [push(), push(), grasp()])
     handed = [c for c in cell.calls if isinstance(c, tuple)]
-    assert handed == [("know_product", first)]
+    assert handed == [("know_product", first), ("know_product", None)]  # forgotten when the episode ends
     assert cell.calls[:4] == ["reset", "observe", ("know_product", first), "decide"]
+    assert cell.calls[-1] == ("know_product", None)
     assert summary["actions"] == 3
+
+
+def test_the_known_product_is_forgotten_when_the_episode_ends_otherwise():
+    first = view(MODE_OCCLUDED_REGION, target_there=False)
+    summary, cell = run_knowing([first], [EpisodeAborted("node_lost: the driver")])
+    assert summary["termination_reason"] == "node_lost: the driver"
+    assert cell.calls[-1] == ("know_product", None)
 
 
 def test_a_first_view_with_a_target_is_not_a_known_product_nor_is_any_later_view():

@@ -20,13 +20,16 @@ A cell (duck-typed, see `Cell`):
     truth() -> Truth | None          optional: the simulator's truth, recorded beside the perception
                                      verdicts when reset returned None; never read by the loop's decisions
     know_product(view)               optional: the view shows product only; attention may take its
-                                     colours as the known product until the next reset (below)
+                                     colours as the known product (below); None: forget it
 
 The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
 episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
 The cell's attention then passes over regions coloured like much of it while a heap is left
-(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth and twenty-sixth sections). A
-cell forgets it at its next reset.
+(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth and twenty-sixth sections). When
+the episode ends, however it ends, the loop calls know_product(None); a cell also forgets it at its next
+reset. "First view without target" reads View.mode, the mode the cell's decision answers: a cell whose
+decisions never answer anything but TARGET (the fast sim's full-heightmap and no-occluded-region ablations)
+never gets a known product.
 
 Two ways to count:
 - by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
@@ -259,6 +262,12 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
     finally:
         if bind_stop is not None:
             bind_stop(None)
+        if episode.product_known:  # the known product is this episode's: forgotten however it ended
+            try:
+                cell.know_product(None)
+            except Exception as error:  # noqa: BLE001 - the record must close; the next reset clears it too
+                if on_error is not None:
+                    on_error(error)
     metrics = tracker.metrics()
     if tracker.counts_known:
         completed = tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total
@@ -282,6 +291,7 @@ class _Episode:
         self.recorder, self.on_step, self.stop = recorder, on_step, stop
         self.first_view = True
         self.reference: ProductReference | None = None  # the product as the first view showed it
+        self.product_known = False  # the cell was handed a known product (know_product)
         self.truth_targets_total: int | None = None  # simulator truth beside perception, if offered
         self._truth_removed = 0
 
@@ -295,6 +305,7 @@ class _Episode:
             know_product = getattr(self.cell, "know_product", None)
             if know_product is not None:
                 know_product(view)
+                self.product_known = True
         self.first_view = False
         return view
 
