@@ -149,7 +149,8 @@ def run_one(task: tuple) -> dict:
             self.stalled = 0
             maps, lowered = self._sensed.maps, dataclasses.replace(self.attention_params,
                                                                    verifier_threshold=stall[1])
-            attention = attend(maps.color, maps.height, lowered, self.grid)
+            # with the known product the first view handed over (twenty-seventh session; before it, none)
+            attention = attend(maps.color, maps.height, lowered, self.grid, known_product=self.known_product)
             self.fired = attention.mode == AttentionMode.TARGET
             self._sensed = Sensed(observe(self.agent.method, attention, maps.height, maps.color, self.grid),
                                   self._sensed.truth, maps, attention)

@@ -211,6 +211,11 @@ TUNING_SEED_BLOCKS = (
               "--seed-base 7900: the twenty-fifth session's test of the known product while a heap is left, "
               "invisible 7 900-8 099, challenging 8 100-8 199 (--start 200), random 8 200-8 299 (--start "
               "300), tuning palettes, shipped and rule arms on the same seeds"),
+    SeedBlock(8_300, 8_700, "docs/experiments_s27/run_stall.sh",
+              "push_out.py --seed-base 8300 --random-from 600: the twenty-seventh session's test of a last "
+              "look after five heap pushes in a row (--stall 5 0.52) with the known product, challenging "
+              "8 300-8 499, invisible 8 500-8 599 (--start 200), random 8 600-8 699 (--start 300), with and "
+              "without it, tuning palettes"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
