@@ -102,7 +102,7 @@ def run_one(task: tuple) -> dict:
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
                           "verifier_last_look", "canonical_colours", "mask_truth",
-                          "grasp_geometry", "temporal", "known_product")
+                          "grasp_geometry", "temporal", "known_product", "near_miss")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -111,6 +111,7 @@ def run_one(task: tuple) -> dict:
         _WORKER["agent"] = NetworkAgent("ours", Policy.from_checkpoint(SHIPPED_CHECKPOINT, rules=rules))
         _WORKER["key"] = key
     steps, where, decided = [], [], []
+    known: dict = {}  # the known product's near miss (near_miss_truth), when the loop handed one over
     world = _WORKER["world"]
 
     stall = rule_params.get("stall")
@@ -154,6 +155,11 @@ def run_one(task: tuple) -> dict:
             self.fired = attention.mode == AttentionMode.TARGET
             self._sensed = Sensed(observe(self.agent.method, attention, maps.height, maps.color, self.grid),
                                   self._sensed.truth, maps, attention)
+
+        def know_product(self, view):
+            super().know_product(view)
+            if view is not None:  # twenty-seventh session: what a near miss would leave out, against the truth
+                known.update(near_miss_truth(view.source.maps))
 
         def decide(self, view):
             action = super().decide(view)
@@ -257,6 +263,23 @@ def run_one(task: tuple) -> dict:
                 "mask_bodies": int(np.sum((counts >= 10) & (ids >= 0))),
                 "region_precision": round(float(targets[region].mean()), 3)}
 
+    def near_miss_truth(maps) -> dict:
+        """Twenty-seventh session: the near miss of the view handed over as the known product
+        (product_memory.near_miss, whether or not the arm leaves it out) against the truth of a frame rendered
+        with segmentation now (the loop hands the view over before any motion). nm_cells: its size (0: none);
+        nm_on_target: the share of its cells that show a target."""
+        from impurity_attention.core.heightmap import rgbd_to_heightmaps
+        from impurity_attention.core.product_memory import near_miss
+        from impurity_common.grid import HeightmapGrid
+        mask = near_miss(maps.color, maps.height, attention, HeightmapGrid())
+        if mask is None or not mask.any():
+            return {"nm_cells": 0}
+        frame = world.render()
+        labels = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose,
+                                    HeightmapGrid(), labels=frame.segmentation).labels
+        targets = np.isin(labels, list(world.ground_truth().target_ids))
+        return {"nm_cells": int(mask.sum()), "nm_on_target": round(float(targets[mask].mean()), 3)}
+
     def targets_at() -> list:
         truth = world.ground_truth()
         return [tuple(round(v, 3) for v in truth.poses[b][0][:2]) for b in truth.target_ids]
@@ -270,6 +293,8 @@ def run_one(task: tuple) -> dict:
                                 verifier=verifier)
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
+    if rule_params.get("near_miss"):
+        attention = dataclasses.replace(attention, known_product_near_miss=True)
     recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention)
     limits = picking.EpisodeLimits(known_product=rule_params.get("known_product", True))
     summary = picking.run_episode(recording,
@@ -301,7 +326,8 @@ def run_one(task: tuple) -> dict:
             "termination": summary["termination_reason"], "completed": summary["completed"],
             "picked": summary["targets_picked"], "total": summary["targets_total"],
             "attempts": summary["grasp_attempts"], "actions": summary["actions"],
-            "outside": summary["targets_outside"], "events": events, "grasps": grasps}
+            "outside": summary["targets_outside"], "events": events, "grasps": grasps,
+            **({"near_miss": known} if known else {})}
 
 
 def run(args) -> None:
@@ -330,6 +356,8 @@ def run(args) -> None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
         rule_params["verifier_last_look"] = args.last_look
+    if args.near_miss:
+        rule_params["near_miss"] = True
     if args.stall is not None:
         rule_params["stall"] = [int(args.stall[0]), float(args.stall[1])]
     names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
@@ -455,6 +483,10 @@ def main(argv=None) -> int:
     r.add_argument("--known-product", action="store_true",
                    help="the loop's default since the twenty-sixth session (kept so that earlier commands "
                         "run): the first view without target is the known product (picking.EpisodeLimits)")
+    r.add_argument("--near-miss", action="store_true",
+                   help="twenty-seventh session's candidate: the known product leaves out the region attention "
+                        "would take at the last look's threshold in that view (AttentionParams."
+                        "known_product_near_miss)")
     r.add_argument("--no-known-product", action="store_true",
                    help="the cell as shipped before the twenty-sixth session: no known product")
     r.add_argument("--temporal", action="store_true",

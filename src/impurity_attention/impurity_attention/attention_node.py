@@ -220,7 +220,8 @@ class AttentionNode(Node):
             return
         try:
             product = known_product(image_to_numpy(msg.color, ("rgb8",)),
-                                    image_to_numpy(msg.height, ("32FC1",)), self._params)
+                                    image_to_numpy(msg.height, ("32FC1",)), self._params,
+                                    grid_from_heightmap(msg))
         except (ImageFormatError, ValueError) as error:
             self._known_product = None
             self.get_logger().warning(f"known product dropped, none is used: {error}")

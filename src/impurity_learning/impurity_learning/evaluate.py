@@ -60,7 +60,7 @@ class SimCell:
             self.known_product = None
             return
         maps = view.source.maps
-        self.known_product = known_product(maps.color, maps.height, self.attention_params)
+        self.known_product = known_product(maps.color, maps.height, self.attention_params, self.grid)
 
     def observe(self) -> picking.View:
         return picking.View(self._sensed.obs.mode, self._sensed.maps.color, self._sensed)

@@ -221,6 +221,11 @@ class AttentionParams:
     # caught 90 % of those on product. Without a known_product nothing changes.
     known_product_delta_e: float = 4.0
     known_product_max_share: float = 0.01
+    # verifier, building the known product (product_memory.known_product): leave out the region attention
+    # would take at the last look's threshold (verifier_last_look) in that view, a near miss that may be an
+    # impurity the decision missed; its colour is then not remembered as product. A candidate of the
+    # twenty-seventh session (docs/experiments.md), off until tested on tuning data.
+    known_product_near_miss: bool = False
 
     def __post_init__(self):
         if self.crop_size < 2 or self.crop_size % 2:

@@ -19,18 +19,37 @@ found no target in it); this module only builds the memory.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 
 from impurity_common.colour import ProductReference
+from impurity_common.enums import AttentionMode
+from impurity_common.grid import HeightmapGrid
 
-from .attention import AttentionParams
+from .attention import AttentionParams, attend
 
 
-def known_product(color: np.ndarray, height: np.ndarray,
-                  params: AttentionParams = AttentionParams()) -> ProductReference | None:
+def near_miss(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
+              grid: HeightmapGrid = HeightmapGrid()) -> np.ndarray | None:
+    """The grown mask (H, W) bool of the region attention would take in this view at the last look's
+    threshold (the verifier's likeliest region, when its probability reaches params.verifier_last_look),
+    or None: no such region, or a decision other than the verifier, or the last look off."""
+    if params.decision != "verifier" or params.contrast != "relative" or params.verifier_last_look <= 0:
+        return None
+    looked = attend(color, height, dataclasses.replace(params, verifier_threshold=params.verifier_last_look),
+                    grid)
+    return looked.target_mask if looked.mode == AttentionMode.TARGET else None
+
+
+def known_product(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
+                  grid: HeightmapGrid = HeightmapGrid()) -> ProductReference | None:
     """The known product from a colour heightmap (H, W, 3) uint8 and its height map (H, W) float m: the
     colours of its object cells (height > params.density.occupied_height; NaN is no object), at most
-    colour.REFERENCE_CELLS of them. None when the view has no object cell; ValueError when the shapes
-    differ."""
-    return ProductReference.from_view(color, np.nan_to_num(np.asarray(height, dtype=np.float64)), None,
-                                      params.color_min_spread, params.density.occupied_height)
+    colour.REFERENCE_CELLS of them; with params.known_product_near_miss, without the cells of near_miss
+    (grid: the heightmap's, for that look). None when the view has no object cell; ValueError when the
+    shapes differ."""
+    height = np.nan_to_num(np.asarray(height, dtype=np.float64))
+    left_out = near_miss(color, height, params, grid) if params.known_product_near_miss else None
+    return ProductReference.from_view(color, height, left_out, params.color_min_spread,
+                                      params.density.occupied_height)
