@@ -217,10 +217,10 @@ TUNING_SEED_BLOCKS = (
               "8 300-8 499, invisible 8 500-8 599 (--start 200), random 8 600-8 699 (--start 300), with and "
               "without it, tuning palettes"),
     SeedBlock(8_700, 9_100, "docs/experiments_s27/run_near_miss.sh",
-              "push_out.py --seed-base 8300 --random-from 600: the twenty-seventh session's test of the known "
-              "product without its near miss (--near-miss), invisible 8 700-8 899 (--start 400), random "
-              "8 900-8 999 (--start 600), challenging 9 000-9 099 (--start 700), with and without it, tuning "
-              "palettes; a smoke run of it played invisible scenes 9 000 and 9 001"),
+              "push_out.py --seed-base 8300 --random-from 600: the twenty-seventh session's test of the "
+              "known product without its near miss (--near-miss), invisible 8 700-8 899 (--start 400), "
+              "random 8 900-8 999 (--start 600), challenging 9 000-9 099 (--start 700), with and without "
+              "it, tuning palettes; a smoke run of it played invisible scenes 9 000 and 9 001"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
