@@ -293,8 +293,8 @@ def run_one(task: tuple) -> dict:
                                 verifier=verifier)
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
-    if rule_params.get("near_miss"):
-        attention = dataclasses.replace(attention, known_product_near_miss=True)
+    if "near_miss" in rule_params:  # the default since the twenty-seventh session
+        attention = dataclasses.replace(attention, known_product_near_miss=rule_params["near_miss"])
     recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention)
     limits = picking.EpisodeLimits(known_product=rule_params.get("known_product", True))
     summary = picking.run_episode(recording,
@@ -358,6 +358,8 @@ def run(args) -> None:
         rule_params["verifier_last_look"] = args.last_look
     if args.near_miss:
         rule_params["near_miss"] = True
+    if args.no_near_miss:
+        rule_params["near_miss"] = False
     if args.stall is not None:
         rule_params["stall"] = [int(args.stall[0]), float(args.stall[1])]
     names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
@@ -484,9 +486,11 @@ def main(argv=None) -> int:
                    help="the loop's default since the twenty-sixth session (kept so that earlier commands "
                         "run): the first view without target is the known product (picking.EpisodeLimits)")
     r.add_argument("--near-miss", action="store_true",
-                   help="twenty-seventh session's candidate: the known product leaves out the region attention "
-                        "would take at the last look's threshold in that view (AttentionParams."
-                        "known_product_near_miss)")
+                   help="the default since the twenty-seventh session (kept so that its commands run): the "
+                        "known product leaves out the region attention would take at the last look's threshold "
+                        "in that view (AttentionParams.known_product_near_miss)")
+    r.add_argument("--no-near-miss", action="store_true",
+                   help="the known product as shipped before the twenty-seventh session: its near miss kept")
     r.add_argument("--no-known-product", action="store_true",
                    help="the cell as shipped before the twenty-sixth session: no known product")
     r.add_argument("--temporal", action="store_true",

@@ -149,6 +149,9 @@ class AttentionNodeParameters:
     known_product_max_share: float = param(DEFAULTS.known_product_max_share, "verifier, with a known product "
                                            "and a heap left: a region whose colour is that of more than this "
                                            "share of the known product is passed over", low=0.0, high=0.999)
+    known_product_near_miss: bool = param(DEFAULTS.known_product_near_miss, "verifier: the known product "
+                                          "leaves out the region attention would take in that view at the "
+                                          "last look's threshold (a near miss that may be a missed impurity)")
     min_target_contrast: float = param(DEFAULTS.min_target_contrast,
                                        "absolute: mean saliency of the best region below this: no visible "
                                        "target", low=0.0)
@@ -179,6 +182,7 @@ class AttentionNodeParameters:
             verifier_heap_threshold=self.verifier_heap_threshold,
             known_product_delta_e=self.known_product_delta_e,
             known_product_max_share=self.known_product_max_share,
+            known_product_near_miss=self.known_product_near_miss,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
@@ -227,13 +231,15 @@ class AttentionNode(Node):
             self.get_logger().warning(f"known product dropped, none is used: {error}")
             return
         self._known_product = product
+        p = self._params
+        near_miss = " (the view's near miss left out)" if p.known_product_near_miss else ""
+        unread = ("" if p.decision == "verifier" and p.contrast == "relative" else
+                  f" (not with decision {p.decision}, contrast {p.contrast}: only the verifier reads it)")
         self.get_logger().info(
-            f"known product: {0 if product is None else len(product.colors)} object colours from the view "
-            f"stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like more than "
-            f"{100 * self._params.known_product_max_share:.1f} % of them are passed over while a heap is "
-            "left" + ("" if self._params.decision == "verifier" and self._params.contrast == "relative" else
-                      f" (not with decision {self._params.decision}, contrast {self._params.contrast}: "
-                      "only the verifier reads it)"))
+            f"known product: {0 if product is None else len(product.colors)} object colours{near_miss} from "
+            f"the view stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like "
+            f"more than {100 * p.known_product_max_share:.1f} % of them are passed over while a heap is "
+            f"left{unread}")
 
     def _on_heightmap(self, msg: Heightmap) -> None:
         try:

@@ -14,7 +14,10 @@ object threshold, density.occupied_height); attention.attend takes it as `known_
 that could hide a target is left, passes over a region whose grown mask is coloured like more than
 `AttentionParams.known_product_max_share` of it (ProductReference.share_near). Which view shows product only
 is the picking loop's decision (core/picking.py of impurity_policy: the episode's first view, when attention
-found no target in it); this module only builds the memory.
+found no target in it); this module only builds the memory. "No target in the first view" is not "product only":
+an impurity the verifier scored under its threshold would be remembered as product and passed over while a heap
+is left, so the memory leaves out the view's near miss, the region a last look would take
+(AttentionParams.known_product_near_miss; docs/experiments.md, twenty-seventh section).
 """
 
 from __future__ import annotations
@@ -50,6 +53,11 @@ def known_product(color: np.ndarray, height: np.ndarray, params: AttentionParams
     (grid: the heightmap's, for that look). None when the view has no object cell; ValueError when the
     shapes differ."""
     height = np.nan_to_num(np.asarray(height, dtype=np.float64))
-    left_out = near_miss(color, height, params, grid) if params.known_product_near_miss else None
+    whole = ProductReference.from_view(color, height, None, params.color_min_spread,
+                                       params.density.occupied_height)
+    looks = whole is not None and params.known_product_near_miss
+    left_out = near_miss(color, height, params, grid) if looks else None
+    if left_out is None:
+        return whole
     return ProductReference.from_view(color, height, left_out, params.color_min_spread,
                                       params.density.occupied_height)

@@ -24,8 +24,9 @@ A cell (duck-typed, see `Cell`):
 
 The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
 episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
-The cell's attention then passes over regions coloured like much of it while a heap is left
-(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth and twenty-sixth sections). When
+The cell's attention then passes over regions coloured like much of it while a heap is left; the region a last
+look would take in that view (its near miss, perhaps an impurity the decision missed) is left out of it
+(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth to twenty-seventh sections). When
 the episode ends, however it ends, the loop calls know_product(None); a cell also forgets it at its next
 reset. "First view without target" reads View.mode, the mode the cell's decision answers: a cell whose
 decisions never answer anything but TARGET (the fast sim's full-heightmap and no-occluded-region ablations)

@@ -288,6 +288,18 @@ PALETTES = {p.name: p for p in (
     _palette("pet_flakes_green", [(190, 208, 222), (178, 198, 214)], [(82, 150, 98), (160, 162, 168)],
              "clear blue-tinted PET flakes with green PET and aluminium pieces", product_jitter=0.02,
              exposure=0.95),
+    # the twelfth held-out set (twenty-seventh session), named before any of it was rendered
+    _palette("white_beans_stones", [(236, 230, 214), (226, 218, 200)], [(142, 130, 116)],
+             "white navy beans with brownish-grey stones", product_jitter=0.015,
+             light_direction=(0.2, -0.3, 1.0)),
+    _palette("millet_stones", [(224, 196, 110), (212, 184, 100)], [(132, 130, 126)],
+             "yellow millet of two shades with grey stones", product_jitter=0.02, exposure=1.05),
+    _palette("cumin_seeds_stems", [(140, 116, 80), (128, 104, 72), (150, 126, 90)], [(196, 176, 128)],
+             "brown cumin seeds of several shades with pale straw stems", product_jitter=0.015,
+             ambient=0.5, diffuse=0.55),
+    _palette("pp_flakes_black", [(232, 232, 226), (220, 222, 218)], [(40, 40, 42), (180, 50, 48)],
+             "white PP flakes with black rubber and red PP pieces", product_jitter=0.02,
+             light_direction=(-0.2, 0.3, 1.0)),
 )}
 
 
