@@ -227,7 +227,8 @@ class AttentionParams:
     # episode the first view's likeliest region was the target at 0.56, under the threshold; remembered as
     # product, it was passed over for the rest of the episode (30 pushes, no grasp). Adopted in the
     # twenty-seventh session on fresh tuning seeds 8 700-9 099 (docs/experiments.md): grasp success
-    # invisible / random / challenging -0.2 / 0.0 / -0.9 points, completion unchanged, 397 of 400 episodes alike.
+    # invisible / random / challenging -0.2 / 0.0 / -0.9 points, completion unchanged, 397 of 400
+    # episodes alike.
     known_product_near_miss: bool = True
 
     def __post_init__(self):

@@ -14,9 +14,9 @@ object threshold, density.occupied_height); attention.attend takes it as `known_
 that could hide a target is left, passes over a region whose grown mask is coloured like more than
 `AttentionParams.known_product_max_share` of it (ProductReference.share_near). Which view shows product only
 is the picking loop's decision (core/picking.py of impurity_policy: the episode's first view, when attention
-found no target in it); this module only builds the memory. "No target in the first view" is not "product only":
-an impurity the verifier scored under its threshold would be remembered as product and passed over while a heap
-is left, so the memory leaves out the view's near miss, the region a last look would take
+found no target in it); this module only builds the memory. "No target in the first view" is not
+"product only": an impurity the verifier scored under its threshold would be remembered as product and passed
+over while a heap is left, so the memory leaves out the view's near miss, the region a last look would take
 (AttentionParams.known_product_near_miss; docs/experiments.md, twenty-seventh section).
 """
 
