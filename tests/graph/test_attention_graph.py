@@ -190,17 +190,26 @@ def test_attention_node_drops_malformed_heightmaps_and_colour_adaptation_runs(ro
         ros_node.destroy_publisher(publisher)
 
 
-def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clears_it(ros_node, launch):
+def red_box_beside_a_heap():
+    """Heightmaps of product scattered, a heap that could hide a target, and a red impurity apart: a target
+    as it is."""
     from impurity_attention.core.heightmap import rgbd_to_heightmaps
 
-    # product scattered, a heap that could hide a target, and a red impurity apart: a target as it is
     boxes = (random_boxes(6, num_product=20, num_impurities=0) + random_boxes(106, 15, 0, heap=True)
              + [Box(0.62, 0.12, 0.03, 0.03, 0.03, (220, 60, 40), 99)])
     frame = render_boxes(boxes)
-    maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
+    return rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
+
+
+def known_product_publisher(ros_node):
+    """A publisher on /attention/known_product with the episode node's QoS (reliable, transient local)."""
     latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                          durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    known = ros_node.create_publisher(Heightmap, names.KNOWN_PRODUCT_TOPIC, latched)
+    return ros_node.create_publisher(Heightmap, names.KNOWN_PRODUCT_TOPIC, latched)
+
+
+def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clears_it(ros_node, launch):
+    maps, known = red_box_beside_a_heap(), known_product_publisher(ros_node)
     # the known product (here a view that held the red colour too) is sent before the node starts, as
     # after a restart mid-episode: the latched message still reaches it. Its near miss (the red box) is kept,
     # as if the decision had missed it and nothing had left it out (the default leaves it out: next test)
@@ -231,15 +240,7 @@ def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clear
 
 
 def test_by_default_the_known_products_near_miss_is_left_out_and_stays_a_target(ros_node, launch):
-    from impurity_attention.core.heightmap import rgbd_to_heightmaps
-
-    boxes = (random_boxes(6, num_product=20, num_impurities=0) + random_boxes(106, 15, 0, heap=True)
-             + [Box(0.62, 0.12, 0.03, 0.03, 0.03, (220, 60, 40), 99)])
-    frame = render_boxes(boxes)
-    maps = rgbd_to_heightmaps(frame.color, frame.depth, frame.intrinsics, frame.camera_pose)
-    latched = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
-                         durability=DurabilityPolicy.TRANSIENT_LOCAL)
-    known = ros_node.create_publisher(Heightmap, names.KNOWN_PRODUCT_TOPIC, latched)
+    maps, known = red_box_beside_a_heap(), known_product_publisher(ros_node)
     known.publish(heightmap_message(500_000_000, maps.color, maps.height))  # a view that held the red box
     attention = launch("impurity_attention", "attention_node")
     publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
