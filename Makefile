@@ -27,7 +27,7 @@ help:
 	@echo "make bench  - latency and throughput figures"
 	@echo "make soak   - N picking episodes back to back through the node graph, memory per node (SOAK_EPISODES=200)"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
-	@echo "make test-bag - re-record tests/data/episode_bag (after a checkpoint or perception change)"
+	@echo "make test-bag - re-record tests/data/episode_bag and known_product_bag (after a checkpoint or perception change)"
 
 setup:
 	@bash scripts/setup.sh
@@ -63,7 +63,8 @@ bench: setup
 	@$(ENV) for b in benchmarks/bench_*.py; do echo "== $$b"; python "$$b"; done
 
 test-bag: setup
-	@$(ENV) python scripts/record_test_bag.py $(BAG_ARGS)
+	@$(ENV) if [ -n "$(BAG_ARGS)" ]; then python scripts/record_test_bag.py $(BAG_ARGS); \
+	else python scripts/record_test_bag.py && python scripts/record_test_bag.py --known-product; fi
 
 clean:
 	rm -rf ros2_ws/build ros2_ws/install ros2_ws/log ros2_ws/colcon-build.log

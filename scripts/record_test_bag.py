@@ -1,15 +1,17 @@
 #!/usr/bin/env python3
-"""Regenerate tests/data/episode_bag: one short sim episode recorded with bag_recorder, trimmed to what
-tests/graph/test_bag_replay_regression.py replays (a few MB).
+"""Regenerate the regression bags: one short sim episode each, recorded with bag_recorder, trimmed to what
+tests/graph/test_bag_replay_regression.py replays (a few MB each).
 
 Steps: start the cell (bringup/launch_cell.py), start bag_recorder on the camera, decision and step
 topics, run one episode (bringup/episode_client.py), stop the recorder and the cell, then keep only
   - the colour and depth frames whose decisions the episode executed (stamps of /episode/steps),
-  - every camera_info, /policy/primitive and /episode/steps message (small),
+  - every camera_info, /attention/known_product, /policy/primitive and /episode/steps message (small),
 and note in the bag's custom_data which policy weights decided (checkpoint SHA-256, or untrained + seed).
 
-  source scripts/env.sh && python scripts/record_test_bag.py            # the shipped checkpoint
+  source scripts/env.sh && python scripts/record_test_bag.py            # tests/data/episode_bag
+  python scripts/record_test_bag.py --known-product                      # tests/data/known_product_bag
   python scripts/record_test_bag.py --untrained                          # seeded random weights
+(`make test-bag` records both bags with the shipped checkpoint.)
 """
 
 import argparse
@@ -30,9 +32,15 @@ from impurity_common.bags import BagReader, BagWriter, cell_typestore, file_sha2
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
 DEFAULT_OUTPUT = ROOT / "tests" / "data" / "episode_bag"
+# an invisible scene's first view shows no target: the loop sends it to attention as the known product, and
+# the second decision depends on it (the smallest invisible scene: 10 blocks for its two heaps)
+KNOWN_PRODUCT_EPISODE = {"output": ROOT / "tests" / "data" / "known_product_bag", "scenario": "invisible",
+                         "objects": 10, "max_actions": 2}
 COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
 PRIMITIVE, STEPS = names.PRIMITIVE_TOPIC, names.EPISODE_STEPS_TOPIC
-RECORDED_TOPICS = [COLOR, DEPTH, INFO, PRIMITIVE, STEPS]
+# the known product is an input of attention as the camera is: an episode whose first view showed no target
+# replays exactly only with it (tests/graph/test_bag_replay_regression.py plays it among the frames)
+RECORDED_TOPICS = [COLOR, DEPTH, INFO, names.KNOWN_PRODUCT_TOPIC, PRIMITIVE, STEPS]
 # custom_data keys read by the regression test
 POLICY_KEY = "impurity.policy"  # "checkpoint" or "untrained"
 CHECKPOINT_SHA_KEY = "impurity.checkpoint_sha256"
@@ -133,7 +141,13 @@ def main(argv=None) -> int:
     parser.add_argument("--untrained", action="store_true", help="decide with seeded random weights")
     parser.add_argument("--untrained-seed", type=int, default=0)
     parser.add_argument("--keep-raw", action="store_true", help="keep the untrimmed recording")
+    parser.add_argument("--known-product", action="store_true",
+                        help="the known-product bag: " + ", ".join(f"--{k.replace('_', '-')} {v}" for k, v in
+                                                                   KNOWN_PRODUCT_EPISODE.items()))
     args = parser.parse_args(argv)
+    if args.known_product:
+        for key, value in KNOWN_PRODUCT_EPISODE.items():
+            setattr(args, key, value)
 
     policy_params, notes = policy_overrides(args.untrained, args.untrained_seed)
     episode = ["--scenario", args.scenario, "--seed", str(args.seed), "--targets", str(args.targets),

@@ -1,9 +1,13 @@
-"""Offline regression: the committed episode bag's camera frames, replayed through the real heightmap,
+"""Offline regression: each committed episode bag's camera frames, replayed through the real heightmap,
 attention and policy executables, give the decisions recorded on /policy/primitive (the same primitive,
 pixel, rotation and pose; the Q value to Q_TOLERANCE).
 
-The bag (tests/data/episode_bag) is made by scripts/record_test_bag.py (`make test-bag`); its
-custom_data says which weights decided. When the checkpoint changes, regenerate it with that one command.
+The bags are made by scripts/record_test_bag.py (`make test-bag` records both); their custom_data says
+which weights decided. When the checkpoint changes, regenerate them with that one command.
+  tests/data/episode_bag          a random scene: the first view's TARGET and its grasp
+  tests/data/known_product_bag    an invisible scene: the first view shows no target, so the picking loop
+                                  sends it to attention as the known product, which the next view's
+                                  decision depends on (replayed after the first decision, as live)
 """
 
 import pathlib
@@ -19,7 +23,7 @@ from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
-BAG = ROOT / "tests" / "data" / "episode_bag"
+BAGS = [ROOT / "tests" / "data" / name for name in ("episode_bag", "known_product_bag")]
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
 PRIMITIVE, ATTENTION = names.PRIMITIVE_TOPIC, names.ATTENTION_TOPIC
@@ -30,7 +34,7 @@ def stamp_ns(stamp) -> int:
     return int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
 
 
-def policy_parameters(notes: dict) -> dict:
+def policy_parameters(bag: pathlib.Path, notes: dict) -> dict:
     """The same weights as in the recording; stale-input checks and the failed-grasp memory off (the
     stamps are from then; the episode's outcomes are not replayed)."""
     parameters = {"max_age": 1e9, "rules_disabled": ["tried_actions"]}
@@ -43,7 +47,7 @@ def policy_parameters(notes: dict) -> dict:
     if not checkpoint.is_file():
         pytest.fail(f"the bag was decided by a checkpoint, but there is none at {checkpoint}")
     if file_sha256(checkpoint) != notes.get("impurity.checkpoint_sha256"):
-        pytest.fail(f"{checkpoint} changed since {BAG} was recorded: {REGENERATE}")
+        pytest.fail(f"{checkpoint} changed since {bag} was recorded: {REGENERATE}")
     return {**parameters, "checkpoint": str(checkpoint)}
 
 
@@ -80,22 +84,23 @@ def describe(data: bytes) -> str:
             f"q={p.q_value:.9f} rot={p.rotation_index} px=({p.pixel_row},{p.pixel_col})")
 
 
-@pytest.mark.skipif(not (BAG / "metadata.yaml").is_file(),
-                    reason=f"no committed bag at {BAG}: record it with `make test-bag` once the cell runs")
-def test_replayed_frames_give_the_recorded_decisions(ros_node, launch):
-    with BagReader(BAG) as reader:
+@pytest.mark.parametrize("bag", BAGS, ids=[bag.name for bag in BAGS])
+def test_replayed_frames_give_the_recorded_decisions(bag, ros_node, launch):
+    if not (bag / "metadata.yaml").is_file():
+        pytest.skip(f"no committed bag at {bag}: record it with `make test-bag` once the cell runs")
+    with BagReader(bag) as reader:
         notes = reader.custom_data
         expected = recorded_decisions(reader)
         # an episode whose first view showed no target sent it to attention as the known product: replayed
-        # in its place among the frames, as attention heard it (bags recorded before it existed lack it)
+        # after the decision it answered and before the next frame, as attention heard it
         known = [names.KNOWN_PRODUCT_TOPIC] if names.KNOWN_PRODUCT_TOPIC in reader.topics else []
     played = [INFO, DEPTH, COLOR, *known]
-    assert expected, f"{BAG} holds no camera frame with a recorded decision: {REGENERATE}"
+    assert expected, f"{bag} holds no camera frame with a recorded decision: {REGENERATE}"
 
     params = {"params_file": CONFIG}
     nodes = [launch("impurity_attention", "heightmap_node", ros_args(**params)),
              launch("impurity_attention", "attention_node", ros_args(**params)),
-             launch("impurity_policy", "policy_node", ros_args(policy_parameters(notes), **params))]
+             launch("impurity_policy", "policy_node", ros_args(policy_parameters(bag, notes), **params))]
     replayed: dict[int, bytes] = {}
 
     def on_primitive(data: bytes) -> None:
@@ -112,9 +117,10 @@ def test_replayed_frames_give_the_recorded_decisions(ros_node, launch):
         # frame that got none: the camera subscriptions are best effort, the pipeline may be slow. The
         # delay lets the best-effort subscribers discover the replay before the first camera_info.
         replay = launch("impurity_common", "bag_replay", ros_args({
-            "bag": str(BAG), "topics": played, "as_fast_as_possible": True,
+            "bag": str(bag), "topics": played, "as_fast_as_possible": True,
             "wait_for_subscribers": 1, "wait_timeout": 60.0, "delay": 2.0,
-            "ack_topic": ATTENTION, "ack_before": COLOR, "ack_timeout": 10.0, "ack_retries": 4}))
+            "ack_topic": ATTENTION, "ack_before": COLOR, "ack_timeout": 10.0, "ack_retries": 4,
+            **({"ack_after": known} if known else {})}))
         spin_until(ros_node, lambda: set(expected) <= set(replayed), 300.0,
                    f"decisions for the {len(expected)} recorded frames", nodes)
         assert replay.process.wait(timeout=60) == 0, replay.output()[-2000:]

@@ -201,6 +201,18 @@ def test_replay_of_a_bad_bag_exits_non_zero_with_a_clear_message(launch, tmp_pat
     assert expected in replay.output()
 
 
+@pytest.mark.parametrize("pacing, expected", [
+    ({"ack_after": ["/chatter"]}, "ack_after ['/chatter'] needs ack_topic"),
+    ({"topics": ["/policy/primitive"], "ack_topic": "/rosout", "ack_before": "/policy/primitive",
+      "ack_after": ["/chatter"]}, "ack_after ['/chatter'] not among the played topics"),
+], ids=["no-ack-topic", "unplayed"])
+def test_replay_refuses_ack_after_it_cannot_honour(launch, tmp_path, pacing, expected):
+    write_sample_bag(tmp_path / "bag", cell_typestore(), count=3)
+    replay = launch("impurity_common", "bag_replay", ros_args({"bag": str(tmp_path / "bag"), **pacing}))
+    assert replay.process.wait(timeout=30) == 1
+    assert expected in replay.output()
+
+
 def test_recorder_refuses_an_existing_output(launch, tmp_path):
     recorder = launch("impurity_common", "bag_recorder", ros_args({"output": str(tmp_path)}))
     assert recorder.process.wait(timeout=30) == 1

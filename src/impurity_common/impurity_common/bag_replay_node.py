@@ -9,7 +9,10 @@ the previous one was answered: a message with its header stamp arrived on `ack_t
 answer within `ack_timeout`, every played message with that stamp (the whole frame: colour, depth,
 camera_info) is published again, up to `ack_retries` times. E.g. each colour frame waits for the
 previous frame's /attention/result, so neither a slow pipeline nor a best-effort subscriber that
-lost a big image loses a frame.
+lost a big image loses a frame. A message on one of `ack_after` waits in the same way for the answer to
+the ack_before message before it, and is not waited for itself: what the live graph sent in reply to a
+decision (the picking loop's /attention/known_product after an episode's first view) reaches the
+subscribers after the replayed decision, and before the next frame, as it did live.
 
 Big images: Fast DDS's default shared-memory segment (512 KB) cannot hold a 640x480 frame; such a
 message falls back to UDP fragments, which a best-effort subscriber (the heightmap node's camera
@@ -126,6 +129,10 @@ class BagReplayParameters:
                          low=0.0, high=3600.0)
     ack_topic: str = param("", "Topic whose messages acknowledge ack_before messages ('' = no pacing)")
     ack_before: str = param("", "Played topic whose messages wait until ack_topic answered the previous ones")
+    ack_after: tuple[str, ...] = param(("",), "Played topics whose messages wait, as ack_before's do, until "
+                                       "ack_topic answered the ack_before message before them, without being "
+                                       "answered themselves: what the live graph sent in reply to a decision "
+                                       "(e.g. /attention/known_product after an episode's first view)")
     ack_timeout: float = param(5.0, "s to wait for one acknowledgement", low=0.001, high=3600.0)
     ack_retries: int = param(3, "Re-publications of a group that got no answer", low=0, high=1000)
     qos_depth: int = param(100, "Publisher queue depth", low=1, high=100000)
@@ -139,6 +146,9 @@ class BagReplayNode(Node):
         path = params.bag
         if not path:
             raise BagError("parameter bag is empty: give the bag directory (-p bag:=<dir>)")
+        if any(params.ack_after) and not params.ack_topic:
+            after = [topic for topic in params.ack_after if topic]
+            raise BagError(f"ack_after {after} needs ack_topic (what answers a frame)")
         self.timing = ReplayTiming(rate=params.rate, start_offset=params.start_offset, loop=params.loop,
                                    as_fast_as_possible=params.as_fast_as_possible)
         self.reader = BagReader(path)
@@ -146,6 +156,7 @@ class BagReplayNode(Node):
         self._pending_stamp: int | None = None  # of the last ack_before message, until answered
         self._unanswered: list[BagMessage] = []  # played since, for re-publication
         self._ack_before = params.ack_before
+        self._ack_after = {topic for topic in params.ack_after if topic}
         self._pacing = bool(params.ack_topic)
         try:
             self._select_topics()
@@ -181,6 +192,9 @@ class BagReplayNode(Node):
         """The acknowledging topic's type comes from the graph (its publisher must be up)."""
         if self._ack_before not in self.topics:
             raise BagError(f"ack_before '{self._ack_before}' is not one of the played topics {self.topics}")
+        unplayed = sorted(self._ack_after - set(self.topics))
+        if unplayed:
+            raise BagError(f"ack_after {unplayed} not among the played topics {self.topics}")
         resolved = self.resolve_topic_name(topic)
         deadline = time.monotonic() + self.params.wait_timeout
         while not (types := dict(self.get_topic_names_and_types()).get(resolved)):
@@ -243,6 +257,8 @@ class BagReplayNode(Node):
                 self._pending_stamp = header_stamp_ns(message.data)
                 if self._pending_stamp is None:
                     raise BagError(f"ack_before {message.topic}: its messages carry no header stamp to match")
+            elif message.topic in self._ack_after:
+                self._settle_group()
             self._unanswered.append(message)
         self._topic_publishers[message.topic].publish(message.data)
 
