@@ -407,6 +407,11 @@ def palette_rates(records, params: AttentionParams) -> dict:
     return rates
 
 
+def aim_word(share: float, met: bool) -> str:
+    """'met', 'NOT met', or 'no scenes' when the share is NaN (nothing counted)."""
+    return "no scenes" if np.isnan(share) else "met" if met else "NOT met"
+
+
 def print_palette_rates(rates: dict, per_palette: bool = True) -> dict:
     """Print a line per palette (unless per_palette is False) and the totals; return the totals."""
     totals = {"visible": [], "no_impurity": [], "invisible": [], "separable": []}
@@ -423,9 +428,15 @@ def print_palette_rates(rates: dict, per_palette: bool = True) -> dict:
     false = 1.0 - float(np.mean(totals["no_impurity"])) if totals["no_impurity"] else float("nan")
     hidden = float(np.mean(totals["invisible"])) if totals["invisible"] else float("nan")
     separable = float(np.mean(totals["separable"])) if totals["separable"] else float("nan")
-    print(f"  ALL: impurity found {100 * found:.1f} % of {len(totals['visible'])} (aim >= 95 %), "
-          f"false TARGET {100 * false:.1f} % of {len(totals['no_impurity'])} (aim <= 5 %), hidden target in "
-          f"chosen cluster {100 * hidden:.1f} % of {len(totals['invisible'])}, colour-separable "
+    # counts and a two-decimal share: 1899/2000 is 94.95 %, which one decimal would print as a met 95.0 %
+    n_found, n_false = sum(totals["visible"]), len(totals["no_impurity"]) - sum(totals["no_impurity"])
+    visible, clean = len(totals["visible"]), len(totals["no_impurity"])  # the aims judged on whole counts
+    found_aim = aim_word(found, 100 * n_found >= 95 * visible)
+    false_aim = aim_word(false, 100 * n_false <= 5 * clean)
+    print(f"  ALL: impurity found {n_found}/{len(totals['visible'])} = {100 * found:.2f} % "
+          f"(aim >= 95 %: {found_aim}), false TARGET {n_false}/{len(totals['no_impurity'])} = "
+          f"{100 * false:.2f} % (aim <= 5 %: {false_aim}), hidden target in chosen cluster "
+          f"{sum(totals['invisible'])}/{len(totals['invisible'])} = {100 * hidden:.1f} %, colour-separable "
           f"{100 * separable:.1f} % (evaluation.colour_separable: a per-cell oracle tells it by colour)")
     return {"found": found, "false_target": false, "hidden_in_cluster": hidden,
             "colour_separable": separable, "visible_scenes": len(totals["visible"]),
