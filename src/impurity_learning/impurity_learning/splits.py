@@ -227,6 +227,10 @@ TUNING_SEED_BLOCKS = (
               "known product without its near miss (--near-miss), invisible 8 700-8 899 (--start 400), "
               "random 8 900-8 999 (--start 600), challenging 9 000-9 099 (--start 700), with and without "
               "it, tuning palettes; a smoke run of it played invisible scenes 9 000 and 9 001"),
+    SeedBlock(9_100, 9_500, "docs/experiments_s29/run_square.sh",
+              "push_out.py --seed-base 9100 --random-from 500: the twenty-ninth session's test of the candidate "
+              "pose rule grasp_square_to_faces (--with), invisible 9 100-9 299, random 9 300-9 399 (--start "
+              "200), challenging 9 400-9 499 (--start 300), with and without it, tuning palettes"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),

@@ -148,6 +148,7 @@ class Policy:
             decision = best_action(q, masks, allowed)
         pose = action_pose(decision.primitive, decision.rotation, decision.pixel, obs.crop_origin,
                            obs.height, self.pose_rules, obs.grid)
+        pose = self.rules.adjust_pose(pose, obs, self.pose_rules, obs.grid)
         return Choice(decision, pose, q, masks)
 
     def remember(self, choice_pose: ActionPose, height: np.ndarray, success: bool) -> None:

@@ -132,10 +132,24 @@ def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules
     and rotation is clear (module docstring). Off the map counts as table. The palm, 140 mm long, is
     checked on a 2x max-pooled map (conservative, and 16x cheaper than at full resolution)."""
     half_turn = num_rotations // 2  # rotation r and r + R/2 close along the same axis
-    yaws = [cell.rotation_yaw(r) for r in range(half_turn)]
+    clear = _clearance_at_yaws(height, crop_origin, size, [cell.rotation_yaw(r) for r in range(half_turn)],
+                               rules, resolution)
+    return np.concatenate([clear, clear])
+
+
+def grasp_clear_at(height: np.ndarray, heightmap_pixel, yaw: float, rules: PoseRules = PoseRules(),
+                   resolution: float = cell.HEIGHTMAP_RESOLUTION) -> bool:
+    """Whether a grasp at `heightmap_pixel` (row, col) of the full heightmap `height` (m), its fingers
+    closing along `yaw` (rad, any: not only a rotation index's), is clear, as grasp_clearance judges it."""
+    return bool(_clearance_at_yaws(height, heightmap_pixel, 2, [yaw], rules, resolution)[0, 0, 0])
+
+
+def _clearance_at_yaws(height: np.ndarray, crop_origin, size: int, yaws, rules: PoseRules,
+                       resolution: float) -> np.ndarray:
+    """(len(yaws), S, S) bool: grasp_clearance for closing axes `yaws` (rad)."""
     finger_kernels = [finger_kernel(yaw, resolution) for yaw in yaws]
     palm_kernels = [palm_kernel(yaw, 2 * resolution) for yaw in yaws]
-    margin = 2 * (palm_kernels[0].shape[0] // 2) + rules.local_radius_px + 2
+    margin = 2 * (max(k.shape[0] for k in palm_kernels) // 2) + rules.local_radius_px + 2
     margin += margin % 2  # even, so the pooled map lines up with the crop
     span = size + 2 * margin + size % 2
     heights = np.maximum(np.nan_to_num(height, nan=0.0), 0.0).astype(np.float32)
@@ -143,12 +157,12 @@ def grasp_clearance(height: np.ndarray, crop_origin, size: int, rules: PoseRules
                                    int(crop_origin[1]) - margin + span // 2, span)
     pooled = _max_pool2(region)
     reachable = local_top_map(region, rules.local_radius_px) - rules.finger_overlap  # tips must get this low
-    clear = np.empty((num_rotations, size, size), dtype=bool)
+    clear = np.empty((len(yaws), size, size), dtype=bool)
     inner = (slice(margin, margin + size), slice(margin, margin + size))
-    for r, (fingers, palm) in enumerate(zip(finger_kernels, palm_kernels, strict=True)):
+    for i, (fingers, palm) in enumerate(zip(finger_kernels, palm_kernels, strict=True)):
         under_palm = np.repeat(np.repeat(cv2.dilate(pooled, palm), 2, axis=0), 2, axis=1)
         lowest_tips = np.maximum(cv2.dilate(region, fingers), under_palm - cell.FINGER_LENGTH)
-        clear[r] = clear[r + half_turn] = (lowest_tips <= reachable)[inner]
+        clear[i] = (lowest_tips <= reachable)[inner]
     return clear
 
 
@@ -337,6 +351,13 @@ def closing_along(direction: float, max_angle: float, num_rotations: int = cell.
     """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw, an axis: r and r + R/2
     close alike) lies within `max_angle` (rad) of `direction` (rad)."""
     return closing_offsets(direction, math.pi, num_rotations) <= max_angle + 1e-9
+
+
+def turn_to_face(yaw: float, face: float) -> float:
+    """The signed turn (rad, in [-pi/4, pi/4)) that brings the grasp closing axis `yaw` (rad) onto the
+    nearer of a rectangular top's face normals, `face` and face + pi/2 (rad; pose.face_direction)."""
+    quarter = math.pi / 2
+    return (face - yaw + quarter / 2) % quarter - quarter / 2
 
 
 def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:
