@@ -111,6 +111,14 @@ class PolicyParameters:
                                            low=0.0, high=0.1)
     grasp_core_depth_px: float = param(_RULES.grasp_core_depth_px, "grasp_at_target_core: grasps this "
                                        "close (px) to the target mask's deepest point", low=0.0, high=56.0)
+    square_max_turn_deg: float = param(_RULES.square_max_turn_deg, "grasp_square_to_faces: a grasp on a flat "
+                                       "rectangular target top turns its closing axis at most this far (deg) "
+                                       "onto a face normal (0: never)", low=0.0, high=45.0)
+    face_min_fill: float = param(_RULES.face_min_fill, "grasp_square_to_faces: the share of its least-area "
+                                 "rectangle the target's mask fills for its top to count as a rectangle",
+                                 low=0.0, high=1.0)
+    corner_max_slope: float = param(_RULES.corner_max_slope, "grasp_square_to_faces: the most "
+                                    "root-mean-square slope (m/m) of a top that counts as flat", low=0.0)
 
     def pose_rules(self) -> PoseRules:
         return PoseRules(grasp_depth=self.grasp_depth, grasp_min_tip=self.grasp_min_tip,
@@ -126,7 +134,9 @@ class PolicyParameters:
                             occluded_push_start_band=tuple(self.occluded_push_start_band),
                             target_push_radius_px=self.target_push_radius_px,
                             target_on_top_tolerance=self.target_on_top_tolerance,
-                            grasp_core_depth_px=self.grasp_core_depth_px)
+                            grasp_core_depth_px=self.grasp_core_depth_px,
+                            square_max_turn_deg=self.square_max_turn_deg, face_min_fill=self.face_min_fill,
+                            corner_max_slope=self.corner_max_slope)
         return RulePipeline.preset(self.rules, params, without=[n for n in self.rules_disabled if n])
 
 

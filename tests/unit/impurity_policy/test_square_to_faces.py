@@ -1,4 +1,4 @@
-"""The candidate pose rule grasp_square_to_faces (rules.GraspSquareToFaces): the chosen grasp on a flat
+"""The pose rule grasp_square_to_faces (rules.GraspSquareToFaces): the chosen grasp on a flat
 rectangular target top closes square on two of its faces, its yaw turned by less than a rotation step; the
 decision itself stays the network's. Also the one-pixel clearance check it relies on (pose.grasp_clear_at)."""
 
@@ -130,21 +130,21 @@ def test_turn_to_face_is_the_signed_turn_onto_the_nearer_normal():
         assert -math.pi / 4 <= turn_to_face(yaw, 0.3) < math.pi / 4
 
 
-def test_the_policy_executes_the_turned_yaw_and_keeps_the_networks_decision():
+def test_the_cell_executes_the_turned_yaw_and_keeps_the_networks_decision():
     obs = _observation(_top(10.0))
     q = np.zeros((cell.NUM_ROTATIONS, 2, CROP, CROP), np.float32)
     q[1, GRASP, CENTRE[0], CENTRE[1]] = 1.0
     small = NetworkConfig(stem_channels=8, growth=8, block_layers=(2, 2), head_channels=16)
+    without = Policy(QNetwork(small), rules=RulePipeline.preset("cell", without=(RULE,))).decide(obs, q=q)
     shipped = Policy(QNetwork(small), rules=RulePipeline.preset("cell")).decide(obs, q=q)
-    with_rule = Policy(QNetwork(small), rules=RulePipeline([*PRESETS["cell"], RULE])).decide(obs, q=q)
-    assert with_rule.decision == shipped.decision
-    assert with_rule.pose.rotation == shipped.pose.rotation == 1
-    assert shipped.pose.yaw == pytest.approx(cell.rotation_yaw(1))
-    assert _axis_offset_deg(with_rule.pose.yaw, math.radians(10.0)) < 4.0
+    assert shipped.decision == without.decision
+    assert shipped.pose.rotation == without.pose.rotation == 1
+    assert without.pose.yaw == pytest.approx(cell.rotation_yaw(1))
+    assert _axis_offset_deg(shipped.pose.yaw, math.radians(10.0)) < 4.0
 
 
-def test_it_is_a_pose_rule_a_candidate_in_no_preset_and_its_bound_is_checked_by_name():
-    assert RULE in CANDIDATES and all(RULE not in rules for rules in PRESETS.values())
+def test_it_is_a_pose_rule_of_the_cell_preset_and_its_bound_is_checked_by_name():
+    assert RULE not in CANDIDATES and RULE in PRESETS["cell"] and RULE not in PRESETS["none"]
     assert RulePipeline([RULE]).rules[0].kind == POSE
     for value in (-1.0, 46.0):
         with pytest.raises(ValueError, match="square_max_turn_deg"):

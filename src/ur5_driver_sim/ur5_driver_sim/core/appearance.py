@@ -300,6 +300,19 @@ PALETTES = {p.name: p for p in (
     _palette("pp_flakes_black", [(232, 232, 226), (220, 222, 218)], [(40, 40, 42), (180, 50, 48)],
              "white PP flakes with black rubber and red PP pieces", product_jitter=0.02,
              light_direction=(-0.2, 0.3, 1.0)),
+    # the thirteenth held-out set (twenty-ninth session), named before any of it was rendered
+    _palette("adzuki_beans_stones", [(128, 40, 38), (116, 34, 34)], [(104, 92, 84)],
+             "dark red adzuki beans of two shades with brown-grey stones", product_jitter=0.015,
+             light_direction=(0.3, 0.2, 1.0)),
+    _palette("sorghum_stones", [(196, 140, 96), (184, 128, 86), (206, 152, 106)], [(150, 146, 140)],
+             "reddish-tan sorghum of several shades with light grey stones", product_jitter=0.02,
+             exposure=0.9),
+    _palette("fennel_seeds_stems", [(150, 160, 104), (138, 148, 96)], [(186, 170, 120)],
+             "green-grey fennel seeds with pale yellow stems", product_jitter=0.015, ambient=0.45,
+             diffuse=0.6),
+    _palette("pe_flakes_wood", [(60, 120, 176), (70, 132, 186)], [(150, 110, 70), (220, 220, 214)],
+             "blue PE flakes with wood chips and white PE pieces", product_jitter=0.02,
+             light_direction=(-0.3, -0.2, 1.0)),
 )}
 
 
