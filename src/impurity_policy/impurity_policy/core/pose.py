@@ -344,7 +344,7 @@ def closing_offsets(direction: float, period: float, num_rotations: int = cell.N
     `period` apart counting alike (pi: an axis; pi/2: a rectangle's two face normals), folded to
     [0, period / 2]."""
     yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
-    return np.abs((yaws - direction + period / 2) % period - period / 2)
+    return np.abs(turn_onto(yaws, direction, period))
 
 
 def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
@@ -353,11 +353,16 @@ def closing_along(direction: float, max_angle: float, num_rotations: int = cell.
     return closing_offsets(direction, math.pi, num_rotations) <= max_angle + 1e-9
 
 
+def turn_onto(yaw, direction: float, period: float):
+    """The signed turn (rad, in [-period/2, period/2)) that brings `yaw` (rad, a float or an array) onto the
+    nearest of the directions `direction` + k `period` (rad)."""
+    return (direction - yaw + period / 2) % period - period / 2
+
+
 def turn_to_face(yaw: float, face: float) -> float:
     """The signed turn (rad, in [-pi/4, pi/4)) that brings the grasp closing axis `yaw` (rad) onto the
     nearer of a rectangular top's face normals, `face` and face + pi/2 (rad; pose.face_direction)."""
-    quarter = math.pi / 2
-    return (face - yaw + quarter / 2) % quarter - quarter / 2
+    return turn_onto(yaw, face, math.pi / 2)
 
 
 def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:

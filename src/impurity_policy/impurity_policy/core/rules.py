@@ -170,6 +170,18 @@ class RuleContext:
         return self.obs.mode == MODE_TARGET and bool(self.target.any())
 
     @functools.cached_property
+    def flat_rectangle_face(self) -> float | None:
+        """A face normal (rad, pose.face_direction) of the target in view when its top outline is a rectangle
+        (`face_min_fill`) and its top is flat (pose.top_slope at most `corner_max_slope`); None otherwise."""
+        if not self.target_in_view:
+            return None
+        face = face_direction(self.obs.mask, self.params.face_min_fill)
+        if face is None:
+            return None
+        slope = top_slope(self.obs.height_crop, self.obs.mask, self.grid.resolution)
+        return None if slope is None or slope > self.params.corner_max_slope else face
+
+    @functools.cached_property
     def heap_top(self) -> tuple:
         return heap_top(self.obs.height_crop, valid_action_mask(self.size), self.params.heap_sigma_px)
 
@@ -412,13 +424,8 @@ class GraspAcrossCorners(Rule):
     kind = PREFERENCE
 
     def keeps(self, ctx: RuleContext) -> tuple:
-        if not ctx.target_in_view:
-            return ()
-        face = face_direction(ctx.obs.mask, ctx.params.face_min_fill)
+        face = ctx.flat_rectangle_face
         if face is None:
-            return ()
-        slope = top_slope(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution)
-        if slope is None or slope > ctx.params.corner_max_slope:
             return ()
         skewed = closing_off_faces(face, math.radians(ctx.params.corner_min_skew_deg), ctx.rotations)
         return (Keep(GRASP, skewed[:, None, None]),)
@@ -450,11 +457,8 @@ class GraspSquareToFaces(Rule):
         row, col = heightmap_to_crop(pose.heightmap_pixel, ctx.obs.crop_origin)
         if not (0 <= row < ctx.size and 0 <= col < ctx.size) or not ctx.target[row, col]:
             return pose
-        face = face_direction(ctx.obs.mask, ctx.params.face_min_fill)
+        face = ctx.flat_rectangle_face
         if face is None:
-            return pose
-        slope = top_slope(ctx.obs.height_crop, ctx.obs.mask, ctx.grid.resolution)
-        if slope is None or slope > ctx.params.corner_max_slope:
             return pose
         turn = turn_to_face(pose.yaw, face)
         if abs(turn) < 1e-6 or abs(turn) > math.radians(ctx.params.square_max_turn_deg) + 1e-9:
