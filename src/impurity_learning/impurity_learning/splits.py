@@ -18,7 +18,7 @@ DEFAULT_PALETTE = "blocks"
 # measurement.
 TUNING_NAMED = ("coal_slate", "beans_stones", "plastic_flakes", "rice_husks")
 TUNING_RANDOM_SEEDS = range(0, 1000)  # random-<seed> for tuning
-# The held-out set, only measured. Rotated seven times:
+# The held-out set, only measured. Rotated twelve times:
 # - fifth session (2026-11-30): the first set had been measured after every change of four sessions, so
 #   whatever was changed next was changed knowing its figures;
 # - sixth session (2026-11-30): the second set's figures decided that a new attention rule was not adopted
@@ -237,6 +237,10 @@ TUNING_SEED_BLOCKS = (
               "push_out.py --seed-base 9100 --random-from 500: the twenty-ninth session's test of the "
               "candidate pose rule grasp_square_to_faces (--with), invisible 9 100-9 299, random 9 300-9 399 "
               "(--start 200), challenging 9 400-9 499 (--start 300), with and without it, tuning palettes"),
+    SeedBlock(9_500, 9_900, "docs/experiments_s30/run_geometry.sh",
+              "push_out.py --seed-base 9500 --random-from 700 --grasp-geometry: the thirtieth session's "
+              "diagnosis of failed grasps, the shipped cell, random 9 500-9 699, challenging 9 700-9 899 "
+              "(--start 200), tuning palettes"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
