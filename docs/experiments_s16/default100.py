@@ -18,7 +18,9 @@ Any other held-out run and default-palette run on the same seeds (the twenty-sec
 
 `report` reads the committed episode file: per scenario the default palette's grasp success (make eval's
 measure: each episode's picked / attempts averaged, an episode without attempts at 0) on the first 20 and on
-all 100 seeds, the held-out figure, the gaps, and a paired bootstrap of the 100-seed gap over the seeds.
+all 100 seeds, the held-out figure, the gaps, and a paired bootstrap of the 100-seed gap over the seeds; then
+the same over the episodes with a grasp attempt only (thirtieth session: how much of a gap is episodes where
+attention never called a TARGET).
 """
 import json
 import pathlib
@@ -71,6 +73,14 @@ def report(episodes=EPISODES, draws: int = 5000) -> None:
               f"  {h.mean():12.1f} ({len(h)}, {none})  {d[first].mean() - h.mean():8.1f}  "
               f"{d.mean() - h.mean():8.1f} [{low:+.1f} .. {high:+.1f}]  "
               f"{completion[0]:.0f} / {completion[1]:.0f}")
+    print("the same, only episodes with a grasp attempt (an episode without one is a perception miss: attention "
+          "never called a TARGET; completion counts it)")
+    print("scenario     default (n)   held-out (n)   gap")
+    for scenario in SCENARIOS:
+        d, h = ([100 * e["grasp_success"] for e in rows if e["group"] == group and e["scenario"] == scenario
+                 and e["grasp_attempts"] > 0] for group in ("default", "held_out"))
+        print(f"{scenario:12s} {np.mean(d):7.1f} ({len(d)})  {np.mean(h):7.1f} ({len(h)})  "
+              f"{np.mean(d) - np.mean(h):5.1f}")
 
 
 def main(argv: list) -> int:
