@@ -237,10 +237,11 @@ TUNING_SEED_BLOCKS = (
               "push_out.py --seed-base 9100 --random-from 500: the twenty-ninth session's test of the "
               "candidate pose rule grasp_square_to_faces (--with), invisible 9 100-9 299, random 9 300-9 399 "
               "(--start 200), challenging 9 400-9 499 (--start 300), with and without it, tuning palettes"),
-    SeedBlock(9_500, 9_900, "docs/experiments_s30/run_geometry.sh",
+    SeedBlock(9_500, 10_000, "docs/experiments_s30/run_stall25.sh",
               "push_out.py --seed-base 9500 --random-from 700 --grasp-geometry: the thirtieth session's "
-              "diagnosis of failed grasps, the shipped cell, random 9 500-9 699, challenging 9 700-9 899 "
-              "(--start 200), tuning palettes"),
+              "test of the stall look at 0.25 (--stall 5 0.25), challenging 9 500-9 699, invisible "
+              "9 700-9 899 (--start 200), random 9 900-9 999 (--start 400), with and without it, tuning "
+              "palettes"),
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
