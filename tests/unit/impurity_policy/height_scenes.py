@@ -1,6 +1,8 @@
 """Hand-built height maps shared by the pose and rules specifications (224 x 224 px at 2 mm), and the
 target observations and one-rule decisions built on them."""
 
+import math
+
 import numpy as np
 
 from impurity_common import cell
@@ -39,3 +41,41 @@ def kept_by(rule: str, obs: Observation, q: np.ndarray | None = None) -> np.ndar
     q = np.zeros((cell.NUM_ROTATIONS, 2, CROP, CROP), np.float32) if q is None else q
     valid = np.ones((2, CROP, CROP), bool)
     return np.isfinite(RulePipeline([rule]).apply(q, obs, valid, PoseRules(), obs.grid))
+
+
+def block_top(profile, crest_yaw=math.pi / 2, width_px=24, length_px=28, height=0.036):
+    """(heights (S, S) m, mask (S, S) uint8) of a block at the crop's centre whose cross-section across
+    `crest_yaw` is `profile(v)` (v: -1 ... 1 across the block, returns 0 ... 1), unchanged along it."""
+    rows, cols = np.mgrid[:CROP, :CROP].astype(np.float64) - CROP / 2
+    along = cols * math.cos(crest_yaw) + rows * math.sin(crest_yaw)
+    across = -cols * math.sin(crest_yaw) + rows * math.cos(crest_yaw)
+    inside = (np.abs(along) <= length_px / 2) & (np.abs(across) <= width_px / 2)
+    v = np.clip(across / (width_px / 2), -1.0, 1.0)
+    return np.where(inside, height * profile(v), 0.0).astype(np.float32), (inside * 255).astype(np.uint8)
+
+
+def prism(v):
+    """An upright triangular prism: two faces meeting in a central crest."""
+    return 1.0 - np.abs(v)
+
+
+def half_cylinder(v):
+    """A half cylinder lying on its flat face."""
+    return np.sqrt(1.0 - v ** 2)
+
+
+def lying_cylinder(v):
+    return 0.5 + 0.5 * np.sqrt(1.0 - v ** 2)  # seen from above: its outline stands a radius up
+
+
+def flat(v):
+    """A flat top (a cube or slab)."""
+    return np.ones_like(v)
+
+
+def tilted(v):
+    return 0.6 + 0.4 * v  # a flat face falling one way
+
+
+def leaning(v):
+    return np.where(v < 0.4, 0.3 + 0.7 * (v + 1.0) / 1.4, 1.0 - 0.5 * (v - 0.4) / 0.6)  # crest off the middle

@@ -4,7 +4,8 @@ import math
 
 import numpy as np
 import pytest
-from height_scenes import crop_observation, kept_by
+from height_scenes import block_top
+from height_scenes import crop_observation, flat, half_cylinder, kept_by, leaning, lying_cylinder, prism, tilted
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
@@ -17,41 +18,6 @@ CROP, ROTATIONS = 112, cell.NUM_ROTATIONS
 RESOLUTION = HeightmapGrid().resolution  # m per px
 
 
-def _block_top(profile, crest_yaw=math.pi / 2, width_px=24, length_px=28, height=0.036):
-    """(heights (S, S) m, mask (S, S) uint8) of a block at the crop's centre whose cross-section across
-    `crest_yaw` is `profile(v)` (v: -1 ... 1 across the block, returns 0 ... 1), unchanged along it."""
-    rows, cols = np.mgrid[:CROP, :CROP].astype(np.float64) - CROP / 2
-    along = cols * math.cos(crest_yaw) + rows * math.sin(crest_yaw)
-    across = -cols * math.sin(crest_yaw) + rows * math.cos(crest_yaw)
-    inside = (np.abs(along) <= length_px / 2) & (np.abs(across) <= width_px / 2)
-    v = np.clip(across / (width_px / 2), -1.0, 1.0)
-    return np.where(inside, height * profile(v), 0.0).astype(np.float32), (inside * 255).astype(np.uint8)
-
-
-def prism(v):
-    return 1.0 - np.abs(v)
-
-
-def half_cylinder(v):
-    return np.sqrt(1.0 - v ** 2)
-
-
-def lying_cylinder(v):
-    return 0.5 + 0.5 * np.sqrt(1.0 - v ** 2)  # seen from above: its outline stands a radius up
-
-
-def flat(v):
-    return np.ones_like(v)
-
-
-def tilted(v):
-    return 0.6 + 0.4 * v  # a flat face falling one way
-
-
-def leaning(v):
-    return np.where(v < 0.4, 0.3 + 0.7 * (v + 1.0) / 1.4, 1.0 - 0.5 * (v - 0.4) / 0.6)  # crest off the middle
-
-
 def _angle(a, b):
     return abs((a - b + math.pi / 2) % math.pi - math.pi / 2)
 
@@ -59,7 +25,7 @@ def _angle(a, b):
 @pytest.mark.parametrize("crest_yaw", [0.0, 0.5, math.pi / 2, 2.5])
 @pytest.mark.parametrize("profile", [prism, half_cylinder])
 def test_the_crest_of_a_prism_or_half_cylinder_is_found_in_any_direction(profile, crest_yaw):
-    height, mask = _block_top(profile, crest_yaw)
+    height, mask = block_top(profile, crest_yaw)
     found = ridge_direction(height, mask, RESOLUTION, min_slope=0.4)
     assert found is not None and 0.0 <= found < math.pi
     assert _angle(found, crest_yaw) < math.radians(3)
@@ -67,15 +33,15 @@ def test_the_crest_of_a_prism_or_half_cylinder_is_found_in_any_direction(profile
 
 @pytest.mark.parametrize("profile", [flat, tilted, leaning, lying_cylinder])
 def test_a_flat_or_tilted_face_a_crest_off_the_middle_or_an_outline_standing_up_has_no_crest(profile):
-    height, mask = _block_top(profile, 0.7, height=0.045)  # a lying cylinder's outline 22.5 mm up
+    height, mask = block_top(profile, 0.7, height=0.045)  # a lying cylinder's outline 22.5 mm up
     assert ridge_direction(height, mask, RESOLUTION, min_slope=0.4) is None
 
 
 def test_a_low_crest_or_a_mask_too_small_to_read_has_none():
-    low, mask = _block_top(prism, 0.7, height=0.004)  # rms slope about 0.3
+    low, mask = block_top(prism, 0.7, height=0.004)  # rms slope about 0.3
     assert ridge_direction(low, mask, RESOLUTION, min_slope=0.4) is None
     assert ridge_direction(low, mask, RESOLUTION, min_slope=0.1) is not None
-    height, _ = _block_top(prism, 0.7)
+    height, _ = block_top(prism, 0.7)
     tiny = np.zeros((CROP, CROP), np.uint8)
     tiny[55:58, 55:58] = 255
     assert ridge_direction(height, tiny, RESOLUTION, min_slope=0.4) is None
@@ -94,7 +60,7 @@ def _kept(obs, q=None):
 
 
 def test_grasp_along_ridge_keeps_grasps_closing_along_a_prisms_crest_and_every_push():
-    obs = crop_observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))  # crest along +x (rotation 0)
+    obs = crop_observation(MODE_TARGET, *block_top(prism, crest_yaw=0.0))  # crest along +x (rotation 0)
     kept = _kept(obs)
     along = [r for r in range(ROTATIONS) if kept[r, GRASP].all()]
     assert along == [0, 1, 7, 8, 9, 15]  # within 35 deg of the crest, both ways round
@@ -103,15 +69,15 @@ def test_grasp_along_ridge_keeps_grasps_closing_along_a_prisms_crest_and_every_p
 
 
 def test_grasp_along_ridge_gives_way_when_no_grasp_along_the_crest_is_left():
-    obs = crop_observation(MODE_TARGET, *_block_top(prism, crest_yaw=0.0))
+    obs = crop_observation(MODE_TARGET, *block_top(prism, crest_yaw=0.0))
     q = np.zeros((ROTATIONS, 2, CROP, CROP), np.float32)
     q[[0, 1, 7, 8, 9, 15], GRASP] = -np.inf  # nothing along the crest left by earlier rules
     assert _kept(obs, q)[4, GRASP].all()
 
 
 def test_grasp_along_ridge_does_nothing_on_a_flat_target_or_without_a_target_in_view():
-    assert _kept(crop_observation(MODE_TARGET, *_block_top(flat))).all()
-    height, mask = _block_top(prism)
+    assert _kept(crop_observation(MODE_TARGET, *block_top(flat))).all()
+    height, mask = block_top(prism)
     assert _kept(crop_observation(MODE_OCCLUDED_REGION, height, np.full((CROP, CROP), 255, np.uint8))).all()
     assert _kept(crop_observation(MODE_TARGET, height, np.zeros((CROP, CROP), np.uint8))).all()
 

@@ -333,7 +333,7 @@ def test_preset_none_leaves_the_q_maps_untouched():
 def test_preset_cell_has_every_rule_but_the_candidates_and_can_leave_some_out():
     every_but_candidates = tuple(n for n in RULE_ORDER if n not in CANDIDATES)
     assert RulePipeline.preset("cell").names == PRESETS["cell"] == every_but_candidates
-    assert len(RULE_ORDER) == 14 and set(CANDIDATES) <= set(RULE_ORDER)
+    assert len(RULE_ORDER) == 15 and set(CANDIDATES) <= set(RULE_ORDER)
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
     left_out = ("finger_clearance", "grasp_at_target_core")
     assert without == tuple(n for n in PRESETS["cell"] if n not in left_out)
