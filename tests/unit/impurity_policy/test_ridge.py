@@ -4,8 +4,17 @@ import math
 
 import numpy as np
 import pytest
-from height_scenes import block_top
-from height_scenes import crop_observation, flat, half_cylinder, kept_by, leaning, lying_cylinder, prism, tilted
+from height_scenes import (
+    block_top,
+    crop_observation,
+    flat,
+    half_cylinder,
+    kept_by,
+    leaning,
+    lying_cylinder,
+    prism,
+    tilted,
+)
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid

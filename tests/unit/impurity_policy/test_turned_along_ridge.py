@@ -1,7 +1,7 @@
-"""The candidate pose rule grasp_turned_along_ridge (rules.GraspTurnedAlongRidge): the chosen grasp on a target
-whose top has a crest (a half cylinder lying flat, an upright prism) closes along the crest, its yaw turned by
-at most ridge_max_turn_deg; the decision itself stays the network's. Also the turn's one shared code path with
-grasp_square_to_faces (rules.turned_grasp)."""
+"""The candidate pose rule grasp_turned_along_ridge (rules.GraspTurnedAlongRidge): the chosen grasp on a
+target whose top has a crest (a half cylinder lying flat, an upright prism) closes along the crest, its yaw
+turned by at most ridge_max_turn_deg; the decision itself stays the network's. Also the turn's one shared code
+path with grasp_square_to_faces (rules.turned_grasp)."""
 
 import dataclasses
 import math
@@ -91,7 +91,8 @@ def test_the_two_pose_rules_never_turn_the_same_grasp():
     ridge_min_slope 0.4): on a half cylinder only this one turns, on a flat square only the other."""
     both = RulePipeline(["grasp_square_to_faces", RULE])
     for profile, expected in ((half_cylinder, RULE), (flat, "grasp_square_to_faces")):
-        obs = crop_observation(MODE_TARGET, *block_top(profile, math.radians(10.0), width_px=24, length_px=24))
+        top = block_top(profile, math.radians(10.0), width_px=24, length_px=24)
+        obs = crop_observation(MODE_TARGET, *top)
         pose = action_pose(GRASP, 1, CENTRE, obs.crop_origin, obs.height, PoseRules(), obs.grid)
         alone = RulePipeline([expected]).adjust_pose(pose, obs, PoseRules(), obs.grid)
         assert alone != pose

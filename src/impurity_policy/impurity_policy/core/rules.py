@@ -477,13 +477,13 @@ class GraspSquareToFaces(Rule):
 
 class GraspTurnedAlongRidge(Rule):
     """A pose rule, a candidate: the chosen grasp, on a target whose top has a crest (RuleContext.ridge:
-    pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down, whose
-    outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns onto the
-    crest (pose.turn_onto, an axis) when that is at most `ridge_max_turn_deg` away and the turned grasp is
-    clear (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's; only the
-    executed yaw changes. In challenging scenes on tuning palettes, 53 of 65 failed grasps were at half
-    cylinders lying flat: 40 of 40 lifted closing within 30 deg of the cylinder's axis, 7 of 44 at 60-75 deg
-    (docs/experiments.md, thirtieth section); the preference grasp_along_ridge, which rules rotations out
+    pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down,
+    whose outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns
+    onto the crest (pose.turn_onto, an axis) when that is at most `ridge_max_turn_deg` away and the turned
+    grasp is clear (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's;
+    only the executed yaw changes. In challenging scenes on tuning palettes, 53 of 65 failed grasps were at
+    half cylinders lying flat: 40 of 40 lifted closing within 30 deg of the cylinder's axis, 7 of 44 at 60-75
+    deg (docs/experiments.md, thirtieth section); the preference grasp_along_ridge, which rules rotations out
     instead, changed few episodes because it gives way (nineteenth section)."""
 
     name = "grasp_turned_along_ridge"
