@@ -245,11 +245,11 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(10_000, 10_480, "docs/experiments_s17/loop_views.py",
               "SEED_BASE + k: the seventeenth session's picking-loop views for the verifier, invisible "
               "k < 160, challenging 200 <= k < 280 (--start 200), random 400 <= k < 480 (--start 400)"),
-    SeedBlock(10_480, 10_880, "docs/experiments_s30/run_ridge_pose.sh",
+    SeedBlock(10_480, 10_514, "docs/experiments_s30/run_ridge_pose.sh",
               "push_out.py --seed-base 10480 --random-from 800 --grasp-geometry: the thirtieth session's "
-              "test of the candidate pose rule grasp_turned_along_ridge (--with), challenging "
-              "10 480-10 679, random 10 680-10 779 (--start 200), invisible 10 780-10 879 (--start 300), "
-              "with and without it, tuning palettes"),
+              "test of the candidate pose rule grasp_turned_along_ridge (--with), with and without it, "
+              "tuning palettes; planned challenging 10 480-10 679, random and invisible after it, stopped "
+              "after challenging 10 480-10 513 (docs/experiments.md, thirtieth section)"),
     SeedBlock(11_000, 11_400, "docs/experiments_s14/push_out.py",
               "--seed-base 11000: the seventeenth session's test of the verifier refitted with loop views, "
               "invisible 11 000-11 199, challenging 11 200-11 399 (--start 200), with the shipped and the "
