@@ -25,8 +25,8 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
                                          square_max_turn_deg (adopted on tuning seeds, twenty-ninth section)
  14. grasp_turned_along_ridge      pose  with a target whose top has a crest (pose.ridge_direction: a
                                          half cylinder lying flat, an upright prism), the chosen grasp
-                                         turns its closing axis onto the crest, at most
-                                         ridge_max_turn_deg (a candidate, thirtieth section)
+                                         turns its closing axis onto the crest, by any angle
+                                         (a candidate, thirtieth section)
  15. canonical_colours             input the network sees the colour crop in the default palette
                                          (canonical.canonical_colours): attention has said which cells
                                          are the target (a candidate: tested twice, not adopted)
@@ -128,9 +128,6 @@ class RuleParams:
     ridge_max_angle_deg: float = 35.0  # grasp_along_ridge: closing axes at most this far from the crest
     # (in the simulator an upright prism alone held from 45 deg off across on and slipped out within 34 deg
     # of across; beside others one slipped at 47 deg: docs/experiments.md, nineteenth section)
-    ridge_max_turn_deg: float = 90.0  # grasp_turned_along_ridge: the most a grasp's closing axis is turned
-    # onto the crest (90: any axis; thirtieth section of docs/experiments.md: half cylinders lying flat in
-    # packed scenes lifted 40 of 40 grasps closing within 30 deg of their axis and 7 of 44 at 60-75 deg)
 
     def __post_init__(self):
         low, high = self.occluded_push_start_band
@@ -157,9 +154,6 @@ class RuleParams:
         if not 0.0 <= self.ridge_max_angle_deg <= 90.0:
             raise ValueError(f"ridge_max_angle_deg must be in [0, 90] (deg from the crest), got "
                              f"{self.ridge_max_angle_deg}")
-        if not 0.0 <= self.ridge_max_turn_deg <= 90.0:
-            raise ValueError(f"ridge_max_turn_deg must be in [0, 90] (deg of turn onto the crest), got "
-                             f"{self.ridge_max_turn_deg}")
 
 
 class RuleContext:
@@ -479,8 +473,8 @@ class GraspTurnedAlongRidge(Rule):
     """A pose rule, a candidate: the chosen grasp, on a target whose top has a crest (RuleContext.ridge:
     pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down,
     whose outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns
-    onto the crest (pose.turn_onto, an axis) when that is at most `ridge_max_turn_deg` away and the turned
-    grasp is clear (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's;
+    onto the crest (pose.turn_onto, an axis: at most 90 deg either way) when the turned grasp is clear
+    (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's;
     only the executed yaw changes. In challenging scenes on tuning palettes, 53 of 65 failed grasps were at
     half cylinders lying flat: 40 of 40 lifted closing within 30 deg of the cylinder's axis, 7 of 44 at 60-75
     deg (docs/experiments.md, thirtieth section); the preference grasp_along_ridge, which rules rotations out
@@ -497,7 +491,7 @@ class GraspTurnedAlongRidge(Rule):
         crest = ctx.ridge if pose.primitive == GRASP else None
         if crest is None:
             return pose
-        return turned_grasp(ctx, pose, turn_onto(pose.yaw, crest, math.pi), ctx.params.ridge_max_turn_deg)
+        return turned_grasp(ctx, pose, turn_onto(pose.yaw, crest, math.pi), 90.0)
 
 
 def turned_grasp(ctx: RuleContext, pose: ActionPose, turn: float, max_turn_deg: float) -> ActionPose:
