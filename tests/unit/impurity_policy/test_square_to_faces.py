@@ -17,7 +17,7 @@ from impurity_policy.core.pose import (
     action_pose,
     grasp_clear_at,
     grasp_clearance,
-    turn_to_face,
+    turn_onto,
 )
 from impurity_policy.core.rules import CANDIDATES, POSE, PRESETS, RuleParams, RulePipeline
 
@@ -122,12 +122,13 @@ def test_grasp_clear_at_agrees_with_grasp_clearance_at_the_rotation_yaws():
                 clear[rotation, crop_pixel[0], crop_pixel[1]], (rotation, crop_pixel)
 
 
-def test_turn_to_face_is_the_signed_turn_onto_the_nearer_normal():
-    assert turn_to_face(math.radians(30.0), math.radians(10.0)) == pytest.approx(math.radians(-20.0))
-    assert turn_to_face(math.radians(80.0), math.radians(10.0)) == pytest.approx(math.radians(20.0))
-    assert turn_to_face(math.radians(190.0), math.radians(10.0)) == pytest.approx(0.0, abs=1e-9)
+def test_turn_onto_a_quarter_period_is_the_signed_turn_onto_the_nearer_face_normal():
+    quarter = math.pi / 2  # a rectangle's two face normals count alike
+    assert turn_onto(math.radians(30.0), math.radians(10.0), quarter) == pytest.approx(math.radians(-20.0))
+    assert turn_onto(math.radians(80.0), math.radians(10.0), quarter) == pytest.approx(math.radians(20.0))
+    assert turn_onto(math.radians(190.0), math.radians(10.0), quarter) == pytest.approx(0.0, abs=1e-9)
     for yaw in np.linspace(0.0, 2 * math.pi, 37):
-        assert -math.pi / 4 <= turn_to_face(yaw, 0.3) < math.pi / 4
+        assert -math.pi / 4 <= turn_onto(yaw, 0.3, quarter) < math.pi / 4
 
 
 def test_the_cell_executes_the_turned_yaw_and_keeps_the_networks_decision():

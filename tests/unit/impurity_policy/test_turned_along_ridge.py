@@ -1,7 +1,7 @@
 """The candidate pose rule grasp_turned_along_ridge (rules.GraspTurnedAlongRidge): the chosen grasp on a
 target whose top has a crest (a half cylinder lying flat, an upright prism) closes along the crest, its yaw
 turned by up to 90 deg; the decision itself stays the network's. Also the turn's one shared code path with
-grasp_square_to_faces (rules.turned_grasp)."""
+grasp_square_to_faces (rules.PoseRule)."""
 
 import dataclasses
 import math

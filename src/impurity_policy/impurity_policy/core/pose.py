@@ -359,12 +359,6 @@ def turn_onto(yaw, direction: float, period: float):
     return (direction - yaw + period / 2) % period - period / 2
 
 
-def turn_to_face(yaw: float, face: float) -> float:
-    """The signed turn (rad, in [-pi/4, pi/4)) that brings the grasp closing axis `yaw` (rad) onto the
-    nearer of a rectangular top's face normals, `face` and face + pi/2 (rad; pose.face_direction)."""
-    return turn_onto(yaw, face, math.pi / 2)
-
-
 def pixels_near(mask: np.ndarray, radius_px: int) -> np.ndarray:
     """(S, S) bool: within `radius_px` of the mask (mask > 0)."""
     region = (mask > 0).astype(np.uint8)

@@ -82,7 +82,6 @@ from .pose import (
     target_on_top,
     top_slope,
     turn_onto,
-    turn_to_face,
 )
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = (AttentionMode.NONE, AttentionMode.TARGET,
@@ -442,11 +441,51 @@ class GraspAcrossCorners(Rule):
         return (Keep(GRASP, skewed[:, None, None]),)
 
 
-class GraspSquareToFaces(Rule):
+class PoseRule(Rule):
+    """A rule of kind POSE: it rules nothing out (`keeps` gives ()); after the decision it turns the chosen
+    grasp's closing axis onto the nearest of the directions `onto(ctx)` + k `period` (pose.turn_onto) when
+    the grasp's pixel lies on the target's mask, the turn is non-zero and at most `max_turn_deg(ctx)`, and the
+    fingers are clear at the new yaw (pose.grasp_clear_at). The pixel, the rotation index and the decision
+    stay the network's; only ActionPose.yaw changes. The cheap tests come first: `onto` (a reading of the
+    target's top) is taken only for a grasp on the target."""
+
+    kind = POSE
+    period = math.pi  # rad: directions this far apart turn a grasp alike (pi: an axis)
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        return ()
+
+    def onto(self, ctx: RuleContext) -> float | None:
+        """The direction (rad) to turn onto, or None where the rule does not apply."""
+        raise NotImplementedError
+
+    def max_turn_deg(self, ctx: RuleContext) -> float:
+        return math.degrees(self.period / 2)
+
+    def adjust(self, ctx: RuleContext, pose: ActionPose) -> ActionPose:
+        """`pose` with its yaw turned, or `pose` itself where the rule does not apply."""
+        if pose.primitive != GRASP or not ctx.target_in_view:
+            return pose
+        row, col = heightmap_to_crop(pose.heightmap_pixel, ctx.obs.crop_origin)
+        if not (0 <= row < ctx.size and 0 <= col < ctx.size) or not ctx.target[row, col]:
+            return pose
+        direction = self.onto(ctx)
+        if direction is None:
+            return pose
+        turn = turn_onto(pose.yaw, direction, self.period)
+        if abs(turn) < 1e-6 or abs(turn) > math.radians(self.max_turn_deg(ctx)) + 1e-9:
+            return pose
+        yaw = (pose.yaw + turn) % (2.0 * math.pi)
+        if not grasp_clear_at(ctx.obs.height, pose.heightmap_pixel, yaw, ctx.pose_rules, ctx.grid.resolution):
+            return pose
+        return dataclasses.replace(pose, yaw=yaw)
+
+
+class GraspSquareToFaces(PoseRule):
     """A pose rule: the chosen grasp, on a target whose top outline is a rectangle (pose.face_direction) and
     whose top is flat (pose.top_slope at most `corner_max_slope`), its pixel on the target's mask, closes
-    square on two faces: its closing axis turns onto the nearer face normal (pose.turn_to_face) when that is
-    at most `square_max_turn_deg` away and the turned grasp is clear (pose.grasp_clear_at). The pixel, the
+    square on two faces: its closing axis turns onto the nearer face normal (PoseRule, period pi/2) when that
+    is at most `square_max_turn_deg` away and the turned grasp is clear (pose.grasp_clear_at). The pixel, the
     rotation index and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by
     less than the network's 22.5 deg rotation step. Upright cubes slipped from a sixth of the grasps closing
     7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg (docs/experiments.md,
@@ -456,20 +495,16 @@ class GraspSquareToFaces(Rule):
     grasp success (paired 95 % +0.4 to +3.1), random and challenging scenes unchanged."""
 
     name = "grasp_square_to_faces"
-    kind = POSE
+    period = math.pi / 2  # a rectangle's two face normals
 
-    def keeps(self, ctx: RuleContext) -> tuple:
-        return ()
+    def onto(self, ctx: RuleContext) -> float | None:
+        return ctx.flat_rectangle_face
 
-    def adjust(self, ctx: RuleContext, pose: ActionPose) -> ActionPose:
-        """`pose` with its yaw turned onto a face normal, or `pose` itself where the rule does not apply."""
-        face = ctx.flat_rectangle_face if pose.primitive == GRASP else None
-        if face is None:
-            return pose
-        return turned_grasp(ctx, pose, turn_to_face(pose.yaw, face), ctx.params.square_max_turn_deg)
+    def max_turn_deg(self, ctx: RuleContext) -> float:
+        return ctx.params.square_max_turn_deg
 
 
-class GraspTurnedAlongRidge(Rule):
+class GraspTurnedAlongRidge(PoseRule):
     """A pose rule, a candidate: the chosen grasp, on a target whose top has a crest (RuleContext.ridge:
     pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down,
     whose outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns
@@ -481,34 +516,9 @@ class GraspTurnedAlongRidge(Rule):
     instead, changed few episodes because it gives way (nineteenth section)."""
 
     name = "grasp_turned_along_ridge"
-    kind = POSE
 
-    def keeps(self, ctx: RuleContext) -> tuple:
-        return ()
-
-    def adjust(self, ctx: RuleContext, pose: ActionPose) -> ActionPose:
-        """`pose` with its yaw turned onto the crest, or `pose` itself where the rule does not apply."""
-        crest = ctx.ridge if pose.primitive == GRASP else None
-        if crest is None:
-            return pose
-        return turned_grasp(ctx, pose, turn_onto(pose.yaw, crest, math.pi), 90.0)
-
-
-def turned_grasp(ctx: RuleContext, pose: ActionPose, turn: float, max_turn_deg: float) -> ActionPose:
-    """The pose rules' one way to turn a grasp: `pose` with its yaw turned by `turn` (rad) when it is a grasp
-    whose pixel lies on the target's mask, the turn is non-zero and at most `max_turn_deg`, and the fingers
-    are clear at the new yaw (pose.grasp_clear_at); `pose` itself otherwise."""
-    if pose.primitive != GRASP or not ctx.target_in_view:
-        return pose
-    row, col = heightmap_to_crop(pose.heightmap_pixel, ctx.obs.crop_origin)
-    if not (0 <= row < ctx.size and 0 <= col < ctx.size) or not ctx.target[row, col]:
-        return pose
-    if abs(turn) < 1e-6 or abs(turn) > math.radians(max_turn_deg) + 1e-9:
-        return pose
-    yaw = (pose.yaw + turn) % (2.0 * math.pi)
-    if not grasp_clear_at(ctx.obs.height, pose.heightmap_pixel, yaw, ctx.pose_rules, ctx.grid.resolution):
-        return pose
-    return dataclasses.replace(pose, yaw=yaw)
+    def onto(self, ctx: RuleContext) -> float | None:
+        return ctx.ridge
 
 
 class CanonicalColours(Rule):
