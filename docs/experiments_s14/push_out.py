@@ -322,7 +322,13 @@ def run_one(task: tuple) -> dict:
                **{k: v for k, v in decided[index].items() if k.startswith("t_")},
                **{k: v for k, v in decided[index].items() if k.startswith("g_")}}
               for index, step in enumerate(steps) if step.kind == "grasp"]
+    # thirty-first session: the longest stretch of OCCLUDED_REGION decisions in a row
+    run, occluded_run = 0, 0
+    for step in steps:
+        run = run + 1 if step.attention_mode == "OCCLUDED_REGION" else 0
+        occluded_run = max(occluded_run, run)
     return {"scenario": scenario, "seed": seed, "palette": palette, "params": rule_params,
+            "occluded_run": occluded_run,
             "termination": summary["termination_reason"], "completed": summary["completed"],
             "picked": summary["targets_picked"], "total": summary["targets_total"],
             "attempts": summary["grasp_attempts"], "actions": summary["actions"],
@@ -429,12 +435,22 @@ def grasps(paths: list) -> None:
         print("  lowest palettes:", ", ".join(f"{k} {100 * np.mean(v):.0f} % ({len(v)})" for k, v in low))
 
 
-def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
-    """The change in grasp success (pooled) and in completion from base to other on the seeds both ran: point
-    estimates and a paired bootstrap's 95 % intervals over the seeds (numpy's default_rng(0))."""
+def paired(base_path: str, other_path: str, draws: int = 5000, fill: bool = False) -> None:
+    """The change in grasp success (pooled, and make eval's per-episode mean with an episode without a grasp
+    attempt at 0 %) and in completion from base to other on the seeds both ran: point estimates and a paired
+    bootstrap's 95 % intervals over the seeds (numpy's default_rng(0)). fill: a seed only base ran counts
+    as alike in other (a run of --only candidates, where the variant cannot act elsewhere; thirty-first
+    session)."""
     base = {r["seed"]: r for r in map(json.loads, open(base_path))}
     other = {r["seed"]: r for r in map(json.loads, open(other_path))}
+    filled = sorted(set(base) - set(other)) if fill else []
+    other.update({s: base[s] for s in filled})
     seeds = np.array(sorted(set(base) & set(other)))
+
+    def per_episode(chosen) -> float:
+        rates = [[d[s]["picked"] / d[s]["attempts"] if d[s]["attempts"] else 0.0 for s in chosen]
+                 for d in (base, other)]
+        return 100 * (np.mean(rates[1]) - np.mean(rates[0]))
 
     def change(chosen) -> float:
         rate = [sum(d[s]["picked"] for s in chosen) / max(sum(d[s]["attempts"] for s in chosen), 1)
@@ -452,6 +468,13 @@ def paired(base_path: str, other_path: str, draws: int = 5000) -> None:
     same = sum(base[s]["actions"] == other[s]["actions"] and base[s]["picked"] == other[s]["picked"]
                and base[s]["attempts"] == other[s]["attempts"] for s in seeds)
     low, high = np.percentile(spread, [2.5, 97.5])
+    mean = np.percentile([per_episode(chosen) for chosen in samples], [2.5, 97.5])
+    actions = [np.mean([d[s]["actions"] for s in seeds]) for d in (base, other)]
+    if filled:
+        print(f"{len(filled)} seeds only {base_path} ran, counted alike in {other_path} (--fill)")
+    print(f"per-episode grasp success (make eval's; no attempt 0 %) change {per_episode(seeds):+.2f} points, "
+          f"interval {mean[0]:+.2f} to {mean[1]:+.2f}; actions/episode {actions[0]:.2f} -> {actions[1]:.2f} "
+          f"({100 * (actions[1] / actions[0] - 1):+.1f} %)")
     print(f"{other_path} against {base_path}: {len(seeds)} seeds ({same} episodes alike in actions, picks "
           f"and attempts); grasp success change {change(seeds):+.1f} points, paired bootstrap 95 % interval "
           f"{low:+.1f} to {high:+.1f} ({draws} draws); completion change "
@@ -517,6 +540,13 @@ def main(argv=None) -> int:
     c = sub.add_parser("paired", help="the change in grasp success from BASE to OTHER, paired over seeds")
     c.add_argument("base")
     c.add_argument("other")
+    c.add_argument("--fill", action="store_true",
+                   help="a seed only BASE ran counts as alike in OTHER (OTHER run with --only candidates)")
+    k = sub.add_parser("candidates", help="the episode indices k (seed - SEED_BASE) of FILE's episodes with "
+                                          "K or more OCCLUDED_REGION decisions in a row, for run --only")
+    k.add_argument("file")
+    k.add_argument("k", type=int)
+    k.add_argument("--seed-base", type=int, default=SEED_BASE)
     args = p.parse_args(argv)
     if args.command == "run":
         run(args)
@@ -524,8 +554,11 @@ def main(argv=None) -> int:
         report(args)
     elif args.command == "grasps":
         grasps(args.files)
-    else:
-        paired(args.base, args.other)
+    elif args.command == "paired":
+        paired(args.base, args.other, fill=args.fill)
+    elif args.command == "candidates":
+        rows = [json.loads(line) for line in open(args.file)]
+        print(" ".join(str(r["seed"] - args.seed_base) for r in rows if r["occluded_run"] >= args.k))
     return 0
 
 

@@ -250,6 +250,14 @@ TUNING_SEED_BLOCKS = (
               "test of the candidate pose rule grasp_turned_along_ridge (--with), with and without it, "
               "tuning palettes; planned challenging 10 480-10 679, random and invisible after it, stopped "
               "after challenging 10 480-10 513 (docs/experiments.md, thirtieth section)"),
+    SeedBlock(10_514, 10_614, "docs/experiments_s31/run_stall25b.sh",
+              "push_out.py --seed-base 10514 --random-from 500: the thirty-first session's test of the stall "
+              "look at 0.25 (--stall 5 0.25), random 10 514-10 613, shipped on every seed, the look where it "
+              "can act, tuning palettes"),
+    SeedBlock(11_400, 12_000, "docs/experiments_s31/run_stall25b.sh",
+              "push_out.py --seed-base 11400 --random-from 500: the thirty-first session's test of the stall "
+              "look at 0.25 (--stall 5 0.25), challenging 11 400-11 799, invisible 11 800-11 999 (--start "
+              "400), shipped on every seed, the look where it can act, tuning palettes"),
     SeedBlock(11_000, 11_400, "docs/experiments_s14/push_out.py",
               "--seed-base 11000: the seventeenth session's test of the verifier refitted with loop views, "
               "invisible 11 000-11 199, challenging 11 200-11 399 (--start 200), with the shipped and the "
