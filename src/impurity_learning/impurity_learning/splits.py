@@ -267,6 +267,10 @@ TUNING_SEED_BLOCKS = (
               "paired test of the seventeenth session's verifier against the sixteenth's on palettes neither "
               "saw (random-800 ... 899), invisible 12 000-12 099, challenging 12 100-12 199 (--start 100), "
               "random 12 200-12 299 (--start 200)"),
+    SeedBlock(12_300, 12_700, "docs/experiments_s31/run_stall25c.sh",
+              "push_out.py --seed-base 12300 --random-from 600: the thirty-first session's test B of the stall "
+              "look at 0.25 (--stall 5 0.25), challenging 12 300-12 699, shipped on every seed, the look where "
+              "it can act, tuning palettes"),
     SeedBlock(13_000, 13_300, "docs/experiments_s18/run_stall.sh",
               "push_out.py --seed-base 13000 --random-from 900 --random-only: the eighteenth session's test "
               "of a stall-breaker (--stall) on random-900 ... 999, challenging 13 000-13 099, invisible "
