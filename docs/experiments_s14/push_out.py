@@ -101,7 +101,7 @@ def run_one(task: tuple) -> dict:
     key = json.dumps(rule_params, sort_keys=True)
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
-                          "verifier_last_look", "canonical_colours", "mask_truth",
+                          "stall_look_views", "verifier_last_look", "canonical_colours", "mask_truth",
                           "grasp_geometry", "temporal", "known_product", "near_miss")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
@@ -155,6 +155,12 @@ def run_one(task: tuple) -> dict:
             self.fired = attention.mode == AttentionMode.TARGET
             self._sensed = Sensed(observe(self.agent.method, attention, maps.height, maps.color, self.grid),
                                   self._sensed.truth, maps, attention)
+
+        def look_closer(self):
+            """The loop's stall look (shipped since the thirty-first session): recorded as `stall` too."""
+            view = super().look_closer()
+            self.fired = self._sensed.attention.mode == AttentionMode.TARGET
+            return view
 
         def know_product(self, view):
             super().know_product(view)
@@ -296,7 +302,8 @@ def run_one(task: tuple) -> dict:
     if "near_miss" in rule_params:  # the default since the twenty-seventh session
         attention = dataclasses.replace(attention, known_product_near_miss=rule_params["near_miss"])
     recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention)
-    limits = picking.EpisodeLimits(known_product=rule_params.get("known_product", True))
+    limits = picking.EpisodeLimits(known_product=rule_params.get("known_product", True),
+                                   stall_look_views=rule_params.get("stall_look_views", 5))
     summary = picking.run_episode(recording,
                                   EpisodeRequest(scenario, seed=seed, palette=palette), f"{scenario}-{seed}",
                                   limits, on_step=on_step, on_error=lambda e: (_ for _ in ()).throw(e))
@@ -368,6 +375,8 @@ def run(args) -> None:
         rule_params["near_miss"] = False
     if args.stall is not None:
         rule_params["stall"] = [int(args.stall[0]), float(args.stall[1])]
+    if args.no_stall_look:  # the loop's stall look is shipped since the thirty-first session
+        rule_params["stall_look_views"] = 0
     names = [args.palette] if args.palette else palettes(args.random_palettes, args.random_from,
                                                          not args.random_only)
     ks = args.only or range(args.start, args.start + args.episodes)
@@ -499,6 +508,10 @@ def main(argv=None) -> int:
     r.add_argument("--stall", nargs=2, type=float, metavar=("K", "T"), default=None,
                    help="after K OCCLUDED_REGION views in a row, attend with verifier_threshold T "
                         "(experiment)")
+    r.add_argument("--no-stall-look", action="store_true",
+                   help="the cell as shipped before the thirty-first session: no stall look in the loop "
+                        "(EpisodeLimits.stall_look_views 0); earlier sessions' --stall runs need it to play "
+                        "as they did")
     r.add_argument("--jobs", type=int, default=2)
     r.add_argument("--start", type=int, default=0, help="first episode index k (seed SEED_BASE + k)")
     r.add_argument("--only", type=int, nargs="*", help="these episode indices k only (seed SEED_BASE + k)")

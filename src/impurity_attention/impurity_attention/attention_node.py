@@ -4,7 +4,10 @@ Thin shell around impurity_attention.core.attention.attend: one AttentionResult 
 heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line. A heightmap on
 /attention/known_product (transient local; the episode node sends the episode's first view when it showed no
 target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
-cells, sent at each episode's reset) clears it.
+cells, sent at each episode's reset) clears it. /attention/look_closer (std_srvs/SetBool; the episode
+node's stall look, core/picking.py) set true makes the heightmaps that follow attended with closer=True (the
+verifier's threshold lowered to stall_look_threshold) until it is set false; with stall_look_threshold 0 or
+another decision than the verifier it answers success false and nothing changes.
 """
 
 from dataclasses import asdict, dataclass
@@ -12,6 +15,7 @@ from dataclasses import asdict, dataclass
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
+from std_srvs.srv import SetBool
 
 from impurity_attention.core.attention import (
     BACKGROUNDS,
@@ -142,6 +146,10 @@ class AttentionNodeParameters:
                                            "probability of a target while a heap that could hide one is "
                                            "left; 0, or a value at or below the threshold used elsewhere: no "
                                            "change. With no heap left nothing changes", low=0.0, high=0.999)
+    stall_look_threshold: float = param(DEFAULTS.stall_look_threshold, "verifier: least impurity probability "
+                                        "of a target on a stall look (/attention/look_closer, asked for by "
+                                        "the episode node after pushes that found nothing); 0: off",
+                                        low=0.0, high=0.999)
     known_product_delta_e: float = param(DEFAULTS.known_product_delta_e, "verifier, with a known product "
                                          "(/attention/known_product) and a heap left: CIE76 distance within "
                                          "which a product colour counts as the region's colour",
@@ -180,6 +188,7 @@ class AttentionNodeParameters:
             verifier_last_look=self.verifier_last_look,
             verifier_clipped_threshold=self.verifier_clipped_threshold,
             verifier_heap_threshold=self.verifier_heap_threshold,
+            stall_look_threshold=self.stall_look_threshold,
             known_product_delta_e=self.known_product_delta_e,
             known_product_max_share=self.known_product_max_share,
             known_product_near_miss=self.known_product_near_miss,
@@ -199,6 +208,8 @@ class AttentionNode(Node):
         self.create_subscription(Heightmap, names.KNOWN_PRODUCT_TOPIC, self._on_known_product,
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self._closer = False  # heightmaps are attended as a stall look (/attention/look_closer)
+        self.create_service(SetBool, names.LOOK_CLOSER_SERVICE, self._on_look_closer)
         self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
                                  QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
         self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
@@ -241,12 +252,31 @@ class AttentionNode(Node):
             f"more than {100 * p.known_product_max_share:.1f} % of them are passed over while a heap is "
             f"left{unread}")
 
+    def _on_look_closer(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        p = self._params
+        if request.data and not (p.decision == "verifier" and p.contrast == "relative"
+                                 and p.stall_look_threshold > 0):
+            response.success = False
+            response.message = (f"no stall look: it needs decision verifier, contrast relative and "
+                                f"stall_look_threshold > 0 (decision {p.decision}, contrast {p.contrast}, "
+                                f"stall_look_threshold {p.stall_look_threshold})")
+            return response
+        if request.data != self._closer:
+            threshold = f": verifier threshold {p.stall_look_threshold:.2f}" if request.data else ""
+            self.get_logger().info(f"stall look {'on' if request.data else 'off'}{threshold}")
+        self._closer = bool(request.data)
+        response.success = True
+        response.message = (f"stall look on: verifier threshold {p.stall_look_threshold:.2f}" if self._closer
+                            else "stall look off")
+        return response
+
     def _on_heightmap(self, msg: Heightmap) -> None:
         try:
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
             grid = grid_from_heightmap(msg)
-            output = attend(color, height, self._params, grid, known_product=self._known_product)
+            output = attend(color, height, self._params, grid, known_product=self._known_product,
+                            closer=self._closer)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))
             return

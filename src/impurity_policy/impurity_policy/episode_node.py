@@ -101,6 +101,9 @@ class EpisodeParameters:
     known_product: bool = param(True, "When attention finds no target in an episode's first view, send that "
                                 "view to attention as the known product (/attention/known_product): while "
                                 "a heap is left, regions coloured like much of it are not targets")
+    stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
+                                  "impurity, ask attention for a stall look (/attention/look_closer: its "
+                                  "stall_look_threshold) and decide on it; 0: never", low=0, high=1000)
     verdict_min_height_drop: float = param(VERDICT.min_height_drop, "Grasp verdict: m a target cell's "
                                            "height must fall to count as changed", low=0.001)
     verdict_min_color_change: float = param(VERDICT.min_color_change, "Grasp verdict: RGB distance "
@@ -153,7 +156,7 @@ class EpisodeNode(Node):
             VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
                           self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening,
                           self.params.verdict_min_target_score, self.params.verdict_min_color_contrast),
-            self.params.known_product)
+            self.params.known_product, self.params.stall_look_views)
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self.create_service(Trigger, names.STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)

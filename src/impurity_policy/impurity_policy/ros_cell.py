@@ -16,6 +16,9 @@
     know_product     the view's heightmap on /attention/known_product (transient local) for the attention
                      node; an empty heightmap clears it: at the episode's end (know_product(None)) and
                      first thing in each reset
+    look_closer      the loop's stall look: /attention/look_closer set true, the first decision from a
+                     frame stamped after attention answered (attended as a stall look), then set false;
+                     None (logged) when attention does not offer it or declines
 
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
 Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
@@ -34,6 +37,7 @@ import time
 from dataclasses import dataclass
 
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import SetBool
 
 from impurity_common import names
 from impurity_common.clients import RaceFreeActionClient
@@ -55,6 +59,7 @@ from impurity_policy.core.verdict import full_mask
 
 POLICY_GONE_GRACE = 5.0  # s without the policy node's publisher, once it had been seen, before giving up
 ATTENTION_KEPT = 20  # attention results kept to pair with decisions (by stamp)
+LOOK_CLOSER_WAIT, LOOK_CLOSER_TRIES = 2.0, 3  # s per try, tries: a stall look is given up, not the episode
 CANCEL_POLL = 0.1  # s between two looks at should_stop in every wait (a cancel is honoured within it)
 # s: attention results stamped further ahead of this node's clock are not taken as fresh (a frame taken
 # before the last motion would pass as taken after it); their stamps are on another clock.
@@ -105,6 +110,8 @@ class RosCell:
             Heightmap, names.KNOWN_PRODUCT_TOPIC,
             QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                        durability=DurabilityPolicy.TRANSIENT_LOCAL))
+        self._look_closer = node.create_client(SetBool, names.LOOK_CLOSER_SERVICE,
+                                               callback_group=callback_group)
         self._truth_offered = False  # without use_ground_truth: a simulated cell's truth, for the records
         self.last_primitive: Primitive | None = None  # the message of the action under way
         self.last_finished = None  # builtin_interfaces/Time of the last motion's end
@@ -202,6 +209,46 @@ class RosCell:
         stamp = time_to_ns(attention.heightmap.header.stamp)
         self.node.get_logger().info(f"known product: the first view (stamp {stamp} ns) showed no target; "
                                     f"sent on {names.KNOWN_PRODUCT_TOPIC}")
+
+    def look_closer(self) -> View | None:
+        """The loop's stall look (core/picking.py): attention attends the frames that follow as a stall look
+        (/attention/look_closer true); the view is the first decision from a frame stamped after it said
+        so; the look is then switched off. None, with a warning, when attention offers no such service or
+        declines (its reason)."""
+        response = self._ask_look_closer(True)
+        if response is None or not response.success:
+            why = "no answer" if response is None else response.message
+            self.node.get_logger().warning(f"no stall look: {why}; deciding on the last view")
+            return None
+        try:
+            self._after_ns = max(self._after_ns, self.node.get_clock().now().nanoseconds)
+            self._after_what = "the stall look's request"
+            return self.observe()
+        finally:
+            if self._ask_look_closer(False) is None:
+                self.node.get_logger().warning(f"stall look not switched off: no answer from "
+                                               f"{names.LOOK_CLOSER_SERVICE}")
+
+    def _ask_look_closer(self, on: bool):
+        """/attention/look_closer's answer to `on`, or None when the service is not offered or does not
+        answer within LOOK_CLOSER_TRIES x LOOK_CLOSER_WAIT s (the request is idempotent: sent again while
+        unanswered); a cancel while waiting raises EpisodeCanceled."""
+        if not self._look_closer.service_is_ready():
+            return None
+        for _ in range(LOOK_CLOSER_TRIES):
+            done = threading.Event()
+            future = self._look_closer.call_async(SetBool.Request(data=on))
+            future.add_done_callback(lambda _, done=done: done.set())
+            try:
+                answered = self._wait_event(done, LOOK_CLOSER_WAIT,
+                                            f"a response from {names.LOOK_CLOSER_SERVICE}")
+            except EpisodeCanceled:
+                self._look_closer.remove_pending_request(future)
+                raise
+            if answered:
+                return future.result()
+            self._look_closer.remove_pending_request(future)
+        return None
 
     def observe(self) -> View:
         """The first decision (and its attention result) from a frame stamped after the last motion and

@@ -183,6 +183,14 @@ class AttentionParams:
     # 16 views where the last look decides: no clean view and 2 impurities taken from 0.46 to 0.58;
     # docs/experiments_s21/last_look.py, docs/experiments.md, twenty-first section).
     verifier_last_look: float = 0.52
+    # verifier: the threshold of a stall look (attend's closer=True), which the picking loop asks for on the
+    # EpisodeLimits.stall_look_views-th OCCLUDED_REGION view in a row (picking's module docstring); 0 = off
+    # (a closer look then decides as any other). 0.25 lies between the reads of missed targets (0.07-0.54
+    # in most views of stalled challenging episodes) and of the product pieces that were likeliest there
+    # (0.00-0.14) in the twenty-seventh session's replays on tuning data; tested in the thirtieth session
+    # (200 challenging episodes, criterion not met on an interval touching 0) and adopted in the
+    # thirty-first on 400 more, read as make eval reads (docs/experiments.md, thirty-first section).
+    stall_look_threshold: float = 0.25
     # verifier: on a clipped view (heightmap.clipped_view: half the object cells at 250+ of 255 in one
     # channel, when the heightmap node warns about exposure), a target needs at least this probability; 0 =
     # the same threshold as elsewhere. Off: tried in the twelfth session and not adopted. Clipping changes a
@@ -252,6 +260,9 @@ class AttentionParams:
         if not 0.0 <= self.verifier_last_look < 1.0:
             raise ValueError(f"verifier_last_look must be a probability in [0, 1) (0 = off), got "
                              f"{self.verifier_last_look}")
+        if not 0.0 <= self.stall_look_threshold < 1.0:
+            raise ValueError(f"stall_look_threshold must be a probability in [0, 1) (0 = off), got "
+                             f"{self.stall_look_threshold}")
         if not self.known_product_delta_e > 0.0:
             raise ValueError(f"known_product_delta_e must be > 0 (CIE76 dE), got "
                              f"{self.known_product_delta_e}")
@@ -446,10 +457,13 @@ def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegi
 
 def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
            grid: HeightmapGrid = HeightmapGrid(),
-           known_product: ProductReference | None = None) -> AttentionOutput:
+           known_product: ProductReference | None = None, closer: bool = False) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m. known_product: the
     colours of an earlier view that showed product only (product_memory); with the verifier and a heap left, a
-    region coloured like them is not a target (AttentionParams.known_product_max_share)."""
+    region coloured like them is not a target (AttentionParams.known_product_max_share). closer: a stall look
+    (the picking loop's, after pushes that found nothing): the verifier's threshold is
+    AttentionParams.stall_look_threshold instead of verifier_threshold, a clipped view's threshold still
+    applies, and the reason says "(stall look)"; no effect with stall_look_threshold 0 or another decision."""
     color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
     saliency, conspicuity = scene_maps(color, objects, params)
@@ -492,10 +506,13 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
         if regions:
             model = params.verifier or default_verifier()
             least = params.verifier_threshold or model.threshold
+            view = ""
+            if closer and params.stall_look_threshold > 0:
+                least, view = params.stall_look_threshold, " (stall look)"
             clipped = params.verifier_clipped_threshold > least and clipped_view(color, objects)
             if clipped:
                 least = params.verifier_clipped_threshold
-            view = " (clipped view)" if clipped else ""
+            view += " (clipped view)" if clipped else ""
             if (params.verifier_heap_threshold > least
                     and select_occluded_region(dense_clusters()) is not None):
                 least = params.verifier_heap_threshold

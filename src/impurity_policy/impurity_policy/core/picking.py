@@ -21,6 +21,8 @@ A cell (duck-typed, see `Cell`):
                                      verdicts when reset returned None; never read by the loop's decisions
     know_product(view)               optional: the view shows product only; attention may take its
                                      colours as the known product (below); None: forget it
+    look_closer() -> View | None     optional: a stall look (below) at the scene as the last view showed
+                                     it; None: the cell cannot (the last view is decided on)
 
 The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
 episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
@@ -31,6 +33,13 @@ the episode ends, however it ends, the loop calls know_product(None); a cell als
 reset. "First view without target" reads View.mode, the mode the cell's decision answers: a cell whose
 decisions never answer anything but TARGET (the fast sim's full-heightmap and no-occluded-region ablations)
 never gets a known product.
+
+The stall look (EpisodeLimits.stall_look_views, 5 by default; 0 = off): on the stall_look_views-th view in a
+row whose mode is OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
+look_closer() for the view to decide on: attention looks again with the verifier's threshold lowered to
+AttentionParams.stall_look_threshold (impurity_attention.core.attention.attend's closer), so a target it has
+been unsure of in a packed scene is grasped instead of pushed on for the rest of the episode. The count then
+starts over (docs/experiments.md, thirtieth and thirty-first sections).
 
 Two ways to count:
 - by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
@@ -200,6 +209,11 @@ class EpisodeLimits:
     max_actions_uncounted: int = DEFAULT_MAX_ACTIONS_UNCOUNTED  # when a request's max_actions is 0
     verdict: VerdictParams = VerdictParams()
     known_product: bool = True  # hand a first view without target to the cell's know_product (module doc)
+    stall_look_views: int = 5  # OCCLUDED_REGION views in a row before a stall look (module doc); 0 = off
+
+    def __post_init__(self):
+        if self.stall_look_views < 0:
+            raise ValueError(f"stall_look_views must be >= 0 (0 = off), got {self.stall_look_views}")
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
@@ -295,6 +309,7 @@ class _Episode:
         self.product_known = False  # the cell was handed a known product (know_product)
         self.truth_targets_total: int | None = None  # simulator truth beside perception, if offered
         self._truth_removed = 0
+        self.occluded_views = 0  # OCCLUDED_REGION views in a row, for the stall look
 
     def _look(self) -> View:
         view = self.cell.observe()
@@ -309,6 +324,21 @@ class _Episode:
                 self.product_known = True
         self.first_view = False
         return view
+
+    def _stall_look(self, view: View) -> View:
+        """The view to decide on: `view`, or on the stall_look_views-th OCCLUDED_REGION view in a row the
+        cell's look_closer() (module docstring); the count starts over after a look."""
+        if view.mode != AttentionMode.OCCLUDED_REGION:
+            self.occluded_views = 0
+            return view
+        self.occluded_views += 1
+        look_closer = getattr(self.cell, "look_closer", None)
+        if not self.limits.stall_look_views or self.occluded_views < self.limits.stall_look_views \
+                or look_closer is None:
+            return view
+        self.occluded_views = 0
+        closer = look_closer()
+        return view if closer is None else closer
 
     def _record(self, step: StepRecord) -> None:
         self.tracker.record(step)
@@ -329,7 +359,7 @@ class _Episode:
         while reason is None:
             if self.stop():
                 return TERMINATION_CANCELED
-            view = self._look()
+            view = self._stall_look(self._look())
             action = None if view.mode == AttentionMode.NONE else cell.decide(view)
             if action is None:
                 return TERMINATION_NOTHING_LEFT
@@ -378,11 +408,13 @@ class _Episode:
                 view = self._look()
             if view.mode == AttentionMode.NONE or (view.last_look and looked_in_vain):
                 none_views += 1
+                self.occluded_views = 0
                 if none_views >= limits.none_frames_to_finish:
                     return TERMINATION_NOTHING_LEFT
                 view = None  # look again: a fresh frame, taken after this one
                 continue
             none_views = 0
+            view = self._stall_look(view)
             action = cell.decide(view)
             if action is None:
                 return TERMINATION_NOTHING_LEFT

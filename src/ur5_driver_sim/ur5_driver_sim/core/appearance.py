@@ -313,6 +313,18 @@ PALETTES = {p.name: p for p in (
     _palette("pe_flakes_wood", [(60, 120, 176), (70, 132, 186)], [(150, 110, 70), (220, 220, 214)],
              "blue PE flakes with wood chips and white PE pieces", product_jitter=0.02,
              light_direction=(-0.3, -0.2, 1.0)),
+    # the fourteenth held-out set (thirty-first session), named before any of it was rendered
+    _palette("rye_ergot", [(150, 128, 98), (138, 118, 90), (160, 138, 106)], [(58, 40, 48)],
+             "grey-brown rye of several shades with dark purple ergot bodies", product_jitter=0.02,
+             light_direction=(0.2, -0.3, 1.0)),
+    _palette("linseed_stones", [(104, 62, 38), (92, 54, 34)], [(138, 130, 120), (70, 66, 62)],
+             "glossy brown linseed with grey and dark stones", product_jitter=0.015, ambient=0.5,
+             diffuse=0.55),
+    _palette("coriander_seeds_stones", [(178, 152, 106), (166, 140, 98)], [(128, 124, 116)],
+             "light brown coriander seeds with grey stones", product_jitter=0.02, exposure=1.1),
+    _palette("pet_flakes_labels", [(176, 204, 216), (166, 196, 210)], [(236, 236, 230), (196, 56, 52)],
+             "light blue PET flakes with white and red label pieces", product_jitter=0.02,
+             light_direction=(-0.2, -0.3, 1.0)),
 )}
 
 
