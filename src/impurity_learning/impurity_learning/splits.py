@@ -79,8 +79,8 @@ HELD_OUT_LAYOUT_SEED_BASE = 916_000_000
 # perception 914 000 000+, picking 914 900 000 + k, exposure 915 000 000 + 1000 x row + i. The fourteenth
 # set's: perception 916 000 000+, picking 916 900 000 + k, exposure 917 000 000 + 1000 x row + i.
 # the retired sets, oldest first: (named palettes, random seeds); 8 random palettes of each were measured
-# (24 of the fourth, fifth and sixth sets, 56 of the seventh, 196 of the eighth to thirteenth; retired_palettes
-# measures 8 of every set)
+# (24 of the fourth, fifth and sixth sets, 56 of the seventh, 196 of the eighth to thirteenth;
+# retired_palettes measures 8 of every set)
 RETIRED_SETS = (
     (("mushrooms_stones", "almonds_shells", "peas_stones", "wood_plastic"), range(1000, 2000)),
     (("coffee_stones", "walnuts_shells", "glass_ceramic", "cranberries_leaves"), range(2000, 3000)),
@@ -274,9 +274,9 @@ TUNING_SEED_BLOCKS = (
               "saw (random-800 ... 899), invisible 12 000-12 099, challenging 12 100-12 199 (--start 100), "
               "random 12 200-12 299 (--start 200)"),
     SeedBlock(12_300, 12_700, "docs/experiments_s31/run_stall25c.sh",
-              "push_out.py --seed-base 12300 --random-from 600: the thirty-first session's test B of the stall "
-              "look at 0.25 (--stall 5 0.25), challenging 12 300-12 699, shipped on every seed, the look where "
-              "it can act, tuning palettes"),
+              "push_out.py --seed-base 12300 --random-from 600: the thirty-first session's test B of the "
+              "stall look at 0.25 (--stall 5 0.25), challenging 12 300-12 699, shipped on every seed, the "
+              "look where it can act, tuning palettes"),
     SeedBlock(13_000, 13_300, "docs/experiments_s18/run_stall.sh",
               "push_out.py --seed-base 13000 --random-from 900 --random-only: the eighteenth session's test "
               "of a stall-breaker (--stall) on random-900 ... 999, challenging 13 000-13 099, invisible "
