@@ -21,18 +21,23 @@ GRAPH = [("ur5_driver_sim", "sim_cell"), ("impurity_attention", "heightmap_node"
          ("impurity_attention", "attention_node"), ("impurity_policy", "policy_node")]
 
 
-@pytest.fixture
-def cell(launch, tmp_path):
-    """The cell's processes with bringup/config/cell.yaml, the sim in its fast floating-gripper mode."""
+def launch_cell(launch, record_dir, **episode_parameters) -> dict:
+    """The cell's processes with bringup/config/cell.yaml, the sim in its fast floating-gripper mode; the
+    episode node's parameters overridden by `episode_parameters`. {executable: process}."""
     processes = {}
     for package, executable in GRAPH:
         overrides = {"mode": "floating"} if executable == "sim_cell" else {}
         processes[executable] = launch(package, executable, ros_args(overrides, params_file=CONFIG))
+    processes["episode_node"] = launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(record_dir), "decision_timeout": 60.0, **episode_parameters}, params_file=CONFIG))
+    return processes
+
+
+@pytest.fixture
+def cell(launch, tmp_path):
     # start_wait 120 s: /episode/start answers when the scene is reset, not when the wait runs out (a start
     # that waited for its episode's end would be refused, and one longer than call_service's wait fails)
-    processes["episode_node"] = launch("impurity_policy", "episode_node", ros_args(
-        {"record_dir": str(tmp_path), "decision_timeout": 60.0, "start_wait": 120.0}, params_file=CONFIG))
-    return processes
+    return launch_cell(launch, tmp_path, start_wait=120.0)
 
 
 def steps_of(record_path):

@@ -2,20 +2,15 @@
 (/attention/look_closer) after stall_look_views views in a row with a heap but no impurity, decides on the
 look, and switches it off again (impurity_policy.core.picking's module docstring)."""
 
-from test_episode_graph import CONFIG, GRAPH, steps_of
+from test_episode_graph import launch_cell, steps_of
 
 from impurity_interfaces.action import RunEpisode
-from ros_harness import ActionHelper, ros_args, spin_until
+from ros_harness import ActionHelper, spin_until
 
 
 def test_the_episode_node_decides_on_a_stall_look_and_switches_it_off(ros_node, launch, tmp_path):
-    processes = {}
-    for package, executable in GRAPH:
-        overrides = {"mode": "floating"} if executable == "sim_cell" else {}
-        processes[executable] = launch(package, executable, ros_args(overrides, params_file=CONFIG))
     # a stall look on the first view with a heap but no impurity (5 in a row by default)
-    processes["episode_node"] = launch("impurity_policy", "episode_node", ros_args(
-        {"record_dir": str(tmp_path), "decision_timeout": 60.0, "stall_look_views": 1}, params_file=CONFIG))
+    processes = launch_cell(launch, tmp_path, stall_look_views=1)
     procs = list(processes.values())
     episode = ActionHelper(ros_node, RunEpisode, "/episode/run", timeout=60.0, processes=procs)
     # the first view of invisible scene 5 on the default palette: its likeliest region reads 0.68 against
