@@ -82,12 +82,12 @@ def run_one(task: tuple) -> dict:
     scenario, seed, palette, rule_params = task
     import torch
 
-    from impurity_attention.core.attention import AttentionMode, AttentionParams, attend
+    from impurity_attention.core.attention import AttentionMode, AttentionParams
     from impurity_attention.core.density import find_clusters, select_occluded_region
     from impurity_common import cell
     from impurity_learning.agents import NetworkAgent
     from impurity_learning.evaluate import SimCell
-    from impurity_learning.train import Sensed, observe
+    from impurity_learning.train import sensed_from
     from impurity_policy.core import picking
     from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
     from impurity_policy.core.episode import EpisodeRequest
@@ -148,13 +148,11 @@ def run_one(task: tuple) -> dict:
             if self.stalled < stall[0]:
                 return
             self.stalled = 0
-            maps, lowered = self._sensed.maps, dataclasses.replace(self.attention_params,
-                                                                   verifier_threshold=stall[1])
+            lowered = dataclasses.replace(self.attention_params, verifier_threshold=stall[1])
             # with the known product the first view handed over (twenty-seventh session; before it, none)
-            attention = attend(maps.color, maps.height, lowered, self.grid, known_product=self.known_product)
-            self.fired = attention.mode == AttentionMode.TARGET
-            self._sensed = Sensed(observe(self.agent.method, attention, maps.height, maps.color, self.grid),
-                                  self._sensed.truth, maps, attention)
+            self._sensed = sensed_from(self._sensed.maps, self._sensed.truth, self.agent.method, lowered,
+                                       self.grid, self.known_product)
+            self.fired = self._sensed.attention.mode == AttentionMode.TARGET
 
         def look_closer(self):
             """The loop's stall look (shipped since the thirty-first session): recorded as `stall` too."""

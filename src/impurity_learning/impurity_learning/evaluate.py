@@ -14,7 +14,7 @@ small run seeds; evaluation uses EVAL_SEED_BASE + k, outside that pattern.
 
 from __future__ import annotations
 
-from impurity_attention.core.attention import AttentionParams, attend
+from impurity_attention.core.attention import AttentionParams
 from impurity_attention.core.product_memory import known_product
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
@@ -23,8 +23,7 @@ from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.verdict import full_mask
 
 from .splits import EVAL_SEED_BASE  # noqa: F401 (re-exported: the split lives in splits.py)
-from .train import Sensed, sense
-from .train import observe as observation
+from .train import sense, sensed_from
 
 
 class SimCell:
@@ -66,12 +65,8 @@ class SimCell:
     def look_closer(self) -> picking.View:
         """The loop's stall look: the current view attended again with closer=True (the scene has not moved
         since it was rendered), with the known product; it replaces the current view."""
-        sensed = self._sensed
-        maps = sensed.maps
-        attention = attend(maps.color, maps.height, self.attention_params, self.grid,
-                           known_product=self.known_product, closer=True)
-        self._sensed = Sensed(observation(self.agent.method, attention, maps.height, maps.color, self.grid),
-                              sensed.truth, maps, attention)
+        self._sensed = sensed_from(self._sensed.maps, self._sensed.truth, self.agent.method,
+                                   self.attention_params, self.grid, self.known_product, closer=True)
         return self.observe()
 
     def observe(self) -> picking.View:

@@ -176,7 +176,6 @@ class Sensed:
 def sense(world, projectors: dict, method: str, attention_params, grid, known_product=None) -> Sensed:
     """Render the sim camera -> heightmaps -> attention -> the method's observation; `projectors`
     caches the camera projection; known_product: attend's (product_memory.known_product, or None)."""
-    from impurity_attention.core.attention import attend
     from impurity_attention.core.heightmap import HeightmapProjector
 
     frame = world.render()
@@ -184,9 +183,18 @@ def sense(world, projectors: dict, method: str, attention_params, grid, known_pr
         projectors["camera"] = HeightmapProjector(frame.intrinsics, frame.camera_pose, frame.depth.shape,
                                                   grid)
     maps = projectors["camera"].project(frame.color, frame.depth)
-    attention = attend(maps.color, maps.height, attention_params, grid, known_product=known_product)
-    obs = observe(method, attention, maps.height, maps.color, grid)
-    return Sensed(obs, world.ground_truth(frame), maps, attention)
+    return sensed_from(maps, world.ground_truth(frame), method, attention_params, grid, known_product)
+
+
+def sensed_from(maps, truth, method: str, attention_params, grid, known_product=None,
+                closer: bool = False) -> Sensed:
+    """Heightmaps `maps` (and the sim's `truth` of the same frame) -> attention -> the method's observation;
+    known_product and closer: attend's (a stall look re-attends the maps of the current view)."""
+    from impurity_attention.core.attention import attend
+
+    attention = attend(maps.color, maps.height, attention_params, grid, known_product=known_product,
+                       closer=closer)
+    return Sensed(observe(method, attention, maps.height, maps.color, grid), truth, maps, attention)
 
 
 # ---- the environment side: a rollout -----------------------------------------------------------------

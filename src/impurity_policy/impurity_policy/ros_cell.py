@@ -236,18 +236,10 @@ class RosCell:
         if not self._look_closer.service_is_ready():
             return None
         for _ in range(LOOK_CLOSER_TRIES):
-            done = threading.Event()
-            future = self._look_closer.call_async(SetBool.Request(data=on))
-            future.add_done_callback(lambda _, done=done: done.set())
-            try:
-                answered = self._wait_event(done, LOOK_CLOSER_WAIT,
-                                            f"a response from {names.LOOK_CLOSER_SERVICE}")
-            except EpisodeCanceled:
-                self._look_closer.remove_pending_request(future)
-                raise
-            if answered:
-                return future.result()
-            self._look_closer.remove_pending_request(future)
+            response = self._request(self._look_closer, SetBool.Request(data=on), names.LOOK_CLOSER_SERVICE,
+                                     LOOK_CLOSER_WAIT)
+            if response is not None:
+                return response
         return None
 
     def observe(self) -> View:
@@ -350,6 +342,14 @@ class RosCell:
         timeout = self.timeouts.service
         if not self._wait_until(client.service_is_ready, timeout, f"service {name}"):
             raise EpisodeAborted(f"node_lost: service {name} not available within {timeout:.0f} s")
+        response = self._request(client, request, name, timeout)
+        if response is None:
+            raise EpisodeAborted(f"node_lost: no response from {name} within {timeout:.0f} s")
+        return response
+
+    def _request(self, client, request, name: str, timeout: float):
+        """One request to a ready service: its response, or None (the request withdrawn) when none came
+        within `timeout` s; a cancel while waiting withdraws it and raises EpisodeCanceled."""
         done = threading.Event()
         future = client.call_async(request)
         future.add_done_callback(lambda _: done.set())
@@ -360,7 +360,7 @@ class RosCell:
             raise
         if not answered:
             client.remove_pending_request(future)
-            raise EpisodeAborted(f"node_lost: no response from {name} within {timeout:.0f} s")
+            return None
         return future.result()
 
     def _fresh_decision(self, after_ns: int):
