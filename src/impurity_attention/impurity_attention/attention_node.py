@@ -244,7 +244,7 @@ class AttentionNode(Node):
         self._known_product = product
         p = self._params
         near_miss = " (the view's near miss left out)" if p.known_product_near_miss else ""
-        unread = ("" if p.decision == "verifier" and p.contrast == "relative" else
+        unread = ("" if p.uses_verifier else
                   f" (not with decision {p.decision}, contrast {p.contrast}: only the verifier reads it)")
         self.get_logger().info(
             f"known product: {0 if product is None else len(product.colors)} object colours{near_miss} from "
@@ -254,8 +254,7 @@ class AttentionNode(Node):
 
     def _on_look_closer(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         p = self._params
-        if request.data and not (p.decision == "verifier" and p.contrast == "relative"
-                                 and p.stall_look_threshold > 0):
+        if request.data and not p.stall_look_applies:
             response.success = False
             response.message = (f"no stall look: it needs decision verifier, contrast relative and "
                                 f"stall_look_threshold > 0 (decision {p.decision}, contrast {p.contrast}, "

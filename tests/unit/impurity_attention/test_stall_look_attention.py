@@ -52,3 +52,15 @@ def test_the_closer_look_replaces_a_threshold_set_on_the_node_too():
 def test_a_stall_threshold_outside_0_1_is_refused_by_name(value):
     with pytest.raises(ValueError, match="stall_look_threshold"):
         att.AttentionParams(stall_look_threshold=value)
+
+
+@pytest.mark.parametrize("changes, verifier, applies", [
+    ({}, True, True),
+    ({"stall_look_threshold": 0.0}, True, False),
+    ({"decision": "rule"}, False, False),
+    ({"contrast": "absolute"}, False, False),
+])
+def test_the_stall_look_applies_only_where_the_verifier_decides_with_a_threshold(changes, verifier, applies):
+    p = att.AttentionParams(**{"decision": "verifier", "contrast": "relative", **changes})
+    assert p.uses_verifier is verifier
+    assert p.stall_look_applies is applies

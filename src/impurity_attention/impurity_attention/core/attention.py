@@ -293,6 +293,17 @@ class AttentionParams:
             raise ValueError("min_relative_contrast_distinct must be >= 0, got "
                              f"{self.min_relative_contrast_distinct}")
 
+    @property
+    def uses_verifier(self) -> bool:
+        """Whether attend decides with the verifier (decision "verifier" with contrast "relative"): only then
+        are the verifier's thresholds, the known product and the stall look read."""
+        return self.decision == "verifier" and self.contrast == "relative"
+
+    @property
+    def stall_look_applies(self) -> bool:
+        """Whether attend's closer=True changes anything: the verifier decides, stall_look_threshold > 0."""
+        return self.uses_verifier and self.stall_look_threshold > 0
+
 
 @dataclass
 class SalientRegion:
@@ -501,13 +512,13 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                        mask_cells=target_cells, reason=reason, last_look=looked)
 
     last_look_region = None  # verifier: (the likeliest region, why), when a last look may take it
-    if params.decision == "verifier" and params.contrast == "relative":
+    if params.uses_verifier:
         no_target = "no salient region"
         if regions:
             model = params.verifier or default_verifier()
             least = params.verifier_threshold or model.threshold
             view = ""
-            if closer and params.stall_look_threshold > 0:
+            if closer and params.stall_look_applies:
                 least, view = params.stall_look_threshold, " (stall look)"
             clipped = params.verifier_clipped_threshold > least and clipped_view(color, objects)
             if clipped:
