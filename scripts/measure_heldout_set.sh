@@ -4,7 +4,8 @@
 # and the exposure check (exposure_wide.py on EXPOSURE_SEED_BASE) run side by side, one core each; then
 # picking under `cell` (run_heldout.sh), Ours on the default palette on the same 100 picking seeds
 # (default100), and picking under `none`. Writes into OUT: palette_evaluate.txt, attention_palettes.json,
-# exposure_evaluation.txt, NAME/, default100/, default100.txt, NAME_none/. About 75 min on 2 cores.
+# exposure_evaluation.txt, NAME/, default100/, default100.txt, NAME_none/. 40-75 min on 2 cores
+# (40 for the fourteenth set in the thirty-second session, 67-75 for the earlier ones).
 #
 #     scripts/measure_heldout_set.sh OUT NAME PICKING_SEED_BASE EXPOSURE_SEED_BASE
 #     scripts/measure_heldout_set.sh runs/s31 heldout14 916900000 917000000   # the fourteenth set
@@ -12,8 +13,9 @@
 # Each set's run (docs/experiments_s*/run_heldout*.sh, from the eleventh) calls this script with its
 # arguments; palette-evaluate reads splits.py as it stands, so an earlier set is reproduced at its commit.
 set -euo pipefail
-usage() { sed -n 2,13p "$0" >&2; exit 2; }
-[ $# -eq 4 ] || usage
+usage() { sed -n 2,14p "$0" >&2; exit 2; }
+[ $# -eq 4 ] || { echo "measure_heldout_set.sh: expected 4 arguments, got $#" >&2; usage; }
+[ -n "$1" ] || { echo "measure_heldout_set.sh: OUT is empty" >&2; usage; }
 for number in "$3" "$4"; do
   [[ $number =~ ^[0-9]+$ ]] || { echo "measure_heldout_set.sh: '$number' is not a whole number" >&2; usage; }
 done
