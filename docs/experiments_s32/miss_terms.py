@@ -14,6 +14,7 @@ product shade) and whether the impurity is lighter or darker than the product (C
 import sys
 from collections import defaultdict
 
+import cv2
 import numpy as np
 
 sys.path.insert(0, "scripts")
@@ -29,10 +30,8 @@ from ur5_driver_sim.core.appearance import delta_e, palette_named  # noqa: E402
 
 
 def lightness(rgb) -> float:
-    """CIE L* of an sRGB colour in [0, 1] (D65)."""
-    linear = [c / 12.92 if c <= 0.04045 else ((c + 0.055) / 1.055) ** 2.4 for c in rgb]
-    y = 0.2126 * linear[0] + 0.7152 * linear[1] + 0.0722 * linear[2]
-    return 116 * (y ** (1 / 3) if y > 0.008856 else 7.787 * y + 16 / 116) - 16
+    """CIE L* of an RGB colour in [0, 1], by OpenCV's Lab (D65), as appearance.delta_e reads colours."""
+    return float(cv2.cvtColor(np.array([[rgb]], dtype=np.float32), cv2.COLOR_RGB2Lab)[0, 0, 0])
 
 
 def palette_facts(name: str) -> tuple:
