@@ -19,7 +19,7 @@ sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
 
 from impurity_attention.core.attention import AttentionParams  # noqa: E402
-from impurity_attention.core.verifier import RegionVerifier  # noqa: E402
+from impurity_attention.core.verifier import RegionVerifier, default_verifier  # noqa: E402
 
 LAYOUT_SEED_BASE = 61_000
 FIRST, COUNT = 400, 200
@@ -49,7 +49,8 @@ def main() -> None:
             params = dataclasses.replace(params, verifier_last_look=args.last_look[k])
         arms.append((str(path), params))
     for name, params in arms:
-        print(f"== {name} (threshold {params.verifier.threshold:.3f}, last look {params.verifier_last_look})")
+        threshold = (params.verifier or default_verifier()).threshold
+        print(f"== {name} (threshold {threshold:.3f}, last look {params.verifier_last_look})", flush=True)
         ca.print_palette_rates(ca.palette_rates(records, params), per_palette=False)
 
 
