@@ -119,7 +119,6 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--jobs", type=int, default=2)
     jobs = parser.parse_args().jobs
-    from sklearn.model_selection import GroupKFold
     if CACHE.exists():
         data = np.load(CACHE)
         palettes = tuple(data[k] for k in ("features", "on", "scene", "group", "visible"))
@@ -136,6 +135,13 @@ def main() -> None:
                            zip(("features", "on", "scene", "group", "visible"), parts, strict=True)})
         CACHE.parent.mkdir(parents=True, exist_ok=True)
         np.savez_compressed(CACHE, **arrays)
+    compare(palettes, exposed)
+
+
+def compare(palettes: tuple, exposed: dict) -> None:
+    """MODELS by palette-grouped cross-validation on `palettes` (table()'s five arrays), then each fitted on
+    all of them and read on `exposed` ({exposure: table()'s arrays} of the default palette's scenes)."""
+    from sklearn.model_selection import GroupKFold
     features, on, scene, group, visible = palettes
     count = len(visible)
     print(f"{count} scenes ({int(visible.sum())} visible), {len(features)} regions, "
