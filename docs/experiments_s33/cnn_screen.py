@@ -3,7 +3,8 @@ convolutional network, which sees whole objects and their faces rather than one 
 region verifier on fresh palettes?
 
 The network (CellNet below: 4 input planes, three resolutions, 0.16 M weights) maps a view's heightmaps,
-averaged over 2 x 2 cells (4 mm), to a per-cell impurity logit (read back at full size, bilinear). Its input is relative to the scene, so that no palette or exposure sets it: CIE
+averaged over 2 x 2 cells (4 mm), to a per-cell impurity logit (read back at full size, bilinear). Its input
+is relative to the scene, so that no palette or exposure sets it: CIE
 L*a*b* of each cell minus the median over the view's object cells, divided by that channel's median absolute
 deviation there (floor 2 units), and the height (m x 20); cells without an object are 0. It is trained on the
 verifier's fitting first views only (rule-sweep's scenes, the default palette's also at x0.5 and x2, and the
