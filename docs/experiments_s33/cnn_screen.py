@@ -22,6 +22,7 @@ Read on:
 
     python docs/experiments_s33/cnn_screen.py [--epochs 8]     # trains the network (runs/s33/cnn.pt)
     python docs/experiments_s33/cnn_screen.py [--jobs 2]       # then the reading
+    python docs/experiments_s33/cnn_screen.py --variant H2 --epochs 12; then again with --variant H2
 The network is saved in runs/s33/cnn.pt, the rows in runs/s33/cnn_rows.npz.
 """
 import argparse
@@ -46,6 +47,7 @@ import more_palettes  # noqa: E402
 from impurity_attention.core import evaluation  # noqa: E402
 from impurity_attention.core.attention import salient_regions, sanitize, scene_maps  # noqa: E402
 from impurity_attention.core.verifier import FEATURES, candidate_features  # noqa: E402
+from impurity_learning import splits  # noqa: E402
 
 NET = pathlib.Path("runs/s33/cnn.pt")
 ROWS = pathlib.Path("runs/s33/cnn_rows.npz")
@@ -108,16 +110,27 @@ def objects_of(record) -> tuple:
     return color, height, height > ex.PARAMS.density.occupied_height
 
 
-def train(epochs: int) -> CellNet:
+def exposed_input(color, height, objects, factor: float) -> np.ndarray:
+    """half(scene_input) of the view with its RGB scaled by `factor` (clipped at 255, a saturating camera)."""
+    color = np.clip(color.astype(np.float32) * factor + 0.5, 0, 255).astype(np.uint8)
+    return half(scene_input(color, height, objects))
+
+
+def train(epochs: int, exposure: bool = False) -> CellNet:
+    """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2)."""
     torch.manual_seed(0)
     rng = np.random.default_rng(0)
     records, _ = ca.rule_sweep_records()
     records = [r for r in records + ca.collect_palettes("tuning", own_layouts=True)
                if r.category() in evaluation.CATEGORIES]
-    inputs, labels, masks = [], [], []
+    inputs, labels, masks, views = [], [], [], []
     for record in tqdm(records, desc="inputs"):
         color, height, objects = objects_of(record)
-        inputs.append(half(scene_input(color, height, objects)))
+        if exposure:
+            views.append((color, height, objects))
+            inputs.append(np.zeros((4, *(n // 2 for n in objects.shape)), np.float32))
+        else:
+            inputs.append(half(scene_input(color, height, objects)))
         labels.append(half((record.visible_target_cells & objects).astype(np.float32)[None])[0])
         masks.append(half(objects.astype(np.float32)[None])[0])
     inputs, labels, masks = (torch.from_numpy(np.stack(a)) for a in (inputs, labels, masks))
@@ -132,6 +145,10 @@ def train(epochs: int) -> CellNet:
         for start in bar:
             index = torch.from_numpy(order[start:start + batch])
             x, y, m = inputs[index], labels[index][:, None], masks[index][:, None]
+            if exposure:
+                low, high = np.log(splits.TRAINING_EXPOSURE)
+                x = torch.from_numpy(np.stack([exposed_input(*views[i], float(np.exp(rng.uniform(low, high))))
+                                               for i in order[start:start + batch]]))
             turns = int(rng.integers(4))
             x, y, m = (torch.rot90(t, turns, (2, 3)) for t in (x, y, m))
             if rng.random() < 0.5:
@@ -186,10 +203,16 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--epochs", type=int, default=8)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--variant", choices=("H", "H2"), default="H",
+                        help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
+    global NET, ROWS, MODELS
+    if args.variant == "H2":
+        NET, ROWS = NET.with_name("cnn_h2.pt"), ROWS.with_name("cnn_h2_rows.npz")
+        MODELS = {"A shipped fifteen": FEATURES, "H2 fifteen + network": FEATURES + CNN}
     if not NET.exists():  # training in a process of its own: torch's thread pool does not survive a fork
         torch.set_num_threads(2)
-        train(args.epochs)
+        train(args.epochs, exposure=args.variant == "H2")
         print(f"trained {NET}; run again for the reading")
         return
     NETWORK = CellNet()
