@@ -282,8 +282,9 @@ TUNING_SEED_BLOCKS = (
               "of a stall-breaker (--stall) on random-900 ... 999, challenging 13 000-13 099, invisible "
               "13 100-13 199 (--start 100), random 13 200-13 299 (--start 200), with and without it"),
     SeedBlock(13_300, 13_600, "docs/experiments_s33/run_threshold.sh",
-              "push_out.py --seed-base 13300 --random-from 600 --random-only: the thirty-third session's test "
-              "of the verifier threshold at a 2 % cap, invisible 13 300-13 399, challenging 13 400-13 499, "
+              "push_out.py --seed-base 13300 --random-from 600 --random-only: the thirty-third session's "
+              "test of the verifier threshold at a 2 % cap, invisible 13 300-13 399, challenging "
+              "13 400-13 499, "
               "random 13 500-13 599, both thresholds on the same seeds"),
     SeedBlock(14_000, 14_300, "docs/experiments_s19/run_ridge.sh",
               "push_out.py --seed-base 14000 --random-from 700 --random-only: the nineteenth session's test "
@@ -360,7 +361,8 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(72_000, 72_020, _S10 + "last_look_episodes.py",
               "DEFAULT_SEED_BASE: default palette, 20 episodes per scenario"),
     SeedBlock(61_000, 69_600, "docs/experiments_s33/check_palettes.py",
-              "LAYOUT_SEED_BASE: random-400 ... 599 on layouts of their own, 1400 x row + palette x count + i"),
+              "LAYOUT_SEED_BASE: random-400 ... 599 on layouts of their own, 1400 x row + palette x count "
+              "+ i"),
     SeedBlock(72_100, 76_160, "docs/experiments_s33/run_threshold.sh",
               "exposure_wide.py report --seed-base 72100 --count-scale 2: the thirty-third session's fresh "
               "default-palette exposure set for the verifier threshold at a 2 % cap"),
