@@ -198,11 +198,79 @@ def rows_of(index: int) -> list:
     return out
 
 
+def with_default_fit(sets: dict, jobs: int) -> None:
+    """The reading with the default palette's fitting exposure scenes (calibrate_attention's
+    EXPOSURE_FIT_SEED_BASE, 35000+, at x0.5 / x1 / x2; the network never saw them) among every verifier fit's
+    rows: cross-validation folds of the 260 fresh palettes each train with all of them, and the threshold is
+    taken at 1 % of the clean scenes of everything fitted on; found and false TARGET are counted on the 260
+    palettes' held-out folds, the check set and the exposure check set (30000+) as before."""
+    from sklearn.model_selection import GroupKFold
+    cache = ROWS.with_name(ROWS.stem + "_default_fit.npz")
+    if cache.exists():
+        data = np.load(cache)
+        extra = [tuple(data[f"x{e:g}_{k}"] for k in PARTS) for e in ca.EXPOSURES]
+    else:
+        default = ca.collect_exposure_scenes(ca.EXPOSURE_FIT_SEED_BASE)
+        extra = [ex.table([r if e == 1.0 else r.exposed(e) for r in default], jobs) for e in ca.EXPOSURES]
+        np.savez_compressed(cache, **{f"x{e:g}_{k}": v for e, parts in zip(ca.EXPOSURES, extra, strict=True)
+                                      for k, v in zip(PARTS, parts, strict=True)})
+
+    def joined(parts_list):  # table()'s arrays of several sets as one, scene indices offset
+        out, offset = [[] for _ in PARTS], 0
+        for f, o, sc, g, v in parts_list:
+            for i, a in enumerate((f, o, sc + offset, g, v)):
+                out[i].append(a)
+            offset += len(v)
+        return tuple(np.concatenate(a) for a in out)
+
+    fresh = sets["fresh"]
+    fit_all = joined([fresh, *extra])
+    count = len(fresh[4])
+    print(f"with the default palette's fitting scenes (seeds {ca.EXPOSURE_FIT_SEED_BASE}+, x0.5 / x1 / x2: "
+          f"{sum(len(x[4]) for x in extra)} scenes) in every fit")
+    for name, chosen in MODELS.items():
+        columns = [ALL.index(c) for c in chosen]
+        features, on, scene, group, visible = fresh
+        x = features[:, columns]
+        found = false = 0
+        for train, test in GroupKFold(n_splits=5).split(x, on, group):
+            kept = np.isin(scene, np.unique(scene[train]))
+            part = joined([(features[kept], on[kept], scene[kept], group[kept], visible), *extra])
+            fitted = ex.fit(part[0][:, columns], part[1])
+            own, _ = ca.scene_decisions(ex.predict(fitted, part[0][:, columns]), part[1], part[2],
+                                        len(part[4]))
+            seen = np.zeros(len(part[4]), bool)
+            seen[part[2]] = True
+            least = ca.threshold_at(own[seen], part[4][seen], 0.01)
+            best, hit = ca.scene_decisions(ex.predict(fitted, x[test]), on[test], scene[test], count)
+            unseen = np.zeros(count, bool)
+            unseen[scene[test]] = True
+            found += int(np.sum((best >= least) & unseen & hit & visible))
+            false += int(np.sum((best >= least) & unseen & ~visible))
+        line = (f"{name:22s} cross-validated found {found}/{int(visible.sum())} "
+                f"({100 * found / visible.sum():.2f} %), false TARGET {false}/{int((~visible).sum())} "
+                f"({100 * false / (~visible).sum():.2f} %)")
+        fitted = ex.fit(fit_all[0][:, columns], fit_all[1])
+        best, _ = ca.scene_decisions(ex.predict(fitted, fit_all[0][:, columns]), fit_all[1], fit_all[2],
+                                     len(fit_all[4]))
+        least = ca.threshold_at(best, fit_all[4], 0.01)
+        reads = []
+        for label, (f, o, sc, _, v) in [("check set", sets["check"])] + [
+                (f"x{e:g}", sets[f"x{e:g}"]) for e in ca.EXPOSURES]:
+            b, h = ca.scene_decisions(ex.predict(fitted, f[:, columns]), o, sc, len(v))
+            taken = b >= least
+            reads.append(f"{label} found {int(np.sum(taken & h & v))}/{int(v.sum())}, false "
+                         f"{int(np.sum(taken & ~v))}/{int((~v).sum())}")
+        print(f"{line}\n    fitted on all (threshold {least:.3f}): " + "; ".join(reads), flush=True)
+
+
 def main() -> None:
     global NETWORK
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--epochs", type=int, default=8)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--with-default-fit", action="store_true",
+                        help="the reading with the default palette's fitting exposure scenes in every fit")
     parser.add_argument("--variant", choices=("H", "H2"), default="H",
                         help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
@@ -233,6 +301,9 @@ def main() -> None:
         np.savez_compressed(ROWS, **{f"{name}_{k}": v for name, parts in sets.items()
                                      for k, v in zip(PARTS, parts, strict=True)})
     ex.ALL, ex.MODELS = ALL, MODELS
+    if args.with_default_fit:
+        with_default_fit(sets, args.jobs)
+        return
     ex.compare(sets["fresh"], {e: sets[f"x{e:g}"] for e in ca.EXPOSURES})
     features, on, scene, _, visible = sets["fresh"]
     cf, con, cscene, _, cvisible = sets["check"]
