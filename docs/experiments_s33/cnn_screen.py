@@ -23,6 +23,7 @@ Read on:
     python docs/experiments_s33/cnn_screen.py [--epochs 8]     # trains the network (runs/s33/cnn.pt)
     python docs/experiments_s33/cnn_screen.py [--jobs 2]       # then the reading
     python docs/experiments_s33/cnn_screen.py --variant H2 --epochs 12; then again with --variant H2
+    python docs/experiments_s33/cnn_screen.py --variant H3 --epochs 6; then --variant H3 [--with-default-fit]
 The network is saved in runs/s33/cnn.pt, the rows in runs/s33/cnn_rows.npz.
 """
 import argparse
@@ -52,6 +53,7 @@ from impurity_learning import splits  # noqa: E402
 NET = pathlib.Path("runs/s33/cnn.pt")
 ROWS = pathlib.Path("runs/s33/cnn_rows.npz")
 POSITIVE_WEIGHT = 5.0
+TRAINING_LAYOUT_SEED_BASE = 26_200
 MAD_FLOOR = 2.0
 CNN = ("cnn_mean", "cnn_high")
 ALL = FEATURES + CNN
@@ -116,13 +118,29 @@ def exposed_input(color, height, objects, factor: float) -> np.ndarray:
     return half(scene_input(color, height, objects))
 
 
-def train(epochs: int, exposure: bool = False) -> CellNet:
-    """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2)."""
+def training_palette_records() -> list:
+    """H3's further training views: random-800 ... 999 (tuning palettes, drawn in earlier picking tests, never
+    in a perception fit or reading) on layouts of their own, PALETTE_PLAN's rows packed one after the other:
+    seeds TRAINING_LAYOUT_SEED_BASE + the row's offset + palette index x the row's count + i (26 200 ...
+    29 999, registered in impurity_learning.splits). Cached in runs/perception/palettes_train800_own.npz."""
+    offsets = np.concatenate([[0], np.cumsum([200 * count for *_, count in ca.PALETTE_PLAN])])
+    wanted = ca.palette_scenes([f"random-{800 + k}" for k in range(200)],
+                               lambda row, number, scenes: TRAINING_LAYOUT_SEED_BASE + int(offsets[row])
+                               + number * scenes)
+    assert max(seed for *_, seed, _ in wanted) < 30_000
+    return ca.render_cached(ca.CACHE / "palettes_train800_own.npz", wanted, "network training palettes 800+")
+
+
+def train(epochs: int, exposure: bool = False, more: bool = False) -> CellNet:
+    """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2, H3).
+    more: training_palette_records() join the fitting first views (H3)."""
     torch.manual_seed(0)
     rng = np.random.default_rng(0)
     records, _ = ca.rule_sweep_records()
-    records = [r for r in records + ca.collect_palettes("tuning", own_layouts=True)
-               if r.category() in evaluation.CATEGORIES]
+    records = records + ca.collect_palettes("tuning", own_layouts=True)
+    if more:
+        records = records + training_palette_records()
+    records = [r for r in records if r.category() in evaluation.CATEGORIES]
     inputs, labels, masks, views = [], [], [], []
     for record in tqdm(records, desc="inputs"):
         color, height, objects = objects_of(record)
@@ -271,16 +289,17 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--with-default-fit", action="store_true",
                         help="the reading with the default palette's fitting exposure scenes in every fit")
-    parser.add_argument("--variant", choices=("H", "H2"), default="H",
+    parser.add_argument("--variant", choices=("H", "H2", "H3"), default="H",
                         help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
     global NET, ROWS, MODELS
-    if args.variant == "H2":
-        NET, ROWS = NET.with_name("cnn_h2.pt"), ROWS.with_name("cnn_h2_rows.npz")
-        MODELS = {"A shipped fifteen": FEATURES, "H2 fifteen + network": FEATURES + CNN}
+    if args.variant in ("H2", "H3"):
+        tag = args.variant.lower()
+        NET, ROWS = NET.with_name(f"cnn_{tag}.pt"), ROWS.with_name(f"cnn_{tag}_rows.npz")
+        MODELS = {"A shipped fifteen": FEATURES, f"{args.variant} fifteen + network": FEATURES + CNN}
     if not NET.exists():  # training in a process of its own: torch's thread pool does not survive a fork
         torch.set_num_threads(2)
-        train(args.epochs, exposure=args.variant == "H2")
+        train(args.epochs, exposure=args.variant in ("H2", "H3"), more=args.variant == "H3")
         print(f"trained {NET}; run again for the reading")
         return
     NETWORK = CellNet()

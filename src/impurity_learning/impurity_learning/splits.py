@@ -317,6 +317,9 @@ TUNING_SEED_BLOCKS = (
               "OWN_LAYOUT_SEED_BASE's scheme for random-96 ... 191 as palettes 101-196; its first row "
               "(random) runs to 21 181, into the own layouts' second row (challenging, 21 000-21 403): "
               "seeds 21 000-21 181 serve both, not by design (other scenario and palettes)"),
+    SeedBlock(26_200, 30_000, "docs/experiments_s33/cnn_screen.py",
+              "TRAINING_LAYOUT_SEED_BASE: random-800 ... 999 on layouts of their own, the network's further "
+              "training views (variant H3), PALETTE_PLAN's rows packed: row offset + palette x count + i"),
     SeedBlock(30_000, 34_030, _CA, "EXPOSURE_CHECK_SEED_BASE: the default palette's EXPOSURE_PLAN, 1000 x "
               "row + i, never fitted on (experiments_s11/exposure_wide.py's default; experiments_s12/"
               "recovery.py, experiments_s13/trees_check.py)"),
