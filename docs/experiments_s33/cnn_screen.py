@@ -46,8 +46,8 @@ import fresh_layouts  # noqa: E402
 import more_palettes  # noqa: E402
 
 from impurity_attention.core import evaluation  # noqa: E402
-from impurity_attention.core.attention import salient_regions, sanitize, scene_maps  # noqa: E402
-from impurity_attention.core.verifier import FEATURES, candidate_features  # noqa: E402
+from impurity_attention.core.attention import sanitize  # noqa: E402
+from impurity_attention.core.verifier import FEATURES  # noqa: E402
 from impurity_learning import splits  # noqa: E402
 
 NET = pathlib.Path("runs/s33/cnn.pt")
@@ -58,7 +58,7 @@ MAD_FLOOR = 2.0
 CNN = ("cnn_mean", "cnn_high")
 ALL = FEATURES + CNN
 MODELS = {"A shipped fifteen": FEATURES, "H fifteen + network": FEATURES + CNN}
-PARTS = ("features", "on", "scene", "group", "visible")
+PARTS = ex.PARTS
 
 
 def scene_input(color: np.ndarray, height: np.ndarray, objects: np.ndarray) -> np.ndarray:
@@ -201,17 +201,12 @@ def probability_map(color, height, objects) -> np.ndarray:
 
 
 def rows_of(index: int) -> list:
-    record = ex.RECORDS[index]
-    color, height, objects = objects_of(record)
-    saliency, conspicuity = scene_maps(color, objects, ex.PARAMS)
-    regions = salient_regions(saliency, objects, ex.PARAMS)
-    probability = probability_map(color, height, objects)
+    """[(features (len(ALL),), on target)] of excluded_screen.RECORDS[index]'s scored regions."""
+    view = ex.scored_view(ex.RECORDS[index])
+    probability = probability_map(view.color, view.height, view.objects)
     out = []
-    for region, row in candidate_features(color, height, objects, conspicuity, regions):
-        if row is None:
-            continue
+    for _, region, row, on in view.candidates:
         values = probability[region.mask]
-        on = record.category() == "visible" and bool(np.any(region.mask & record.visible_target_cells))
         out.append((np.concatenate([row, [values.mean(), np.quantile(values, 0.9)]]), on))
     return out
 
@@ -229,7 +224,7 @@ def with_default_fit(sets: dict, jobs: int) -> None:
         extra = [tuple(data[f"x{e:g}_{k}"] for k in PARTS) for e in ca.EXPOSURES]
     else:
         default = ca.collect_exposure_scenes(ca.EXPOSURE_FIT_SEED_BASE)
-        extra = [ex.table([r if e == 1.0 else r.exposed(e) for r in default], jobs) for e in ca.EXPOSURES]
+        extra = list(ex.exposed_tables(default, jobs, rows_of).values())
         np.savez_compressed(cache, **{f"x{e:g}_{k}": v for e, parts in zip(ca.EXPOSURES, extra, strict=True)
                                       for k, v in zip(PARTS, parts, strict=True)})
 
@@ -305,25 +300,22 @@ def main() -> None:
     NETWORK = CellNet()
     NETWORK.load_state_dict(torch.load(NET))
     NETWORK.eval()
-    ex.rows_of = rows_of
     if ROWS.exists():
         data = np.load(ROWS)
         sets = {name: tuple(data[f"{name}_{k}"] for k in PARTS)
                 for name in ("fresh", "check", "x0.5", "x1", "x2")}
     else:
         fresh = more_palettes.extra_records(200) + fresh_layouts.own_layout_records(700, 60)
-        sets = {"fresh": ex.table(fresh, args.jobs),
-                "check": ex.table(check_palettes.check_records(), args.jobs)}
-        default = exposure_wide.collect()
-        for e in ca.EXPOSURES:
-            sets[f"x{e:g}"] = ex.table([r if e == 1.0 else r.exposed(e) for r in default], args.jobs)
+        sets = {"fresh": ex.table(fresh, args.jobs, rows_of),
+                "check": ex.table(check_palettes.check_records(), args.jobs, rows_of)}
+        for e, parts in ex.exposed_tables(exposure_wide.collect(), args.jobs, rows_of).items():
+            sets[f"x{e:g}"] = parts
         np.savez_compressed(ROWS, **{f"{name}_{k}": v for name, parts in sets.items()
                                      for k, v in zip(PARTS, parts, strict=True)})
-    ex.ALL, ex.MODELS = ALL, MODELS
     if args.with_default_fit:
         with_default_fit(sets, args.jobs)
         return
-    ex.compare(sets["fresh"], {e: sets[f"x{e:g}"] for e in ca.EXPOSURES})
+    ex.compare(sets["fresh"], {e: sets[f"x{e:g}"] for e in ca.EXPOSURES}, ALL, MODELS)
     features, on, scene, _, visible = sets["fresh"]
     cf, con, cscene, _, cvisible = sets["check"]
     print("fitted on all 260 fresh palettes, threshold at 1 % of their clean scenes, read on the check set:")

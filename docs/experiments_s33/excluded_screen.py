@@ -25,6 +25,7 @@ import argparse
 import multiprocessing
 import pathlib
 import sys
+from typing import NamedTuple
 
 import cv2
 import numpy as np
@@ -57,40 +58,60 @@ PARAMS = AttentionParams()
 RECORDS: list = []
 
 
-def rows_of(index: int) -> list:
-    """[(features (len(ALL),), on target)] of RECORDS[index]'s scored regions (as attend scores them)."""
-    record = RECORDS[index]
+class ScoredView(NamedTuple):
+    """A view as attend scores it: sanitized color and height, object cells, VOCUS2's conspicuity, the salient
+    regions, and [(rank, region, verifier features, on a visible target)] for its scored regions that have
+    features."""
+    color: np.ndarray
+    height: np.ndarray
+    objects: np.ndarray
+    conspicuity: dict
+    regions: list
+    candidates: list
+
+
+def scored_view(record) -> ScoredView:
+    """The view of a scene record as attend() scores it (the rows every screening here starts from)."""
     color, height = sanitize(record.color, record.height)
     objects = height > PARAMS.density.occupied_height
     saliency, conspicuity = scene_maps(color, objects, PARAMS)
     regions = salient_regions(saliency, objects, PARAMS)
+    candidates = [(rank, region, row,
+                   record.category() == "visible" and bool(np.any(region.mask & record.visible_target_cells)))
+                  for rank, (region, row) in enumerate(candidate_features(color, height, objects, conspicuity,
+                                                                          regions))
+                  if row is not None]
+    assert len(candidates) <= TOP_REGIONS
+    return ScoredView(color, height, objects, conspicuity, regions, candidates)
+
+
+def rows_of(index: int) -> list:
+    """[(features (len(ALL),), on target)] of RECORDS[index]'s scored regions (as attend scores them)."""
+    view = scored_view(RECORDS[index])
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * PRODUCT_MARGIN + 1,) * 2)
-    grown = [cv2.dilate(r.mask.astype(np.uint8), kernel) > 0 for r in regions]
-    planes = ViewPlanes.of(color, height)
+    grown = [cv2.dilate(r.mask.astype(np.uint8), kernel) > 0 for r in view.regions]
+    planes = ViewPlanes.of(view.color, view.height)
     out = []
-    for rank, (region, row) in enumerate(candidate_features(color, height, objects, conspicuity, regions)):
-        if row is None:
-            continue
-        others = np.zeros_like(objects)
+    for rank, region, row, on in view.candidates:
+        others = np.zeros_like(view.objects)
         for k, mask in enumerate(grown):
             if k != rank:
                 others |= mask
-        kept = objects & ~(others & ~region.mask)
-        excluded = region_features(color, height, kept, conspicuity, region.mask, True, planes)
+        kept = view.objects & ~(others & ~region.mask)
+        excluded = region_features(view.color, view.height, kept, view.conspicuity, region.mask, True, planes)
         if excluded is None:  # nothing left beside the region: the shipped features stand in
             excluded = row[:len(REGION_FEATURES)]
-        on = record.category() == "visible" and bool(np.any(region.mask & record.visible_target_cells))
         out.append((np.concatenate([row, excluded]), on))
-    assert len(out) <= TOP_REGIONS
     return out
 
 
-def table(records: list, jobs: int) -> tuple:
-    """(features, on, scene, group, visible) over records in the three judged categories."""
+def table(records: list, jobs: int, rows=rows_of) -> tuple:
+    """(features, on, scene, group, visible) over records in the three judged categories; rows(index) gives
+    RECORDS[index]'s [(features, on target)] (forked workers read RECORDS)."""
     global RECORDS
     RECORDS = [r for r in records if r.category() in evaluation.CATEGORIES]
     with multiprocessing.get_context("fork").Pool(jobs) as pool:
-        per_scene = pool.map(rows_of, range(len(RECORDS)), chunksize=8)
+        per_scene = pool.map(rows, range(len(RECORDS)), chunksize=8)
     feats, on, scene, group = [], [], [], []
     for index, rows in enumerate(per_scene):
         for row, hit in rows:
@@ -115,39 +136,52 @@ def predict(fitted, rows):
     return model.predict_proba(np.nan_to_num(scaler.transform(np.clip(rows, low, high))))[:, 1]
 
 
+PARTS = ("features", "on", "scene", "group", "visible")
+
+
+def exposed_tables(default: list, jobs: int, rows=rows_of) -> dict:
+    """{exposure: table()} of the default palette's scene records at each of calibrate_attention's
+    EXPOSURES."""
+    return {e: table([r if e == 1.0 else r.exposed(e) for r in default], jobs, rows) for e in ca.EXPOSURES}
+
+
+def run(cache: pathlib.Path, rows, names: tuple, models: dict, jobs: int) -> None:
+    """The screening: table()'s rows (by `rows`) of the 260 fresh tuning palettes and of the default palette's
+    exposure set, cached in `cache`, then compare() over `names` (the rows' columns) and `models`."""
+    if cache.exists():
+        data = np.load(cache)
+        palettes = tuple(data[k] for k in PARTS)
+        exposed = {e: tuple(data[f"x{e:g}_{k}"] for k in PARTS) for e in ca.EXPOSURES}
+    else:
+        records = more_palettes.extra_records(200) + fresh_layouts.own_layout_records(700, 60)
+        palettes = table(records, jobs, rows)
+        default = exposure_wide.collect()
+        exposed = exposed_tables(default, jobs, rows)
+        arrays = dict(zip(PARTS, palettes, strict=True))
+        for e, parts in exposed.items():
+            arrays.update({f"x{e:g}_{k}": v for k, v in zip(PARTS, parts, strict=True)})
+        cache.parent.mkdir(parents=True, exist_ok=True)
+        np.savez_compressed(cache, **arrays)
+    compare(palettes, exposed, names, models)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--jobs", type=int, default=2)
-    jobs = parser.parse_args().jobs
-    if CACHE.exists():
-        data = np.load(CACHE)
-        palettes = tuple(data[k] for k in ("features", "on", "scene", "group", "visible"))
-        exposed = {e: tuple(data[f"x{e:g}_{k}"] for k in ("features", "on", "scene", "group", "visible"))
-                   for e in ca.EXPOSURES}
-    else:
-        records = more_palettes.extra_records(200) + fresh_layouts.own_layout_records(700, 60)
-        palettes = table(records, jobs)
-        default = exposure_wide.collect()
-        exposed = {e: table([r if e == 1.0 else r.exposed(e) for r in default], jobs) for e in ca.EXPOSURES}
-        arrays = dict(zip(("features", "on", "scene", "group", "visible"), palettes, strict=True))
-        for e, parts in exposed.items():
-            arrays.update({f"x{e:g}_{k}": v for k, v in
-                           zip(("features", "on", "scene", "group", "visible"), parts, strict=True)})
-        CACHE.parent.mkdir(parents=True, exist_ok=True)
-        np.savez_compressed(CACHE, **arrays)
-    compare(palettes, exposed)
+    run(CACHE, rows_of, ALL, MODELS, parser.parse_args().jobs)
 
 
-def compare(palettes: tuple, exposed: dict) -> None:
-    """MODELS by palette-grouped cross-validation on `palettes` (table()'s five arrays), then each fitted on
-    all of them and read on `exposed` ({exposure: table()'s arrays} of the default palette's scenes)."""
+def compare(palettes: tuple, exposed: dict, names: tuple = ALL, models: dict = MODELS) -> None:
+    """`models` ({name: feature names}, columns of `names`) by palette-grouped cross-validation on `palettes`
+    (table()'s five arrays), then each fitted on all of them and read on `exposed` ({exposure: table()'s
+    arrays} of the default palette's scenes)."""
     from sklearn.model_selection import GroupKFold
     features, on, scene, group, visible = palettes
     count = len(visible)
     print(f"{count} scenes ({int(visible.sum())} visible), {len(features)} regions, "
           f"{len(set(group))} palettes")
-    for name, chosen in MODELS.items():
-        columns = [ALL.index(c) for c in chosen]
+    for name, chosen in models.items():
+        columns = [names.index(c) for c in chosen]
         x = features[:, columns]
         found = seen_visible = false = seen_clean = 0
         for train, test in GroupKFold(n_splits=5).split(x, on, group):

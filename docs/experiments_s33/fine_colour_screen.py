@@ -17,6 +17,7 @@ on the default palette's exposure set, tuning seeds 30000+).
     python docs/experiments_s33/fine_colour_screen.py [--jobs 2]
 Rows are cached in runs/s33/fine_rows.npz.
 """
+import argparse
 import pathlib
 import sys
 
@@ -27,8 +28,7 @@ sys.path[:0] = ["scripts", "docs/experiments_s11", "docs/experiments_s12", "docs
                 "docs/experiments_s33"]
 import excluded_screen as ex  # noqa: E402
 
-from impurity_attention.core.attention import salient_regions, sanitize, scene_maps  # noqa: E402
-from impurity_attention.core.verifier import FEATURES, PRODUCT_MARGIN, candidate_features  # noqa: E402
+from impurity_attention.core.verifier import FEATURES, PRODUCT_MARGIN  # noqa: E402
 
 CACHE = pathlib.Path("runs/s33/fine_rows.npz")
 FINE = ("off_rgb32", "off_chroma", "off_lab")
@@ -75,28 +75,23 @@ def fine_features(color: np.ndarray, region: np.ndarray, product: np.ndarray) ->
 
 
 def rows_of(index: int) -> list:
-    record = ex.RECORDS[index]
-    color, height = sanitize(record.color, record.height)
-    objects = height > ex.PARAMS.density.occupied_height
-    saliency, conspicuity = scene_maps(color, objects, ex.PARAMS)
-    regions = salient_regions(saliency, objects, ex.PARAMS)
+    """[(features (len(ALL),), on target)] of excluded_screen.RECORDS[index]'s scored regions."""
+    view = ex.scored_view(ex.RECORDS[index])
     kernel = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * PRODUCT_MARGIN + 1,) * 2)
     out = []
-    for region, row in candidate_features(color, height, objects, conspicuity, regions):
-        if row is None:
-            continue
-        product = objects & ~(cv2.dilate(region.mask.astype(np.uint8), kernel) > 0)
+    for _, region, row, on in view.candidates:
+        product = view.objects & ~(cv2.dilate(region.mask.astype(np.uint8), kernel) > 0)
         if not product.any():
-            product = objects & ~region.mask
-        on = record.category() == "visible" and bool(np.any(region.mask & record.visible_target_cells))
-        out.append((np.concatenate([row, fine_features(color, region.mask, product)]), on))
+            product = view.objects & ~region.mask
+        out.append((np.concatenate([row, fine_features(view.color, region.mask, product)]), on))
     return out
 
 
 def main() -> None:
     """excluded_screen's comparison with this screening's rows, models and cache."""
-    ex.rows_of, ex.ALL, ex.MODELS, ex.CACHE = rows_of, ALL, MODELS, CACHE
-    ex.main()
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--jobs", type=int, default=2)
+    ex.run(CACHE, rows_of, ALL, MODELS, parser.parse_args().jobs)
 
 
 if __name__ == "__main__":

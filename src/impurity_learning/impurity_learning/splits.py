@@ -284,8 +284,7 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(13_300, 13_600, "docs/experiments_s33/run_threshold.sh",
               "push_out.py --seed-base 13300 --random-from 600 --random-only: the thirty-third session's "
               "test of the verifier threshold at a 2 % cap, invisible 13 300-13 399, challenging "
-              "13 400-13 499, "
-              "random 13 500-13 599, both thresholds on the same seeds"),
+              "13 400-13 499, random 13 500-13 599, both thresholds on the same seeds"),
     SeedBlock(14_000, 14_300, "docs/experiments_s19/run_ridge.sh",
               "push_out.py --seed-base 14000 --random-from 700 --random-only: the nineteenth session's test "
               "of the rule grasp_along_ridge (--with) on random-700 ... 799, random 14 000-14 099, "
@@ -336,6 +335,9 @@ TUNING_SEED_BLOCKS = (
               "the twenty-first session's fresh exposure check of the refit on unclipped cells"),
     SeedBlock(60_000, 60_430, "scripts/calibrate_episode_end.py",
               "SEED_BASE['tuning']: 100 x scene + k over its 5 SCENES, k < --seeds (30 in docs/episode_end)"),
+    SeedBlock(61_000, 69_600, "docs/experiments_s33/check_palettes.py",
+              "LAYOUT_SEED_BASE: random-400 ... 599 on layouts of their own, 1400 x row + palette x count "
+              "+ i"),
     SeedBlock(70_000, 70_020, "docs/experiments.md",
               "sixth session's eval_cli --seed-base 70000, 20 invisible episodes (runs/s6_diag); the 70 000 "
               "plan the seventh to ninth sessions re-ran on purpose"),
@@ -363,9 +365,6 @@ TUNING_SEED_BLOCKS = (
               "fresh: re-runs final_views.py's episodes that ended by NONE, on purpose"),
     SeedBlock(72_000, 72_020, _S10 + "last_look_episodes.py",
               "DEFAULT_SEED_BASE: default palette, 20 episodes per scenario"),
-    SeedBlock(61_000, 69_600, "docs/experiments_s33/check_palettes.py",
-              "LAYOUT_SEED_BASE: random-400 ... 599 on layouts of their own, 1400 x row + palette x count "
-              "+ i"),
     SeedBlock(72_100, 76_160, "docs/experiments_s33/run_threshold.sh",
               "exposure_wide.py report --seed-base 72100 --count-scale 2: the thirty-third session's fresh "
               "default-palette exposure set for the verifier threshold at a 2 % cap"),
