@@ -24,6 +24,7 @@ Read on:
     python docs/experiments_s33/cnn_screen.py [--jobs 2]       # then the reading
     python docs/experiments_s33/cnn_screen.py --variant H2 --epochs 12; then again with --variant H2
     python docs/experiments_s33/cnn_screen.py --variant H3 --epochs 6; then --variant H3 [--with-default-fit]
+    python docs/experiments_s33/cnn_screen.py --variant H4 --epochs 6; then --variant H4 [--with-default-fit]
 The network is saved in runs/s33/cnn.pt, the rows in runs/s33/cnn_rows.npz.
 """
 import argparse
@@ -54,6 +55,7 @@ NET = pathlib.Path("runs/s33/cnn.pt")
 ROWS = pathlib.Path("runs/s33/cnn_rows.npz")
 POSITIVE_WEIGHT = 5.0
 TRAINING_LAYOUT_SEED_BASE = 26_200
+DEFAULT_TRAINING_SEED_BASE = 76_200
 MAD_FLOOR = 2.0
 CNN = ("cnn_mean", "cnn_high")
 ALL = FEATURES + CNN
@@ -131,15 +133,32 @@ def training_palette_records() -> list:
     return ca.render_cached(ca.CACHE / "palettes_train800_own.npz", wanted, "network training palettes 800+")
 
 
-def train(epochs: int, exposure: bool = False, more: bool = False) -> CellNet:
-    """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2, H3).
-    more: training_palette_records() join the fitting first views (H3)."""
+def default_training_records() -> list:
+    """H4's further training views of the default palette: calibrate_attention's EXPOSURE_PLAN at twice its
+    counts (420 scenes), the rows packed one after the other on seeds DEFAULT_TRAINING_SEED_BASE + i (76 200 ...
+    76 619, registered in impurity_learning.splits), at exposure x1 (training draws the exposure). Cached in
+    runs/perception/default_train76200.npz."""
+    counts = [2 * count for *_, count in ca.EXPOSURE_PLAN]
+    offsets = np.concatenate([[0], np.cumsum(counts)])
+    wanted = [("", scenario, DEFAULT_TRAINING_SEED_BASE + int(offsets[row]) + i, targets)
+              for row, ((scenario, targets, _), count) in enumerate(zip(ca.EXPOSURE_PLAN, counts, strict=True))
+              for i in range(count)]
+    return ca.render_cached(ca.CACHE / f"default_train{DEFAULT_TRAINING_SEED_BASE}.npz", wanted,
+                            "network training, default palette")
+
+
+def train(epochs: int, exposure: bool = False, more: bool = False, default: bool = False) -> CellNet:
+    """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2, H3, H4).
+    more: training_palette_records() join the fitting first views (H3, H4). default: so do
+    default_training_records() (H4)."""
     torch.manual_seed(0)
     rng = np.random.default_rng(0)
     records, _ = ca.rule_sweep_records()
     records = records + ca.collect_palettes("tuning", own_layouts=True)
     if more:
         records = records + training_palette_records()
+    if default:
+        records = records + default_training_records()
     records = [r for r in records if r.category() in evaluation.CATEGORIES]
     inputs, labels, masks, views = [], [], [], []
     for record in tqdm(records, desc="inputs"):
@@ -284,17 +303,18 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--with-default-fit", action="store_true",
                         help="the reading with the default palette's fitting exposure scenes in every fit")
-    parser.add_argument("--variant", choices=("H", "H2", "H3"), default="H",
+    parser.add_argument("--variant", choices=("H", "H2", "H3", "H4"), default="H",
                         help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
     global NET, ROWS, MODELS
-    if args.variant in ("H2", "H3"):
+    if args.variant in ("H2", "H3", "H4"):
         tag = args.variant.lower()
         NET, ROWS = NET.with_name(f"cnn_{tag}.pt"), ROWS.with_name(f"cnn_{tag}_rows.npz")
         MODELS = {"A shipped fifteen": FEATURES, f"{args.variant} fifteen + network": FEATURES + CNN}
     if not NET.exists():  # training in a process of its own: torch's thread pool does not survive a fork
         torch.set_num_threads(2)
-        train(args.epochs, exposure=args.variant in ("H2", "H3"), more=args.variant == "H3")
+        train(args.epochs, exposure=args.variant in ("H2", "H3", "H4"), more=args.variant in ("H3", "H4"),
+              default=args.variant == "H4")
         print(f"trained {NET}; run again for the reading")
         return
     NETWORK = CellNet()

@@ -368,6 +368,9 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(72_100, 76_160, "docs/experiments_s33/run_threshold.sh",
               "exposure_wide.py report --seed-base 72100 --count-scale 2: the thirty-third session's fresh "
               "default-palette exposure set for the verifier threshold at a 2 % cap"),
+    SeedBlock(76_200, 76_620, "docs/experiments_s33/cnn_screen.py",
+              "DEFAULT_TRAINING_SEED_BASE: the default palette's EXPOSURE_PLAN at twice its counts, rows "
+              "packed, the network's further training views (variant H4, thirty-fourth session)"),
     SeedBlock(80_000, 92_200, "docs/experiments_s12/more_palettes.py",
               "SEED_BASE: random-192 ... 391 on layouts of their own, 2000 x row + palette x count + i"),
     SeedBlock(94_000, 98_860, "docs/experiments_s13/fresh_layouts.py",
