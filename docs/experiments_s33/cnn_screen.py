@@ -135,14 +135,14 @@ def training_palette_records() -> list:
 
 def default_training_records() -> list:
     """H4's further training views of the default palette: calibrate_attention's EXPOSURE_PLAN at twice its
-    counts (420 scenes), the rows packed one after the other on seeds DEFAULT_TRAINING_SEED_BASE + i (76 200 ...
-    76 619, registered in impurity_learning.splits), at exposure x1 (training draws the exposure). Cached in
-    runs/perception/default_train76200.npz."""
+    counts (420 scenes), the rows packed one after the other on seeds DEFAULT_TRAINING_SEED_BASE + i
+    (76 200 ... 76 619, registered in impurity_learning.splits), at exposure x1 (training draws the
+    exposure). Cached in runs/perception/default_train76200.npz."""
     counts = [2 * count for *_, count in ca.EXPOSURE_PLAN]
     offsets = np.concatenate([[0], np.cumsum(counts)])
     wanted = [("", scenario, DEFAULT_TRAINING_SEED_BASE + int(offsets[row]) + i, targets)
-              for row, ((scenario, targets, _), count) in enumerate(zip(ca.EXPOSURE_PLAN, counts, strict=True))
-              for i in range(count)]
+              for row, ((scenario, targets, _), count)
+              in enumerate(zip(ca.EXPOSURE_PLAN, counts, strict=True)) for i in range(count)]
     return ca.render_cached(ca.CACHE / f"default_train{DEFAULT_TRAINING_SEED_BASE}.npz", wanted,
                             "network training, default palette")
 
