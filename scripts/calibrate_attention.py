@@ -9,6 +9,7 @@
     python scripts/calibrate_attention.py rule-sweep                  # the whole decision rule (tuning)
     python scripts/calibrate_attention.py palette-evaluate            # held-out palettes + exposure x0.5, x2
     python scripts/calibrate_attention.py palette-gallery             # docs/images/palettes.png
+    python scripts/calibrate_attention.py network-fit                 # the impurity network (tuning)
     python scripts/calibrate_attention.py verifier-fit                # the region verifier (tuning)
 
 Tuning seeds (0..99) and acceptance seeds (1000..) never overlap. Palettes (issue 17) follow the split
@@ -313,6 +314,13 @@ OWN_LAYOUT_SEED_BASE = 20_000  # collect_palettes(own_layouts=True): tuning seed
 EXPOSURE_PLAN = [("random", 0, 60), ("challenging", 0, 60), ("invisible", 0, 30), ("random", 2, 30),
                  ("challenging", 2, 30)]
 EXPOSURE_FIT_SEED_BASE, EXPOSURE_CHECK_SEED_BASE = 35_000, 30_000
+# network-fit's further views (tuning seeds of no other use, splits.TUNING_SEED_BLOCKS): random-800 ... 999 on
+# layouts of their own (PALETTE_PLAN's rows packed) and the default palette's EXPOSURE_PLAN at twice its
+# counts (rows packed)
+NETWORK_PALETTES = [f"random-{800 + k}" for k in range(200)]
+NETWORK_PALETTE_SEED_BASE, NETWORK_DEFAULT_SEED_BASE = 26_200, 76_200
+NETWORK_EPOCHS = 6
+NETWORK_OUT = ROOT / "runs" / "impurity_net.pt"  # network-fit without --write-network
 
 
 def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale: float = 1.0) -> list:
@@ -351,6 +359,51 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
             return SEED_BASE[split] + 100 * row
     return render_cached(path, palette_scenes(palettes, base, scale), f"{'held-out' if held_out else split} "
                                                                       "palettes")
+
+
+def network_records() -> list:
+    """The impurity network's training views (network-fit; H4 of the thirty-fourth session): rule-sweep's
+    scenes (the default palette's also at x0.5 and x2), the tuning palettes' own-layout scenes,
+    NETWORK_PALETTES on seeds NETWORK_PALETTE_SEED_BASE + the row's offset + palette index x the row's count
+    + i (cached in palettes_train800_own.npz), and the default palette's EXPOSURE_PLAN at twice its counts
+    on seeds NETWORK_DEFAULT_SEED_BASE + i (default_train76200.npz); only scenes of evaluation.CATEGORIES."""
+    offsets = np.concatenate([[0], np.cumsum([len(NETWORK_PALETTES) * count for *_, count in PALETTE_PLAN])])
+    palettes = render_cached(CACHE / "palettes_train800_own.npz", palette_scenes(
+        NETWORK_PALETTES, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE + int(offsets[row])
+        + number * scenes), "network training palettes 800+")
+    counts = [2 * count for *_, count in EXPOSURE_PLAN]
+    starts = np.concatenate([[0], np.cumsum(counts)])
+    default = render_cached(CACHE / f"default_train{NETWORK_DEFAULT_SEED_BASE}.npz", [
+        ("", scenario, NETWORK_DEFAULT_SEED_BASE + int(starts[row]) + i, targets)
+        for row, ((scenario, targets, _), count) in enumerate(zip(EXPOSURE_PLAN, counts, strict=True))
+        for i in range(count)], "network training, default palette")
+    records = rule_sweep_records()[0] + collect_palettes("tuning", own_layouts=True) + palettes + default
+    return [r for r in records if r.category() in evaluation.CATEGORIES]
+
+
+def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path) -> None:
+    """Train the impurity network (impurity_learning.impurity_net_training) on network_records() and write it
+    to `out` (impurity_net.write_network), with its provenance; prints each epoch's mean loss."""
+    import torch
+
+    from impurity_attention.core.attention import sanitize
+    from impurity_attention.core.impurity_net import write_network
+    from impurity_learning import splits
+    from impurity_learning.impurity_net_training import train_impurity_net
+
+    torch.set_num_threads(max(1, min(4, torch.get_num_threads())))
+    records = network_records()
+    views = []
+    for record in records:
+        color, height = sanitize(record.color, record.height)
+        views.append((color, height, height > params.density.occupied_height, record.visible_target_cells))
+    palettes = len({r.palette or "blocks" for r in records})
+    net, losses = train_impurity_net(views, epochs, exposure=splits.TRAINING_EXPOSURE)
+    provenance = (f"scripts/calibrate_attention.py network-fit: {len(views)} tuning views of {palettes} "
+                  f"palettes, {epochs} epochs, exposure drawn in {splits.TRAINING_EXPOSURE}; mean loss "
+                  f"{losses[0]:.4f} -> {losses[-1]:.4f}")
+    write_network(net, out, provenance)
+    print(f"wrote {out}: {provenance}")
 
 
 def palette_scenes(palettes: list, base, scale: int = 1) -> list:
@@ -577,10 +630,11 @@ VERIFIER_FALSE_TARGET = 0.01  # verifier-fit: the threshold allows this share of
 VERIFIER_MODEL = ROOT / "src" / "impurity_attention" / "impurity_attention" / "core" / "verifier_model.py"
 
 
-def verifier_rows(records, params: AttentionParams) -> tuple:
+def verifier_rows(records, params: AttentionParams, network=None) -> tuple:
     """The region verifier's training rows: per scene without a visible impurity or with one (category
     visible, no_impurity, invisible), its best salient regions' features as attention scores them
-    (verifier.candidate_features). Returns (features (N, F), on target (N,) bool, scene index (N,), group
+    (verifier.candidate_features; network: the impurity network for NETWORK_FEATURES, else they are NaN).
+    Returns (features (N, F), on target (N,) bool, scene index (N,), group
     (N,): the palette, visible per scene (S,) bool); a scene without a salient region has no row."""
     from impurity_attention.core.attention import scene_maps
     from impurity_attention.core.verifier import candidate_features
@@ -594,7 +648,8 @@ def verifier_rows(records, params: AttentionParams) -> tuple:
         objects = record.height > params.density.occupied_height
         saliency, conspicuity = scene_maps(record.color, objects, params)
         regions = salient_regions(saliency, objects, params)
-        for region, row in candidate_features(record.color, record.height, objects, conspicuity, regions):
+        for region, row in candidate_features(record.color, record.height, objects, conspicuity, regions,
+                                              network=network):
             if row is None:  # every object in view: attention lets saliency decide (no features)
                 continue
             rows.append(row)
@@ -646,7 +701,7 @@ def model_source(verifier) -> str:
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
                  exposure_scenes: bool = False, loop_views: tuple = (),
                  model_json: pathlib.Path | None = None, threshold_on: str = "all",
-                 feature_names: tuple | None = None):
+                 feature_names: tuple | None = None, network=None):
     """The region verifier (impurity_attention.core.verifier) fitted on rule-sweep's tuning scenes only:
     logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the impurity"
     on the TOP_REGIONS best regions of every scene. Judged first by palette-grouped cross-validation
@@ -662,12 +717,14 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
     model is also written there as JSON (RegionVerifier's fields). threshold_on: "all" scenes and views, or
     "first-views" (the loop views left out of the threshold's count). feature_names: the model's features, a
-    subset of verifier.FEATURES (default all of them). Returns the fitted RegionVerifier."""
+    subset of verifier.FEATURES (default all of them with a network, else all but NETWORK_FEATURES). network:
+    the impurity network (impurity_net.ImpurityNet) the rows' NETWORK_FEATURES read. Returns the fitted
+    RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
 
-    from impurity_attention.core.verifier import FEATURES, RegionVerifier
+    from impurity_attention.core.verifier import FEATURES, NETWORK_FEATURES, RegionVerifier
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
     if exposure_scenes:
@@ -681,8 +738,9 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     if loop:
         halves["picking-loop views"] = loop
         records = records + loop
-    features, on, scene, group, visible = verifier_rows(records, params)
-    feature_names = tuple(feature_names or FEATURES)
+    features, on, scene, group, visible = verifier_rows(records, params, network)
+    feature_names = tuple(feature_names or (n for n in FEATURES if network is not None or
+                                            n not in NETWORK_FEATURES))
     features = features[:, [FEATURES.index(name) for name in feature_names]]
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
@@ -773,7 +831,8 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
         return verifier
     print("checked through attend() on the same scenes (shipped rule, then the verifier):")
     for name, tried in (("rule", dataclasses.replace(params, decision="rule")),
-                        ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier))):
+                        ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier,
+                                                        impurity_net=network))):
         for half, scenes in halves.items():
             print(f" {name}, {half}:")
             print_palette_rates(palette_rates(scenes, tried), per_palette=False)
@@ -831,11 +890,19 @@ def palette_gallery(params: AttentionParams) -> None:
     print(f"wrote {IMAGES / 'palettes.png'}")
 
 
+def read_network_option(value: pathlib.Path | None):
+    """--network: None, "shipped" (impurity_net.SHIPPED_NETWORK) or a weights file, read."""
+    if value is None:
+        return None
+    from impurity_attention.core.impurity_net import read_network
+    return read_network(None if str(value) == "shipped" else value)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference",
                                            "rule-sweep", "palette-evaluate",
-                                           "palette-gallery", "verifier-fit"))
+                                           "palette-gallery", "network-fit", "verifier-fit"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
     parser.add_argument("--json", type=pathlib.Path, default=None, help="write the summary here")
@@ -860,6 +927,14 @@ def main() -> None:
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
+    parser.add_argument("--epochs", type=int, default=NETWORK_EPOCHS, help="network-fit: training epochs")
+    parser.add_argument("--write-network", action="store_true",
+                        help="network-fit: write the network to "
+                             "impurity_attention/checkpoints/impurity_net.pt "
+                             f"(else {NETWORK_OUT.relative_to(ROOT)})")
+    parser.add_argument("--network", type=pathlib.Path, default=None,
+                        help="verifier-fit: the impurity network whose map the rows read (NETWORK_FEATURES; "
+                             "'shipped': impurity_attention's); without it the model leaves them out")
     parser.add_argument("--patch-prism-winding", action="store_true",
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
@@ -884,10 +959,15 @@ def main() -> None:
     if args.action == "palette-gallery":
         palette_gallery(params)
         return
+    if args.action == "network-fit":
+        from impurity_attention.core.impurity_net import SHIPPED_NETWORK
+        network_fit(params, args.epochs, SHIPPED_NETWORK if args.write_network else NETWORK_OUT)
+        return
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
                      model_json=args.model_json, threshold_on=args.threshold_on,
-                     feature_names=tuple(args.features.split(",")) if args.features else None)
+                     feature_names=tuple(args.features.split(",")) if args.features else None,
+                     network=read_network_option(args.network))
         return
     if args.depth_noise > 0:
         suffix += f"_noise{args.depth_noise * 1000:g}mm"

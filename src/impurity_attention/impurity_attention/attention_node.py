@@ -24,6 +24,7 @@ from impurity_attention.core.attention import (
     AttentionParams,
     attend,
     debug_image,
+    shipped_network,
 )
 from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
 from impurity_attention.core.product_memory import known_product
@@ -219,6 +220,10 @@ class AttentionNode(Node):
         threshold = p.verifier_threshold or (p.verifier or default_verifier()).threshold
         decided = (f"verifier, threshold {threshold:.2f}, last look {p.verifier_last_look:.2f}"
                    if p.decision == "verifier" else f"{p.decision} thresholds")
+        if p.uses_verifier and (p.verifier or default_verifier()).reads_network:
+            # read now, not at the first heightmap: a missing or wrong weights file stops the node, saying why
+            network = shipped_network()
+            decided += f", impurity network ({network.provenance or 'no provenance'})"
         self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; contrast "
                                f"{p.contrast}, decision {decided} (every setting: ros2 param dump "
                                f"/{self.get_name()})")

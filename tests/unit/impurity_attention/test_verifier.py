@@ -96,7 +96,8 @@ def test_a_model_reads_the_features_it_names_and_no_others():
     row = np.full(len(ver.FEATURES), 5.0)  # every other feature: anything
     row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
     assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
-    assert ver.default_verifier().features == ver.FEATURES  # the shipped model: all fifteen (21st session)
+    # the shipped model: the fifteen before the network's two (twenty-first session)
+    assert ver.default_verifier().features == ver.REGION_FEATURES + ver.CONTEXT_FEATURES
     assert ver.default_verifier().reads_oriented and not model.reads_oriented
 
 
@@ -292,10 +293,11 @@ def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability()
 
 
 def test_a_threshold_set_on_the_node_overrides_the_models():
-    # a model that rates every region 0.5, with its own threshold 0.6
-    n = len(ver.FEATURES)
+    # a model that rates every region 0.5, with its own threshold 0.6 (it reads no network feature)
+    names = ver.REGION_FEATURES + ver.CONTEXT_FEATURES
+    n = len(names)
     coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
+                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n, features=names)
     color, height, *_ = two_colour_view()
     own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
                                                         verifier_last_look=0.0))  # no last look at 0.5

@@ -219,6 +219,9 @@ class AttentionParams:
     # threshold above and the last look apply as before. docs/experiments.md, sixteenth section.
     verifier_heap_threshold: float = 0.0
     verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
+    # verifier: the impurity network (impurity_net.ImpurityNet) a model that reads NETWORK_FEATURES runs on
+    # the view; None: the shipped weights (impurity_net.SHIPPED_NETWORK), read once. Unused otherwise.
+    impurity_net: object = None
     # verifier, with a known_product (product_memory.known_product) handed to attend, while a heap that could
     # hide a target is left (density.select_occluded_region): a region whose grown mask's median colour lies
     # within known_product_delta_e (CIE76) of more than known_product_max_share of the remembered product
@@ -528,8 +531,10 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
                     and select_occluded_region(dense_clusters()) is not None):
                 least = params.verifier_heap_threshold
                 view += " (heap left)"
+            network = (params.impurity_net or shipped_network()) if model.reads_network else None
             candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions,
-                                                           oriented=model.reads_oriented), strict=True)
+                                                           oriented=model.reads_oriented, network=network),
+                                       strict=True)
             if features[0] is None:  # one region, every object in view: nothing to compare with, so
                 # saliency decides alone, as the rule does (a colour contrast of inf)
                 probability = np.array([1.0 if is_target(best.score, float("inf"), params) else 0.0])
@@ -595,6 +600,14 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     centre = ((height.shape[0] - 1) / 2.0, (height.shape[1] - 1) / 2.0)
     return _output(AttentionMode.NONE, 0.0, centre, color, height, saliency, params, grid,
                    regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
+
+
+@functools.cache
+def shipped_network():
+    """The shipped impurity network (impurity_net.read_network()), read once per process; torch is imported
+    only here, when a model reads NETWORK_FEATURES."""
+    from .impurity_net import read_network
+    return read_network()
 
 
 def is_target(score, colour, params: AttentionParams):

@@ -50,8 +50,15 @@ Of the region among the others (CONTEXT_FEATURES, context_features):
   the range its tuning scenes span (12-28 % of a 448 mm view): like every feature it is clipped to the
   fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
 
-A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model reads all
-fifteen since the twenty-first session (before it, the twelve without the oriented three).
+Of the impurity network's map (NETWORK_FEATURES, network_features; impurity_net.py, thirty-fourth session):
+- network_mean: the mean over m of the network's per-cell impurity probability;
+- network_high: its 90th percentile over m (NETWORK_QUANTILE): a region that covers an impurity's top and
+  some product around it still reads high.
+  Unknown (NaN) when no network is given: a model that reads them then adds nothing from them.
+
+A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model read all
+fifteen before NETWORK_FEATURES from the twenty-first session (before it, the twelve without the oriented
+three).
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
 palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
@@ -78,7 +85,8 @@ ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_sh
 REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
                    "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES
 CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
-FEATURES = REGION_FEATURES + CONTEXT_FEATURES
+NETWORK_FEATURES = ("network_mean", "network_high")
+FEATURES = REGION_FEATURES + CONTEXT_FEATURES + NETWORK_FEATURES
 MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
 SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
@@ -92,6 +100,7 @@ ORIENTED_MIN_PRODUCT = 50  # product cells the orientation fit needs (else the o
 ORIENTED_RIDGE = 1e-4  # added to the residual covariance's diagonal (a flat product has almost none)
 ORIENTED_OFF = 3.0  # oriented_off_share: a cell's residual beyond this Mahalanobis distance
 LOG_I_FLOOR = 0.02  # log I of the orientation fit: intensities below this count as this
+NETWORK_QUANTILE = 0.9  # network_high: this quantile of the network's probability over the region
 
 
 @dataclass(frozen=True)
@@ -138,6 +147,11 @@ class RegionVerifier:
     def reads_oriented(self) -> bool:
         """Whether the model reads any of ORIENTED_FEATURES (else candidate_features may skip them)."""
         return any(name in ORIENTED_FEATURES for name in self.features)
+
+    @property
+    def reads_network(self) -> bool:
+        """Whether the model reads NETWORK_FEATURES (then attend runs the impurity network on the view)."""
+        return any(name in NETWORK_FEATURES for name in self.features)
 
     def probability(self, features: np.ndarray) -> np.ndarray:
         """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity (the model reads its own
@@ -272,17 +286,29 @@ def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarra
                      math.log(max(float(np.mean(objects)), 1e-6))])
 
 
+def network_features(probability: np.ndarray | None, region: np.ndarray) -> np.ndarray:
+    """(len(NETWORK_FEATURES),) float64 of `region` ((H, W) bool, not empty) on the impurity network's map
+    `probability` ((H, W) in [0, 1], ImpurityNet.probability); (nan, nan) when the map is None."""
+    if probability is None:
+        return np.full(len(NETWORK_FEATURES), np.nan)
+    values = np.asarray(probability)[np.asarray(region, dtype=bool)]
+    return np.array([float(values.mean()), float(np.quantile(values, NETWORK_QUANTILE))])
+
+
 def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
-                       regions: list, oriented: bool = True) -> list:
+                       regions: list, oriented: bool = True, network=None) -> list:
     """[(region, (len(FEATURES),) features or None)] for the TOP_REGIONS best of `regions` (salient
     regions, best first): what attention scores and verifier-fit learns from. Arguments as
-    region_features."""
+    region_features; network: an impurity_net.ImpurityNet run once on the view for NETWORK_FEATURES (None:
+    they are unknown, NaN, and torch is not needed)."""
     candidates = []
     planes = ViewPlanes.of(color, height if oriented else None)
+    probability = None if network is None or not regions else network.probability(color, height, objects)
     for rank, region in enumerate(regions[:TOP_REGIONS]):
         own = region_features(color, height, objects, conspicuity, region.mask, oriented, planes)
         candidates.append((region, None if own is None else
-                           np.concatenate([own, context_features(objects, regions, rank)])))
+                           np.concatenate([own, context_features(objects, regions, rank),
+                                           network_features(probability, region.mask)])))
     return candidates
 
 
