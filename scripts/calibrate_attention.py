@@ -924,6 +924,8 @@ def main() -> None:
     parser.add_argument("--features", default=None,
                         help="verifier-fit: the model's features, comma-separated names of verifier.FEATURES "
                              "(default all; before the twentieth session: every one but oriented_*)")
+    parser.add_argument("--no-check", action="store_true",
+                        help="verifier-fit: skip the check through attend() after the fit")
     parser.add_argument("--write-model", action="store_true",
                         help="verifier-fit: write the fitted model to impurity_attention/core/"
                              "verifier_model.py")
@@ -964,7 +966,8 @@ def main() -> None:
         network_fit(params, args.epochs, SHIPPED_NETWORK if args.write_network else NETWORK_OUT)
         return
     if args.action == "verifier-fit":
-        verifier_fit(params, args.write_model, args.own_layouts, loop_views=tuple(args.loop_views),
+        verifier_fit(params, args.write_model, args.own_layouts, check=not args.no_check,
+                     loop_views=tuple(args.loop_views),
                      model_json=args.model_json, threshold_on=args.threshold_on,
                      feature_names=tuple(args.features.split(",")) if args.features else None,
                      network=read_network_option(args.network))
