@@ -8,6 +8,7 @@ pytest runs: run it in a clone of its own (with its own `make setup`), never bes
 """
 import argparse
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -18,7 +19,7 @@ import push_out  # noqa: E402
 
 CORE = ROOT / "src/impurity_attention/impurity_attention/core"
 MODEL_FILE, ATTENTION_FILE = CORE / "verifier_model.py", CORE / "attention.py"
-LAST_LOOK_LINE = "    verifier_last_look: float = 0.35\n"
+LAST_LOOK_LINE = re.compile(r"^    verifier_last_look: float = [0-9.]+$", re.MULTILINE)
 
 
 def main() -> int:
@@ -27,12 +28,12 @@ def main() -> int:
     parser.add_argument("--last-look", type=float, default=None)
     args, tests = parser.parse_known_args()
     shipped_model, shipped_attention = MODEL_FILE.read_text(), ATTENTION_FILE.read_text()
-    assert LAST_LOOK_LINE in shipped_attention, "attention.py's verifier_last_look line moved"
+    assert LAST_LOOK_LINE.search(shipped_attention), "attention.py's verifier_last_look line moved"
     try:
         MODEL_FILE.write_text(ca.model_source(push_out.verifier_from_json(args.model)))
         if args.last_look is not None:
-            ATTENTION_FILE.write_text(shipped_attention.replace(
-                LAST_LOOK_LINE, f"    verifier_last_look: float = {args.last_look!r}\n"))
+            ATTENTION_FILE.write_text(LAST_LOOK_LINE.sub(
+                f"    verifier_last_look: float = {args.last_look!r}", shipped_attention, count=1))
         return subprocess.run([sys.executable, "-m", "pytest", "-q", "-p", "no:cacheprovider", *tests],
                               cwd=ROOT).returncode
     finally:

@@ -285,6 +285,11 @@ TUNING_SEED_BLOCKS = (
               "push_out.py --seed-base 13300 --random-from 600 --random-only: the thirty-third session's "
               "test of the verifier threshold at a 2 % cap, invisible 13 300-13 399, challenging "
               "13 400-13 499, random 13 500-13 599, both thresholds on the same seeds"),
+    SeedBlock(13_600, 13_900, "docs/experiments_s34/run_refit.sh",
+              "push_out.py --seed-base 13600 --random-from 600 --random-only: the thirty-fourth session's "
+              "picking test of the verifier refitted with the impurity network, invisible 13 600-13 699, "
+              "challenging 13 700-13 799 (--start 100), random 13 800-13 899 (--start 200), both arms on the "
+              "same seeds, tuning palettes"),
     SeedBlock(14_000, 14_300, "docs/experiments_s19/run_ridge.sh",
               "push_out.py --seed-base 14000 --random-from 700 --random-only: the nineteenth session's test "
               "of the rule grasp_along_ridge (--with) on random-700 ... 799, random 14 000-14 099, "

@@ -1,0 +1,66 @@
+#!/usr/bin/env bash
+# Thirty-fourth session (docs/experiments.md): the verifier refitted with the impurity network, and every
+# check of the criterion written there, in order. From the repository root of a tree with the network's code
+# after `source scripts/env.sh`; writes runs/s34/. The candidate network is put where attention reads the
+# shipped one (src/impurity_attention/checkpoints/impurity_net.pt, not committed until it ships).
+# Usage: docs/experiments_s34/run_refit.sh [step ...] (steps: network views fit check exposure specs picking;
+# default all).
+set -euo pipefail
+mkdir -p runs/s34
+steps=("${@:-network views fit check exposure specs picking}")
+steps=(${steps[*]})
+ca=scripts/calibrate_attention.py
+lv=docs/experiments_s17/loop_views.py
+model=runs/s34/verifier_net.json
+views=(runs/s34/views_inv.npz runs/s34/views_chal.npz runs/s34/views_rand.npz)
+last_look() { sed -n 's/^chosen t = //p' runs/s34/last_look.txt; }
+for step in "${steps[@]}"; do
+    case $step in
+    network)
+        python $ca network-fit > runs/s34/network_fit.txt 2>&1
+        cp runs/impurity_net.pt src/impurity_attention/checkpoints/impurity_net.pt ;;
+    views)
+        [ -f runs/s34/views_inv.npz ] || python $lv collect invisible 160 runs/s34/views_inv.npz
+        [ -f runs/s34/views_chal.npz ] || python $lv collect challenging 80 runs/s34/views_chal.npz --start 200
+        [ -f runs/s34/views_rand.npz ] || python $lv collect random 80 runs/s34/views_rand.npz --start 400
+        python $lv subset even runs/s34/views_even.npz "${views[@]}"
+        python $lv subset odd runs/s34/views_odd.npz "${views[@]}" ;;
+    fit)
+        python $ca verifier-fit --own-layouts --loop-views "${views[@]}" --threshold-on first-views \
+            --network runs/impurity_net.pt --model-json $model > runs/s34/fit_net.txt 2>&1
+        python $ca verifier-fit --own-layouts --loop-views runs/s34/views_even.npz --threshold-on first-views \
+            --network runs/impurity_net.pt --model-json runs/s34/verifier_even.json --no-check \
+            > runs/s34/fit_even.txt 2>&1
+        python docs/experiments_s21/last_look.py runs/s34/verifier_even.json runs/s34/views_odd.npz \
+            > runs/s34/last_look.txt 2>&1 ;;
+    check)
+        python docs/experiments_s33/check_palettes.py $model --last-look "$(last_look)" \
+            > runs/s34/check_palettes.txt 2>runs/s34/check.err ;;
+    exposure)
+        python docs/experiments_s11/exposure_wide.py report --seed-base 72100 --count-scale 2 --model $model \
+            --last-look "$(last_look)" > runs/s34/exposure72100_net.txt 2>&1 ;;
+    specs)
+        python docs/experiments_s21/with_model.py $model --last-look "$(last_look)" tests/unit/impurity_attention \
+            > runs/s34/specs.txt 2>&1 || true ;;
+    picking)
+        common=(--seed-base 13600 --random-from 600 --random-only --random-palettes 100 --jobs 1)
+        for arm in shipped net; do
+            extra=()
+            [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
+            out=runs/s34/picking_$arm
+            mkdir -p $out
+            (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "${common[@]}" "${extra[@]}"
+             python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
+                 "${common[@]}" "${extra[@]}"
+             python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
+                 "${common[@]}" "${extra[@]}") > runs/s34/picking_$arm.log 2>&1 &
+        done
+        wait
+        for s in invisible challenging random; do
+            python docs/experiments_s14/push_out.py paired runs/s34/picking_shipped/$s.jsonl \
+                runs/s34/picking_net/$s.jsonl
+        done > runs/s34/picking_paired.txt 2>&1 ;;
+    *) echo "unknown step $step" >&2; exit 2 ;;
+    esac
+done
+echo "run_refit: ${steps[*]} done"
