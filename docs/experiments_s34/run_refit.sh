@@ -18,7 +18,10 @@ for step in "${steps[@]}"; do
     case $step in
     network)
         python $ca network-fit > runs/s34/network_fit.txt 2>&1
-        cp runs/impurity_net.pt src/impurity_attention/checkpoints/impurity_net.pt ;;
+        mkdir -p src/impurity_attention/checkpoints
+        cp runs/impurity_net.pt src/impurity_attention/checkpoints/impurity_net.pt
+        python docs/experiments_s34/compare_networks.py runs/impurity_net.pt /work/main/runs/s33/cnn_h4.pt \
+            > runs/s34/compare_networks.txt 2>&1 ;;
     views)
         [ -f runs/s34/views_inv.npz ] || python $lv collect invisible 160 runs/s34/views_inv.npz
         [ -f runs/s34/views_chal.npz ] || python $lv collect challenging 80 runs/s34/views_chal.npz --start 200
