@@ -231,14 +231,16 @@ def rows_of(index: int) -> list:
 
 
 def with_default_fit(sets: dict, jobs: int, transform=lambda parts: parts, models: dict | None = None,
-                     cache: pathlib.Path | None = None) -> None:
+                     cache: pathlib.Path | None = None, guard: bool = False) -> None:
     """The reading with the default palette's fitting exposure scenes (calibrate_attention's
     EXPOSURE_FIT_SEED_BASE, 35000+, at x0.5 / x1 / x2; the network never saw them) among every verifier fit's
     rows: cross-validation folds of the 260 fresh palettes each train with all of them, and the threshold is
     taken at 1 % of the clean scenes of everything fitted on; found and false TARGET are counted on the 260
     palettes' held-out folds, the check set and the exposure check set (30000+) as before. transform: applied
     to the default palette's rows (table()'s parts) as to `sets` (the thirty-fourth session's log-odds).
-    models: {name: features} (default MODELS); cache: the default palette's rows (default beside ROWS)."""
+    models: {name: features} (default MODELS); cache: the default palette's rows (default beside ROWS).
+    guard: the threshold is also at least the one at 1 % of the default palette's fitted clean scenes alone
+    (the thirty-fourth session's H4LD)."""
     from sklearn.model_selection import GroupKFold
     models = models or MODELS
     cache = cache or ROWS.with_name(ROWS.stem + "_default_fit.npz")
@@ -279,6 +281,9 @@ def with_default_fit(sets: dict, jobs: int, transform=lambda parts: parts, model
             seen = np.zeros(len(part[4]), bool)
             seen[part[2]] = True
             least = ca.threshold_at(own[seen], part[4][seen], 0.01)
+            if guard:  # the default palette's scenes follow the fresh palettes' in `part`
+                tail = np.arange(len(part[4])) >= count
+                least = max(least, ca.threshold_at(own[tail], part[4][tail], 0.01))
             best, hit = ca.scene_decisions(ex.predict(fitted, x[test]), on[test], scene[test], count)
             unseen = np.zeros(count, bool)
             unseen[scene[test]] = True
@@ -291,6 +296,9 @@ def with_default_fit(sets: dict, jobs: int, transform=lambda parts: parts, model
         best, _ = ca.scene_decisions(ex.predict(fitted, fit_all[0][:, columns]), fit_all[1], fit_all[2],
                                      len(fit_all[4]))
         least = ca.threshold_at(best, fit_all[4], 0.01)
+        if guard:
+            tail = np.arange(len(fit_all[4])) >= count
+            least = max(least, ca.threshold_at(best[tail], fit_all[4][tail], 0.01))
         reads = []
         for label, (f, o, sc, _, v) in [("check set", sets["check"])] + [
                 (f"x{e:g}", sets[f"x{e:g}"]) for e in ca.EXPOSURES]:

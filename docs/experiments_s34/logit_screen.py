@@ -4,7 +4,7 @@ cnn_high columns of H4's cached rows (runs/s33/cnn_h4_rows.npz and cnn_h4_rows_d
 `cnn_screen.py --variant H4 [--with-default-fit]`) become log(p / (1 - p)) of p clipped to [LOW, 1 - LOW],
 then cnn_screen's two readings run on them unchanged.
 
-    python docs/experiments_s34/logit_screen.py [--with-default-fit]
+    python docs/experiments_s34/logit_screen.py [--with-default-fit [--guard]]
 """
 import argparse
 import pathlib
@@ -33,6 +33,10 @@ def log_odds(parts: tuple) -> tuple:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--with-default-fit", action="store_true")
+    parser.add_argument("--guard", action="store_true",
+                        help="with --with-default-fit: the threshold also at 1 %% of the default "
+                             "palette's clean "
+                             "scenes (H4LD)")
     args = parser.parse_args()
     data = np.load(ROWS)
     sets = {name: log_odds(tuple(data[f"{name}_{k}"] for k in ex.PARTS))
@@ -40,7 +44,7 @@ def main() -> None:
     if args.with_default_fit:
         cache = ROWS.with_name(ROWS.stem + "_default_fit.npz")
         assert cache.exists(), f"{cache}: run cnn_screen.py --variant H4 --with-default-fit first"
-        cs.with_default_fit(sets, 1, transform=log_odds, models=MODELS, cache=cache)
+        cs.with_default_fit(sets, 1, transform=log_odds, models=MODELS, cache=cache, guard=args.guard)
     else:
         cs.plain_reading(sets, MODELS)
 
