@@ -230,14 +230,20 @@ def rows_of(index: int) -> list:
     return out
 
 
-def with_default_fit(sets: dict, jobs: int) -> None:
+def with_default_fit(sets: dict, jobs: int, transform=lambda parts: parts, models: dict | None = None,
+                     cache: pathlib.Path | None = None, guard: bool = False) -> None:
     """The reading with the default palette's fitting exposure scenes (calibrate_attention's
     EXPOSURE_FIT_SEED_BASE, 35000+, at x0.5 / x1 / x2; the network never saw them) among every verifier fit's
     rows: cross-validation folds of the 260 fresh palettes each train with all of them, and the threshold is
     taken at 1 % of the clean scenes of everything fitted on; found and false TARGET are counted on the 260
-    palettes' held-out folds, the check set and the exposure check set (30000+) as before."""
+    palettes' held-out folds, the check set and the exposure check set (30000+) as before. transform: applied
+    to the default palette's rows (table()'s parts) as to `sets` (the thirty-fourth session's log-odds).
+    models: {name: features} (default MODELS); cache: the default palette's rows (default beside ROWS).
+    guard: the threshold is also at least the one at 1 % of the default palette's fitted clean scenes alone
+    (the thirty-fourth session's H4LD)."""
     from sklearn.model_selection import GroupKFold
-    cache = ROWS.with_name(ROWS.stem + "_default_fit.npz")
+    models = models or MODELS
+    cache = cache or ROWS.with_name(ROWS.stem + "_default_fit.npz")
     if cache.exists():
         data = np.load(cache)
         extra = [tuple(data[f"x{e:g}_{k}"] for k in PARTS) for e in ca.EXPOSURES]
@@ -246,6 +252,7 @@ def with_default_fit(sets: dict, jobs: int) -> None:
         extra = list(ex.exposed_tables(default, jobs, rows_of).values())
         np.savez_compressed(cache, **{f"x{e:g}_{k}": v for e, parts in zip(ca.EXPOSURES, extra, strict=True)
                                       for k, v in zip(PARTS, parts, strict=True)})
+    extra = [transform(parts) for parts in extra]
 
     def joined(parts_list):  # table()'s arrays of several sets as one, scene indices offset
         out, offset = [[] for _ in PARTS], 0
@@ -260,7 +267,7 @@ def with_default_fit(sets: dict, jobs: int) -> None:
     count = len(fresh[4])
     print(f"with the default palette's fitting scenes (seeds {ca.EXPOSURE_FIT_SEED_BASE}+, x0.5 / x1 / x2: "
           f"{sum(len(x[4]) for x in extra)} scenes) in every fit")
-    for name, chosen in MODELS.items():
+    for name, chosen in models.items():
         columns = [ALL.index(c) for c in chosen]
         features, on, scene, group, visible = fresh
         x = features[:, columns]
@@ -274,6 +281,9 @@ def with_default_fit(sets: dict, jobs: int) -> None:
             seen = np.zeros(len(part[4]), bool)
             seen[part[2]] = True
             least = ca.threshold_at(own[seen], part[4][seen], 0.01)
+            if guard:  # the default palette's scenes follow the fresh palettes' in `part`
+                tail = np.arange(len(part[4])) >= count
+                least = max(least, ca.threshold_at(own[tail], part[4][tail], 0.01))
             best, hit = ca.scene_decisions(ex.predict(fitted, x[test]), on[test], scene[test], count)
             unseen = np.zeros(count, bool)
             unseen[scene[test]] = True
@@ -286,6 +296,9 @@ def with_default_fit(sets: dict, jobs: int) -> None:
         best, _ = ca.scene_decisions(ex.predict(fitted, fit_all[0][:, columns]), fit_all[1], fit_all[2],
                                      len(fit_all[4]))
         least = ca.threshold_at(best, fit_all[4], 0.01)
+        if guard:
+            tail = np.arange(len(fit_all[4])) >= count
+            least = max(least, ca.threshold_at(best[tail], fit_all[4][tail], 0.01))
         reads = []
         for label, (f, o, sc, _, v) in [("check set", sets["check"])] + [
                 (f"x{e:g}", sets[f"x{e:g}"]) for e in ca.EXPOSURES]:
@@ -335,11 +348,19 @@ def main() -> None:
     if args.with_default_fit:
         with_default_fit(sets, args.jobs)
         return
-    ex.compare(sets["fresh"], {e: sets[f"x{e:g}"] for e in ca.EXPOSURES}, ALL, MODELS)
+    plain_reading(sets)
+
+
+def plain_reading(sets: dict, models: dict | None = None) -> None:
+    """The reading without the default palette in the fits: cross-validation on the fresh palettes, the
+    exposure check set, and the check set read by models fitted on all the fresh palettes. models: {name:
+    features} (default MODELS)."""
+    models = models or MODELS
+    ex.compare(sets["fresh"], {e: sets[f"x{e:g}"] for e in ca.EXPOSURES}, ALL, models)
     features, on, scene, _, visible = sets["fresh"]
     cf, con, cscene, _, cvisible = sets["check"]
     print("fitted on all 260 fresh palettes, threshold at 1 % of their clean scenes, read on the check set:")
-    for name, chosen in MODELS.items():
+    for name, chosen in models.items():
         columns = [ALL.index(c) for c in chosen]
         fitted = ex.fit(features[:, columns], on)
         best, _ = ca.scene_decisions(ex.predict(fitted, features[:, columns]), on, scene, len(visible))
