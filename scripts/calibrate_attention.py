@@ -361,23 +361,37 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
                                                                       "palettes")
 
 
-def network_records() -> list:
-    """The impurity network's training views (network-fit; H4 of the thirty-fourth session): rule-sweep's
-    scenes (the default palette's also at x0.5 and x2), the tuning palettes' own-layout scenes,
-    NETWORK_PALETTES on seeds NETWORK_PALETTE_SEED_BASE + the row's offset + palette index x the row's count
-    + i (cached in palettes_train800_own.npz), and the default palette's EXPOSURE_PLAN at twice its counts
-    on seeds NETWORK_DEFAULT_SEED_BASE + i (default_train76200.npz); only scenes of evaluation.CATEGORIES."""
+def network_palette_records() -> list:
+    """NETWORK_PALETTES on layouts of their own: PALETTE_PLAN's rows packed one after the other, seeds
+    NETWORK_PALETTE_SEED_BASE + the row's offset + palette index x the row's count + i (26 200 ... 29 999);
+    cached in palettes_train800_own.npz."""
     offsets = np.concatenate([[0], np.cumsum([len(NETWORK_PALETTES) * count for *_, count in PALETTE_PLAN])])
-    palettes = render_cached(CACHE / "palettes_train800_own.npz", palette_scenes(
-        NETWORK_PALETTES, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE + int(offsets[row])
-        + number * scenes), "network training palettes 800+")
+    wanted = palette_scenes(NETWORK_PALETTES, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE
+                            + int(offsets[row]) + number * scenes)
+    assert max(seed for *_, seed, _ in wanted) < 30_000  # the registered block
+    return render_cached(CACHE / "palettes_train800_own.npz", wanted, "network training palettes 800+")
+
+
+def network_default_records() -> list:
+    """The default palette's EXPOSURE_PLAN at twice its counts (420 scenes), the rows packed one after the
+    other on seeds NETWORK_DEFAULT_SEED_BASE + i (76 200 ... 76 619), at exposure x1; cached in
+    default_train76200.npz."""
     counts = [2 * count for *_, count in EXPOSURE_PLAN]
     starts = np.concatenate([[0], np.cumsum(counts)])
-    default = render_cached(CACHE / f"default_train{NETWORK_DEFAULT_SEED_BASE}.npz", [
-        ("", scenario, NETWORK_DEFAULT_SEED_BASE + int(starts[row]) + i, targets)
-        for row, ((scenario, targets, _), count) in enumerate(zip(EXPOSURE_PLAN, counts, strict=True))
-        for i in range(count)], "network training, default palette")
-    records = rule_sweep_records()[0] + collect_palettes("tuning", own_layouts=True) + palettes + default
+    wanted = [("", scenario, NETWORK_DEFAULT_SEED_BASE + int(starts[row]) + i, targets)
+              for row, ((scenario, targets, _), count) in enumerate(zip(EXPOSURE_PLAN, counts, strict=True))
+              for i in range(count)]
+    return render_cached(CACHE / f"default_train{NETWORK_DEFAULT_SEED_BASE}.npz", wanted,
+                         "network training, default palette")
+
+
+def network_records() -> list:
+    """The impurity network's training views (network-fit; H4 of the thirty-fourth session, docs/
+    experiments.md): rule-sweep's scenes (the default palette's also at x0.5 and x2), the tuning palettes'
+    own-layout scenes, network_palette_records() and network_default_records(); only scenes of
+    evaluation.CATEGORIES."""
+    records = (rule_sweep_records()[0] + collect_palettes("tuning", own_layouts=True)
+               + network_palette_records() + network_default_records())
     return [r for r in records if r.category() in evaluation.CATEGORIES]
 
 
@@ -717,14 +731,14 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     docs/experiments_s17/loop_views.py collect) join them as a half of their own. model_json: the fitted
     model is also written there as JSON (RegionVerifier's fields). threshold_on: "all" scenes and views, or
     "first-views" (the loop views left out of the threshold's count). feature_names: the model's features, a
-    subset of verifier.FEATURES (default all of them with a network, else all but NETWORK_FEATURES). network:
+    subset of verifier.ALL_FEATURES (default ALL_FEATURES with a network, else FEATURES). network:
     the impurity network (impurity_net.ImpurityNet) the rows' NETWORK_FEATURES read. Returns the fitted
     RegionVerifier."""
     from sklearn.linear_model import LogisticRegression
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
 
-    from impurity_attention.core.verifier import FEATURES, NETWORK_FEATURES, RegionVerifier
+    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES, RegionVerifier
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
     if exposure_scenes:
@@ -739,9 +753,11 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
         halves["picking-loop views"] = loop
         records = records + loop
     features, on, scene, group, visible = verifier_rows(records, params, network)
-    feature_names = tuple(feature_names or (n for n in FEATURES if network is not None or
-                                            n not in NETWORK_FEATURES))
-    features = features[:, [FEATURES.index(name) for name in feature_names]]
+    feature_names = tuple(feature_names or (ALL_FEATURES if network is not None else FEATURES))
+    if network is None and set(feature_names) - set(FEATURES):
+        raise SystemExit(f"verifier-fit: {', '.join(sorted(set(feature_names) - set(FEATURES)))} need the "
+                         "impurity network: give --network (shipped, or a weights file)")
+    features = features[:, [ALL_FEATURES.index(name) for name in feature_names]]
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
           f"{len(set(group))} palettes; features: {', '.join(feature_names)}")
@@ -922,7 +938,8 @@ def main() -> None:
     parser.add_argument("--threshold-on", choices=("all", "first-views"), default="all",
                         help="verifier-fit: the scenes the threshold's false-TARGET share is counted on")
     parser.add_argument("--features", default=None,
-                        help="verifier-fit: the model's features, comma-separated names of verifier.FEATURES "
+                        help="verifier-fit: the model's features, comma-separated names of "
+                             "verifier.ALL_FEATURES "
                              "(default all; before the twentieth session: every one but oriented_*)")
     parser.add_argument("--no-check", action="store_true",
                         help="verifier-fit: skip the check through attend() after the fit")

@@ -2,15 +2,15 @@
 convolutional network, which sees whole objects and their faces rather than one region's colours, add to the
 region verifier on fresh palettes?
 
-The network (CellNet below: 4 input planes, three resolutions, 0.16 M weights) maps a view's heightmaps,
-averaged over 2 x 2 cells (4 mm), to a per-cell impurity logit (read back at full size, bilinear). Its input
-is relative to the scene, so that no palette or exposure sets it: CIE
-L*a*b* of each cell minus the median over the view's object cells, divided by that channel's median absolute
-deviation there (floor 2 units), and the height (m x 20); cells without an object are 0. It is trained on the
-verifier's fitting first views only (rule-sweep's scenes, the default palette's also at x0.5 and x2, and the
-tuning palettes' own-layout scenes: 205 palettes, none of those read below), labels the visible impurity
-cells, loss binary cross-entropy over object cells (impurity cells weighted POSITIVE_WEIGHT), flips and
-quarter turns at random, EPOCHS epochs of Adam, CPU, seeded.
+The network (CellNet, since the thirty-fourth session impurity_attention's ImpurityNet: 4 input planes, three
+resolutions, 0.16 M weights) maps a view's heightmaps, averaged over 2 x 2 cells (4 mm), to a per-cell
+impurity logit (read back at full size, bilinear). Its input is relative to the scene, so that no palette
+or exposure sets it: CIE L*a*b* of each cell minus the median over the view's object cells, divided by that
+channel's median absolute deviation there (floor 2 units), and the height (m x 20); cells without an object
+are 0. It is trained on the verifier's fitting first views only (rule-sweep's scenes, the default palette's
+also at x0.5 and x2, and the tuning palettes' own-layout scenes: 205 palettes, none of those read below),
+labels the visible impurity cells, loss binary cross-entropy over object cells (impurity cells weighted
+POSITIVE_WEIGHT), flips and quarter turns at random, EPOCHS epochs of Adam, CPU, seeded.
 
 Read on:
 - the 260 fresh tuning palettes of excluded_screen.py: the verifier's rows with two more features per scored
@@ -25,13 +25,13 @@ Read on:
     python docs/experiments_s33/cnn_screen.py --variant H2 --epochs 12; then again with --variant H2
     python docs/experiments_s33/cnn_screen.py --variant H3 --epochs 6; then --variant H3 [--with-default-fit]
     python docs/experiments_s33/cnn_screen.py --variant H4 --epochs 6; then --variant H4 [--with-default-fit]
+    python docs/experiments_s33/cnn_screen.py --variant H5 --epochs 6; then --variant H5 [--with-default-fit]
 The network is saved in runs/s33/cnn.pt, the rows in runs/s33/cnn_rows.npz.
 """
 import argparse
 import pathlib
 import sys
 
-import cv2
 import numpy as np
 import torch
 from torch import nn
@@ -48,65 +48,19 @@ import more_palettes  # noqa: E402
 
 from impurity_attention.core import evaluation  # noqa: E402
 from impurity_attention.core.attention import sanitize  # noqa: E402
+from impurity_attention.core.impurity_net import ImpurityNet as CellNet  # noqa: E402
+from impurity_attention.core.impurity_net import pooled as half  # noqa: E402
+from impurity_attention.core.impurity_net import scene_planes as scene_input  # noqa: E402
 from impurity_attention.core.verifier import FEATURES  # noqa: E402
 from impurity_learning import splits  # noqa: E402
 
 NET = pathlib.Path("runs/s33/cnn.pt")
 ROWS = pathlib.Path("runs/s33/cnn_rows.npz")
 POSITIVE_WEIGHT = 5.0
-TRAINING_LAYOUT_SEED_BASE = 26_200
-DEFAULT_TRAINING_SEED_BASE = 76_200
-MAD_FLOOR = 2.0
 CNN = ("cnn_mean", "cnn_high")
 ALL = FEATURES + CNN
 MODELS = {"A shipped fifteen": FEATURES, "H fifteen + network": FEATURES + CNN}
 PARTS = ex.PARTS
-
-
-def scene_input(color: np.ndarray, height: np.ndarray, objects: np.ndarray) -> np.ndarray:
-    """(4, H, W) float32: normalised L*, a*, b* and height (module docstring)."""
-    lab = cv2.cvtColor(color.astype(np.float32) / 255.0, cv2.COLOR_RGB2Lab)
-    planes = np.zeros((4, *objects.shape), np.float32)
-    if objects.any():
-        cells = lab[objects]
-        median = np.median(cells, axis=0)
-        spread = np.maximum(np.median(np.abs(cells - median), axis=0), MAD_FLOOR)
-        planes[:3] = np.moveaxis((lab - median) / spread, -1, 0) * objects
-    planes[3] = np.asarray(height, np.float32) * 20.0 * objects
-    return planes
-
-
-def half(planes: np.ndarray) -> np.ndarray:
-    """(C, H, W) -> (C, H / 2, W / 2): the mean of each 2 x 2 cells (H, W even)."""
-    c, h, w = planes.shape
-    return planes.reshape(c, h // 2, 2, w // 2, 2).mean(axis=(2, 4))
-
-
-class CellNet(nn.Module):
-    """Per-cell impurity logits (N, 1, H, W) from scene_input planes (N, 4, H, W); H, W multiples of 4."""
-
-    def __init__(self, width: int = 24):
-        super().__init__()
-
-        def block(a, b, dilation=1):
-            return nn.Sequential(nn.Conv2d(a, b, 3, padding=dilation, dilation=dilation), nn.BatchNorm2d(b),
-                                 nn.ReLU(inplace=True))
-        self.high = nn.Sequential(block(4, width), block(width, width))
-        self.mid = nn.Sequential(nn.MaxPool2d(2), block(width, 2 * width), block(2 * width, 2 * width))
-        self.low = nn.Sequential(nn.MaxPool2d(2), block(2 * width, 2 * width, 2),
-                                 block(2 * width, 2 * width, 4), block(2 * width, 2 * width, 8))
-        self.up_low = nn.Upsample(scale_factor=2, mode="bilinear", align_corners=False)
-        self.merge_mid = block(4 * width, 2 * width)
-        self.up_mid = nn.Upsample(scale_factor=2, mode="bilinear", align_corners=False)
-        self.merge_high = block(3 * width, width)
-        self.out = nn.Conv2d(width, 1, 1)
-
-    def forward(self, x):
-        high = self.high(x)
-        mid = self.mid(high)
-        low = self.low(mid)
-        mid = self.merge_mid(torch.cat([mid, self.up_low(low)], 1))
-        return self.out(self.merge_high(torch.cat([high, self.up_mid(mid)], 1)))
 
 
 def objects_of(record) -> tuple:
@@ -122,32 +76,17 @@ def exposed_input(color, height, objects, factor: float) -> np.ndarray:
 
 def training_palette_records() -> list:
     """H3's further training views: random-800 ... 999 (tuning palettes, drawn in earlier picking tests, never
-    in a perception fit or reading) on layouts of their own, PALETTE_PLAN's rows packed one after the other:
-    seeds TRAINING_LAYOUT_SEED_BASE + the row's offset + palette index x the row's count + i (26 200 ...
-    29 999, registered in impurity_learning.splits). Cached in runs/perception/palettes_train800_own.npz."""
-    offsets = np.concatenate([[0], np.cumsum([200 * count for *_, count in ca.PALETTE_PLAN])])
-    wanted = ca.palette_scenes([f"random-{800 + k}" for k in range(200)],
-                               lambda row, number, scenes: TRAINING_LAYOUT_SEED_BASE + int(offsets[row])
-                               + number * scenes)
-    assert max(seed for *_, seed, _ in wanted) < 30_000
-    return ca.render_cached(ca.CACHE / "palettes_train800_own.npz", wanted, "network training palettes 800+")
+    in a perception fit or reading) on layouts of their own (calibrate_attention.network_palette_records)."""
+    return ca.network_palette_records()
 
 
 def default_training_records() -> list:
-    """H4's further training views of the default palette: calibrate_attention's EXPOSURE_PLAN at twice its
-    counts (420 scenes), the rows packed one after the other on seeds DEFAULT_TRAINING_SEED_BASE + i
-    (76 200 ... 76 619, registered in impurity_learning.splits), at exposure x1 (training draws the
-    exposure). Cached in runs/perception/default_train76200.npz."""
-    counts = [2 * count for *_, count in ca.EXPOSURE_PLAN]
-    offsets = np.concatenate([[0], np.cumsum(counts)])
-    wanted = [("", scenario, DEFAULT_TRAINING_SEED_BASE + int(offsets[row]) + i, targets)
-              for row, ((scenario, targets, _), count)
-              in enumerate(zip(ca.EXPOSURE_PLAN, counts, strict=True)) for i in range(count)]
-    return ca.render_cached(ca.CACHE / f"default_train{DEFAULT_TRAINING_SEED_BASE}.npz", wanted,
-                            "network training, default palette")
+    """H4's further training views of the default palette (calibrate_attention.network_default_records)."""
+    return ca.network_default_records()
 
 
-def train(epochs: int, exposure: bool = False, more: bool = False, default: bool = False) -> CellNet:
+def train(epochs: int, exposure: bool = False, more: bool = False, default: bool = False,
+          invisible: bool = True) -> CellNet:
     """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2, H3, H4).
     more: training_palette_records() join the fitting first views (H3, H4). default: so do
     default_training_records() (H4)."""
@@ -160,6 +99,8 @@ def train(epochs: int, exposure: bool = False, more: bool = False, default: bool
     if default:
         records = records + default_training_records()
     records = [r for r in records if r.category() in evaluation.CATEGORIES]
+    if not invisible:  # H5: no invisible-layout scene (their impurities are always cubes)
+        records = [r for r in records if r.scenario != "invisible"]
     inputs, labels, masks, views = [], [], [], []
     for record in tqdm(records, desc="inputs"):
         color, height, objects = objects_of(record)
@@ -211,12 +152,7 @@ NETWORK: CellNet | None = None
 
 def probability_map(color, height, objects) -> np.ndarray:
     torch.set_num_threads(1)  # in a worker of excluded_screen.table's pool
-    x = torch.from_numpy(half(scene_input(color, height, objects)))[None]
-    rows, cols = x.shape[-2:]
-    x = nn.functional.pad(x, (0, (-cols) % 4, 0, (-rows) % 4))
-    with torch.no_grad():
-        small = torch.sigmoid(NETWORK(x))[0, 0, :rows, :cols].numpy()
-    return cv2.resize(small, (2 * cols, 2 * rows), interpolation=cv2.INTER_LINEAR)
+    return NETWORK.probability(color, height, objects)
 
 
 def rows_of(index: int) -> list:
@@ -316,18 +252,19 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--with-default-fit", action="store_true",
                         help="the reading with the default palette's fitting exposure scenes in every fit")
-    parser.add_argument("--variant", choices=("H", "H2", "H3", "H4"), default="H",
+    parser.add_argument("--variant", choices=("H", "H2", "H3", "H4", "H5"), default="H",
                         help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
     global NET, ROWS, MODELS
-    if args.variant in ("H2", "H3", "H4"):
+    if args.variant in ("H2", "H3", "H4", "H5"):
         tag = args.variant.lower()
         NET, ROWS = NET.with_name(f"cnn_{tag}.pt"), ROWS.with_name(f"cnn_{tag}_rows.npz")
         MODELS = {"A shipped fifteen": FEATURES, f"{args.variant} fifteen + network": FEATURES + CNN}
     if not NET.exists():  # training in a process of its own: torch's thread pool does not survive a fork
         torch.set_num_threads(2)
-        train(args.epochs, exposure=args.variant in ("H2", "H3", "H4"), more=args.variant in ("H3", "H4"),
-              default=args.variant == "H4")
+        later = ("H4", "H5")
+        train(args.epochs, exposure=args.variant in ("H2", "H3", *later), more=args.variant in ("H3", *later),
+              default=args.variant in later, invisible=args.variant != "H5")
         print(f"trained {NET}; run again for the reading")
         return
     NETWORK = CellNet()

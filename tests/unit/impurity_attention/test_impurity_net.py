@@ -98,20 +98,19 @@ def test_a_bad_weights_file_is_refused_with_its_reason(tmp_path):
         read_network(tmp_path / "short.pt")
 
 
-def test_the_network_features_read_the_map_over_the_region_and_are_unknown_without_a_network():
+def test_the_network_features_read_the_map_over_the_region_and_only_a_network_adds_them():
     color, height, objects, target = view()
     regions = [att.SalientRegion(mask=target, area=int(target.sum()), score=2.0, peak=2.0,
                                  centroid=(13.5, 13.5))]
     maps = att.scene_maps(color, objects, att.AttentionParams())[1]
-    columns = [ver.FEATURES.index(name) for name in ver.NETWORK_FEATURES]
     net = seeded_net()
     (_, with_net), = ver.candidate_features(color, height, objects, maps, regions, network=net)
     (_, without), = ver.candidate_features(color, height, objects, maps, regions)
+    assert len(with_net) == len(ver.ALL_FEATURES) and len(without) == len(ver.FEATURES)
     values = net.probability(color, height, objects)[target]
+    columns = [ver.ALL_FEATURES.index(name) for name in ver.NETWORK_FEATURES]
     assert with_net[columns] == pytest.approx([values.mean(), np.quantile(values, ver.NETWORK_QUANTILE)])
-    assert np.all(np.isnan(without[columns]))
-    others = [i for i in range(len(ver.FEATURES)) if i not in columns]
-    assert np.array_equal(with_net[others], without[others], equal_nan=True)
+    assert np.array_equal(with_net[:len(ver.FEATURES)], without, equal_nan=True)
 
 
 class CountingNet(ImpurityNet):
@@ -127,9 +126,9 @@ class CountingNet(ImpurityNet):
 
 def test_attention_runs_the_network_for_a_model_that_reads_its_features_and_only_then():
     color, height, _, _ = view(size=(96, 96))
-    n = len(ver.FEATURES)
+    n = len(ver.ALL_FEATURES)
     model = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                               threshold=0.5, low=(-1e9,) * n, high=(1e9,) * n)
+                               threshold=0.5, low=(-1e9,) * n, high=(1e9,) * n, features=ver.ALL_FEATURES)
     lean = ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5,
                               low=(-1e9,), high=(1e9,), features=("colour_contrast",))
     assert model.reads_network and not lean.reads_network

@@ -10,11 +10,10 @@ from impurity_attention.core import verifier as ver
 
 
 def coin(threshold=0.6):
-    """A model that rates every region 0.5, with its own threshold (it reads no network feature)."""
-    names = ver.REGION_FEATURES + ver.CONTEXT_FEATURES
-    n = len(names)
+    """A model that rates every region 0.5, with its own threshold."""
+    n = len(ver.FEATURES)
     return ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                              threshold=threshold, low=(-1e9,) * n, high=(1e9,) * n, features=names)
+                              threshold=threshold, low=(-1e9,) * n, high=(1e9,) * n)
 
 
 def params(**changes):

@@ -96,8 +96,7 @@ def test_a_model_reads_the_features_it_names_and_no_others():
     row = np.full(len(ver.FEATURES), 5.0)  # every other feature: anything
     row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
     assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
-    # the shipped model: the fifteen before the network's two (twenty-first session)
-    assert ver.default_verifier().features == ver.REGION_FEATURES + ver.CONTEXT_FEATURES
+    assert ver.default_verifier().features == ver.FEATURES  # the shipped model: all fifteen (21st session)
     assert ver.default_verifier().reads_oriented and not model.reads_oriented
 
 
@@ -129,7 +128,7 @@ def test_a_view_read_once_gives_every_region_the_features_it_gets_alone():
 
 
 def test_a_model_naming_an_unknown_feature_or_too_few_values_is_refused():
-    with pytest.raises(ValueError, match="features must be distinct names of FEATURES"):
+    with pytest.raises(ValueError, match="features must be distinct names of ALL_FEATURES"):
         ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5, low=(0.0,),
                            high=(1.0,), features=("colour_contrast_typo",))
     with pytest.raises(ValueError, match=r"RegionVerifier.coef needs 2 values \(colour_contrast, rank\)"):
@@ -293,11 +292,10 @@ def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability()
 
 
 def test_a_threshold_set_on_the_node_overrides_the_models():
-    # a model that rates every region 0.5, with its own threshold 0.6 (it reads no network feature)
-    names = ver.REGION_FEATURES + ver.CONTEXT_FEATURES
-    n = len(names)
+    # a model that rates every region 0.5, with its own threshold 0.6
+    n = len(ver.FEATURES)
     coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n, features=names)
+                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
     color, height, *_ = two_colour_view()
     own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
                                                         verifier_last_look=0.0))  # no last look at 0.5

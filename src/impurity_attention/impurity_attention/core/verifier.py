@@ -54,11 +54,11 @@ Of the impurity network's map (NETWORK_FEATURES, network_features; impurity_net.
 - network_mean: the mean over m of the network's per-cell impurity probability;
 - network_high: its 90th percentile over m (NETWORK_QUANTILE): a region that covers an impurity's top and
   some product around it still reads high.
-  Unknown (NaN) when no network is given: a model that reads them then adds nothing from them.
+  Read only when a network is given (candidate_features' rows are then ALL_FEATURES, else FEATURES).
 
-A model reads the features it was fitted on (RegionVerifier.features, by name): the shipped model read all
-fifteen before NETWORK_FEATURES from the twenty-first session (before it, the twelve without the oriented
-three).
+A model reads the features it was fitted on (RegionVerifier.features, by name, any of ALL_FEATURES): the
+shipped model reads the fifteen of FEATURES since the twenty-first session (before it, the twelve without the
+oriented three), not the network's.
 
 The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
 palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
@@ -85,8 +85,9 @@ ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_sh
 REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
                    "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES
 CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
+FEATURES = REGION_FEATURES + CONTEXT_FEATURES  # a row without the network (candidate_features' default)
 NETWORK_FEATURES = ("network_mean", "network_high")
-FEATURES = REGION_FEATURES + CONTEXT_FEATURES + NETWORK_FEATURES
+ALL_FEATURES = FEATURES + NETWORK_FEATURES  # a row with the network
 MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
 SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
@@ -121,10 +122,10 @@ class RegionVerifier:
     features: tuple = FEATURES  # the names it was fitted on, a subset of FEATURES, in the order of its values
 
     def __post_init__(self):
-        unknown = [name for name in self.features if name not in FEATURES]
+        unknown = [name for name in self.features if name not in ALL_FEATURES]
         if unknown or len(set(self.features)) != len(self.features) or not self.features:
-            raise ValueError(f"RegionVerifier.features must be distinct names of FEATURES "
-                             f"({', '.join(FEATURES)}), got {self.features}")
+            raise ValueError(f"RegionVerifier.features must be distinct names of ALL_FEATURES "
+                             f"({', '.join(ALL_FEATURES)}), got {self.features}")
         for name in ("mean", "scale", "coef", "low", "high"):
             if len(getattr(self, name)) != len(self.features):
                 raise ValueError(f"RegionVerifier.{name} needs {len(self.features)} values "
@@ -154,9 +155,10 @@ class RegionVerifier:
         return any(name in NETWORK_FEATURES for name in self.features)
 
     def probability(self, features: np.ndarray) -> np.ndarray:
-        """(N, len(FEATURES)) -> (N,) probabilities that each region is an impurity (the model reads its own
-        `features` columns; an unknown value, NaN, counts as that feature's fitted mean)."""
-        columns = [FEATURES.index(name) for name in self.features]
+        """(N, len(FEATURES)) or (N, len(ALL_FEATURES)) -> (N,) probabilities that each region is an impurity
+        (the model reads its own `features` columns, so a model reading NETWORK_FEATURES needs rows of
+        ALL_FEATURES; an unknown value, NaN, counts as that feature's fitted mean)."""
+        columns = [ALL_FEATURES.index(name) for name in self.features]
         features = np.atleast_2d(np.asarray(features, dtype=np.float64))[:, columns]
         features = np.clip(features, self.low, self.high)  # NaN stays NaN
         z = np.nan_to_num((features - np.asarray(self.mean)) / np.asarray(self.scale), nan=0.0)
@@ -286,29 +288,28 @@ def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarra
                      math.log(max(float(np.mean(objects)), 1e-6))])
 
 
-def network_features(probability: np.ndarray | None, region: np.ndarray) -> np.ndarray:
+def network_features(probability: np.ndarray, region: np.ndarray) -> np.ndarray:
     """(len(NETWORK_FEATURES),) float64 of `region` ((H, W) bool, not empty) on the impurity network's map
-    `probability` ((H, W) in [0, 1], ImpurityNet.probability); (nan, nan) when the map is None."""
-    if probability is None:
-        return np.full(len(NETWORK_FEATURES), np.nan)
+    `probability` ((H, W) in [0, 1], ImpurityNet.probability)."""
     values = np.asarray(probability)[np.asarray(region, dtype=bool)]
     return np.array([float(values.mean()), float(np.quantile(values, NETWORK_QUANTILE))])
 
 
 def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, conspicuity: dict,
                        regions: list, oriented: bool = True, network=None) -> list:
-    """[(region, (len(FEATURES),) features or None)] for the TOP_REGIONS best of `regions` (salient
-    regions, best first): what attention scores and verifier-fit learns from. Arguments as
-    region_features; network: an impurity_net.ImpurityNet run once on the view for NETWORK_FEATURES (None:
-    they are unknown, NaN, and torch is not needed)."""
+    """[(region, features or None)] for the TOP_REGIONS best of `regions` (salient regions, best first): what
+    attention scores and verifier-fit learns from; features (len(FEATURES),) float64, or (len(ALL_FEATURES),)
+    with a network. Arguments as region_features; network: an impurity_net.ImpurityNet run once on the view
+    for NETWORK_FEATURES (None: rows without them, and torch is not needed)."""
     candidates = []
     planes = ViewPlanes.of(color, height if oriented else None)
     probability = None if network is None or not regions else network.probability(color, height, objects)
     for rank, region in enumerate(regions[:TOP_REGIONS]):
         own = region_features(color, height, objects, conspicuity, region.mask, oriented, planes)
-        candidates.append((region, None if own is None else
-                           np.concatenate([own, context_features(objects, regions, rank),
-                                           network_features(probability, region.mask)])))
+        row = None if own is None else np.concatenate([own, context_features(objects, regions, rank)])
+        if row is not None and probability is not None:
+            row = np.concatenate([row, network_features(probability, region.mask)])
+        candidates.append((region, row))
     return candidates
 
 
