@@ -385,19 +385,21 @@ def network_default_records() -> list:
                          "network training, default palette")
 
 
-def network_records() -> list:
+def network_records(invisible: bool = True) -> list:
     """The impurity network's training views (network-fit; H4 of the thirty-fourth session, docs/
     experiments.md): rule-sweep's scenes (the default palette's also at x0.5 and x2), the tuning palettes'
     own-layout scenes, network_palette_records() and network_default_records(); only scenes of
-    evaluation.CATEGORIES."""
+    evaluation.CATEGORIES, and with invisible False none of the invisible layout (H5: their impurities are
+    always cubes)."""
     records = (rule_sweep_records()[0] + collect_palettes("tuning", own_layouts=True)
                + network_palette_records() + network_default_records())
-    return [r for r in records if r.category() in evaluation.CATEGORIES]
+    return [r for r in records if r.category() in evaluation.CATEGORIES and (invisible or
+                                                                            r.scenario != "invisible")]
 
 
-def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path) -> None:
-    """Train the impurity network (impurity_learning.impurity_net_training) on network_records() and write it
-    to `out` (impurity_net.write_network), with its provenance; prints each epoch's mean loss."""
+def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path, invisible: bool = True) -> None:
+    """Train the impurity network (impurity_learning.impurity_net_training) on network_records(invisible) and
+    write it to `out` (impurity_net.write_network), with its provenance; prints each epoch's mean loss."""
     import torch
 
     from impurity_attention.core.attention import sanitize
@@ -406,16 +408,16 @@ def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path) -> None
     from impurity_learning.impurity_net_training import train_impurity_net
 
     torch.set_num_threads(max(1, min(4, torch.get_num_threads())))
-    records = network_records()
+    records = network_records(invisible)
     views = []
     for record in records:
         color, height = sanitize(record.color, record.height)
         views.append((color, height, height > params.density.occupied_height, record.visible_target_cells))
     palettes = len({r.palette or "blocks" for r in records})
     net, losses = train_impurity_net(views, epochs, exposure=splits.TRAINING_EXPOSURE)
-    provenance = (f"scripts/calibrate_attention.py network-fit: {len(views)} tuning views of {palettes} "
-                  f"palettes, {epochs} epochs, exposure drawn in {splits.TRAINING_EXPOSURE}; mean loss "
-                  f"{losses[0]:.4f} -> {losses[-1]:.4f}")
+    provenance = (f"scripts/calibrate_attention.py network-fit{'' if invisible else ' --no-invisible'}: "
+                  f"{len(views)} tuning views of {palettes} palettes, {epochs} epochs, exposure drawn in "
+                  f"{splits.TRAINING_EXPOSURE}; mean loss {losses[0]:.4f} -> {losses[-1]:.4f}")
     write_network(net, out, provenance)
     print(f"wrote {out}: {provenance}")
 
@@ -951,6 +953,9 @@ def main() -> None:
                         help="network-fit: write the network to "
                              "impurity_attention/checkpoints/impurity_net.pt "
                              f"(else {NETWORK_OUT.relative_to(ROOT)})")
+    parser.add_argument("--no-invisible", action="store_true",
+                        help="network-fit: leave the invisible-layout scenes out (their impurities are "
+                             "cubes)")
     parser.add_argument("--network", type=pathlib.Path, default=None,
                         help="verifier-fit: the impurity network whose map the rows read (NETWORK_FEATURES; "
                              "'shipped': impurity_attention's); without it the model leaves them out")
@@ -980,7 +985,8 @@ def main() -> None:
         return
     if args.action == "network-fit":
         from impurity_attention.core.impurity_net import SHIPPED_NETWORK
-        network_fit(params, args.epochs, SHIPPED_NETWORK if args.write_network else NETWORK_OUT)
+        network_fit(params, args.epochs, SHIPPED_NETWORK if args.write_network else NETWORK_OUT,
+                    invisible=not args.no_invisible)
         return
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, check=not args.no_check,
