@@ -70,8 +70,7 @@ def objects_of(record) -> tuple:
 
 def exposed_input(color, height, objects, factor: float) -> np.ndarray:
     """half(scene_input) of the view with its RGB scaled by `factor` (clipped at 255, a saturating camera)."""
-    color = np.clip(color.astype(np.float32) * factor + 0.5, 0, 255).astype(np.uint8)
-    return half(scene_input(color, height, objects))
+    return half(scene_input(evaluation.exposed_color(color, factor), height, objects))
 
 
 def training_palette_records() -> list:

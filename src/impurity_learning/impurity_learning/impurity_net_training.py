@@ -20,16 +20,12 @@ import numpy as np
 import torch
 from torch import nn
 
+from impurity_attention.core.evaluation import exposed_color
 from impurity_attention.core.impurity_net import ImpurityNet, pooled, scene_planes
 
 POSITIVE_WEIGHT = 5.0  # an impurity cell's weight in the loss (they are a few % of the object cells)
 BATCH = 16
 LEARNING_RATE = 2e-3
-
-
-def exposed(color: np.ndarray, factor: float) -> np.ndarray:
-    """(H, W, 3) uint8 with its RGB scaled by `factor`, rounded and clipped at 255."""
-    return np.clip(np.asarray(color, dtype=np.float32) * factor + 0.5, 0, 255).astype(np.uint8)
 
 
 def train_impurity_net(views: Sequence, epochs: int, exposure: tuple = (0.5, 2.0), seed: int = 0,
@@ -63,9 +59,10 @@ def train_impurity_net(views: Sequence, epochs: int, exposure: tuple = (0.5, 2.0
         bar = _progress(steps, f"impurity net epoch {epoch + 1}/{epochs}", progress)
         for number, start in enumerate(bar):
             chosen = order[start:start + batch]
+            factors = [float(np.exp(rng.uniform(low, high))) for _ in chosen]
             x = torch.from_numpy(np.stack([
-                pooled(scene_planes(exposed(views[i][0], float(np.exp(rng.uniform(low, high)))), views[i][1],
-                                    views[i][2])) for i in chosen]))
+                pooled(scene_planes(exposed_color(views[i][0], factor), views[i][1], views[i][2]))
+                for i, factor in zip(chosen, factors, strict=True)]))
             index = torch.from_numpy(chosen)
             y, m = labels[index][:, None], masks[index][:, None]
             turns = int(rng.integers(4))

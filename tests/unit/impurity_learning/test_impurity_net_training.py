@@ -4,7 +4,8 @@ seeded, and that it learns to mark the cells that look unlike the product around
 import numpy as np
 import pytest
 
-from impurity_learning.impurity_net_training import exposed, train_impurity_net
+from impurity_attention.core.evaluation import exposed_color
+from impurity_learning.impurity_net_training import train_impurity_net
 
 
 def palette_view(seed: int, size: int = 40):
@@ -37,8 +38,8 @@ def test_it_refuses_no_views_no_epochs_and_views_of_different_sizes():
 
 def test_exposure_scales_and_clips_like_a_saturating_camera():
     color = np.array([[[100, 200, 10]]], np.uint8)
-    assert exposed(color, 2.0).tolist() == [[[200, 255, 20]]]
-    assert exposed(color, 0.5).tolist() == [[[50, 100, 5]]]
+    assert exposed_color(color, 2.0).tolist() == [[[200, 255, 20]]]
+    assert exposed_color(color, 0.5).tolist() == [[[50, 100, 5]]]
 
 
 def test_the_same_views_and_seed_give_the_same_network():

@@ -40,6 +40,11 @@ MODE_NAMES = ("TARGET", "OCCLUDED_REGION", "NONE")
 SEPARABLE_MIN_CELLS = 30
 
 
+def exposed_color(color: np.ndarray, exposure: float) -> np.ndarray:
+    """(H, W, 3) uint8 with its RGB scaled by `exposure`, rounded and clipped at 255 (a saturating camera)."""
+    return np.clip(np.asarray(color).astype(np.float32) * np.float32(exposure) + 0.5, 0, 255).astype(np.uint8)
+
+
 @dataclass
 class SceneRecord:
     scenario: str
@@ -56,7 +61,7 @@ class SceneRecord:
     def exposed(self, exposure: float) -> SceneRecord:
         """The same scene with its colour map scaled by `exposure` (clipped at 255, as a saturating
         camera): exposure commutes with the heightmap projection, which only picks camera pixels."""
-        color = np.clip(self.color.astype(np.float32) * np.float32(exposure) + 0.5, 0, 255).astype(np.uint8)
+        color = exposed_color(self.color, exposure)
         return SceneRecord(self.scenario, self.seed, self.num_targets, self.num_objects, color, self.height,
                            self.labels, self.target_ids, self.target_cells, f"{self.palette}@x{exposure:g}")
 
