@@ -5,8 +5,9 @@ attention module (224x224 heightmaps in), p50/p95 over repeated calls. Printed, 
 Scenes are synthetic (impurity_attention.core.synthetic, seeded) so the figures do not depend on the
 simulator; pass --sim to also time frames rendered by the PyBullet cell. Also printed: the depth sanity
 check and, for cameras coarser than the cells, the cost of filling the gaps, and what the known product
-(core/product_memory.py) adds to attention on a view with a visible impurity and a heap left. Aims (issue 4):
-heightmap <= 20 ms, attention <= 30 ms p50.
+(core/product_memory.py) adds to attention on a view with a visible impurity and a heap left, and what the
+impurity network (core/impurity_net.py, available and not shipped; timed with seeded untrained weights, which
+cost the same) would add. Aims (issue 4): heightmap <= 20 ms, attention <= 30 ms p50.
 """
 
 import argparse
@@ -95,6 +96,31 @@ def main() -> None:
         p50[name] = report(f"attention, heap left, known: {name} [{mode[:8]}]", timed(run, args.repeats), 30)
     print(f"{'':48s} known product / none: {p50['product only'] / p50['none']:.2f}x (region kept), "
           f"{p50['with the impurity'] / p50['none']:.2f}x (passed over)")
+
+    # the impurity network (not shipped): its map alone, and attention with a verifier that reads it
+    import torch
+
+    from impurity_attention.core.impurity_net import ImpurityNet
+    from impurity_attention.core.verifier import ALL_FEATURES, RegionVerifier
+    torch.manual_seed(args.seed)
+    network = ImpurityNet().eval()
+    first = scenes["impurity, 20 products"]
+    maps = projector.project(first.color, first.depth)
+    objects = maps.height > params.density.occupied_height
+    report("impurity network map 224x224 (not shipped)",
+           timed(lambda: network.probability(maps.color, maps.height, objects), args.repeats), 30)
+    n = len(ALL_FEATURES)
+    reading = RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0, threshold=0.5,
+                             low=(-1e9,) * n, high=(1e9,) * n, features=ALL_FEATURES)
+    with_network = dataclasses.replace(params, verifier=reading, impurity_net=network)
+    p50 = {}
+    for name, tried in (("shipped verifier", params), ("verifier + network", with_network)):
+        output = attend(maps.color, maps.height, tried)
+        run = lambda t=tried: attend(maps.color, maps.height, t)  # noqa: E731
+        p50[name] = report(f"attention 224x224, impurity, {name} [{output.mode.name[:8]}]",
+                           timed(run, args.repeats), 30)
+    print(f"{'':48s} with the network / shipped: {p50['verifier + network'] / p50['shipped verifier']:.2f}x "
+          f"(torch threads {torch.get_num_threads()})")
 
     if args.sim:
         from ur5_driver_sim.core.world import CellWorld

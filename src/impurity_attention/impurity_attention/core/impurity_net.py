@@ -14,7 +14,8 @@ size (bilinear), so a heightmap of any size works (padded with empty cells to a 
 Network (ImpurityNet): three resolutions (full, 1/2, 1/4 of the pooled grid; dilations 2, 4, 8 at the
 lowest), each 3 x 3 convolution followed by batch normalisation and ReLU, the coarser levels upsampled and
 concatenated back (a U-Net-like encoder-decoder), one logit per cell. About 0.16 M weights at width 24; CPU
-inference on a 224 x 224 heightmap takes tens of milliseconds (`make bench`).
+inference on a 224 x 224 heightmap took 8-10 ms p50 here on 2 threads (`python benchmarks/bench_perception.py
+--repeats 20`, thirty-fourth session; `make bench` prints it).
 
 Weights: written by the trainer (impurity_learning.impurity_net_training, on tuning palettes and tuning
 seeds only) as a dict {"format_version", "width", "state_dict" (float16), "provenance"}; read_network checks
