@@ -361,15 +361,17 @@ def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> l
                                                                       "palettes")
 
 
-def network_palette_records() -> list:
-    """NETWORK_PALETTES on layouts of their own: PALETTE_PLAN's rows packed one after the other, seeds
-    NETWORK_PALETTE_SEED_BASE + the row's offset + palette index x the row's count + i (26 200 ... 29 999);
-    cached in palettes_train800_own.npz."""
-    offsets = np.concatenate([[0], np.cumsum([len(NETWORK_PALETTES) * count for *_, count in PALETTE_PLAN])])
-    wanted = palette_scenes(NETWORK_PALETTES, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE
+def network_palette_records(palettes: list | None = None, cache: str = "palettes_train800_own.npz") -> list:
+    """NETWORK_PALETTES (or `palettes`, as many, e.g. the same with a product jitter suffix) on layouts of
+    their own: PALETTE_PLAN's rows packed one after the other, seeds NETWORK_PALETTE_SEED_BASE + the row's
+    offset + palette index x the row's count + i (26 200 ... 29 999); cached in CACHE / `cache`."""
+    palettes = palettes or NETWORK_PALETTES
+    assert len(palettes) == len(NETWORK_PALETTES)  # the registered block holds this many
+    offsets = np.concatenate([[0], np.cumsum([len(palettes) * count for *_, count in PALETTE_PLAN])])
+    wanted = palette_scenes(palettes, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE
                             + int(offsets[row]) + number * scenes)
     assert max(seed for *_, seed, _ in wanted) < 30_000  # the registered block
-    return render_cached(CACHE / "palettes_train800_own.npz", wanted, "network training palettes 800+")
+    return render_cached(CACHE / cache, wanted, f"network training palettes ({cache})")
 
 
 def network_default_records() -> list:

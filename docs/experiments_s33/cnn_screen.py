@@ -26,6 +26,7 @@ Read on:
     python docs/experiments_s33/cnn_screen.py --variant H3 --epochs 6; then --variant H3 [--with-default-fit]
     python docs/experiments_s33/cnn_screen.py --variant H4 --epochs 6; then --variant H4 [--with-default-fit]
     python docs/experiments_s33/cnn_screen.py --variant H5 --epochs 6; then --variant H5 [--with-default-fit]
+    python docs/experiments_s33/cnn_screen.py --variant H6 --epochs 6; then --variant H6 [--with-default-fit]
 The network is saved in runs/s33/cnn.pt, the rows in runs/s33/cnn_rows.npz.
 """
 import argparse
@@ -79,13 +80,25 @@ def training_palette_records() -> list:
     return ca.network_palette_records()
 
 
+WIDE_JITTER = (0.03, 0.06)  # H6: each training palette's product jitter drawn in this range
+
+
+def wide_palette_records() -> list:
+    """H6's further training views: random-800 ... 999 with product jitter drawn uniformly in WIDE_JITTER per
+    palette (seeded; the `@j` suffix, ur5_driver_sim's Palette.with_product_jitter), on H3's layouts and seeds
+    (calibrate_attention.network_palette_records), cached in palettes_train800_wide_own.npz."""
+    rng = np.random.default_rng(6)
+    palettes = [f"{name}@j{rng.uniform(*WIDE_JITTER):.3f}" for name in ca.NETWORK_PALETTES]
+    return ca.network_palette_records(palettes, "palettes_train800_wide_own.npz")
+
+
 def default_training_records() -> list:
     """H4's further training views of the default palette (calibrate_attention.network_default_records)."""
     return ca.network_default_records()
 
 
 def train(epochs: int, exposure: bool = False, more: bool = False, default: bool = False,
-          invisible: bool = True) -> CellNet:
+          invisible: bool = True, wide: bool = False) -> CellNet:
     """exposure: each training view's exposure drawn log-uniformly in splits.TRAINING_EXPOSURE (H2, H3, H4).
     more: training_palette_records() join the fitting first views (H3, H4). default: so do
     default_training_records() (H4)."""
@@ -94,7 +107,7 @@ def train(epochs: int, exposure: bool = False, more: bool = False, default: bool
     records, _ = ca.rule_sweep_records()
     records = records + ca.collect_palettes("tuning", own_layouts=True)
     if more:
-        records = records + training_palette_records()
+        records = records + (wide_palette_records() if wide else training_palette_records())
     if default:
         records = records + default_training_records()
     records = [r for r in records if r.category() in evaluation.CATEGORIES]
@@ -251,19 +264,19 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--with-default-fit", action="store_true",
                         help="the reading with the default palette's fitting exposure scenes in every fit")
-    parser.add_argument("--variant", choices=("H", "H2", "H3", "H4", "H5"), default="H",
+    parser.add_argument("--variant", choices=("H", "H2", "H3", "H4", "H5", "H6"), default="H",
                         help="H2: exposure drawn at random in training (runs/s33/cnn_h2.pt, cnn_h2_rows.npz)")
     args = parser.parse_args()
     global NET, ROWS, MODELS
-    if args.variant in ("H2", "H3", "H4", "H5"):
+    if args.variant in ("H2", "H3", "H4", "H5", "H6"):
         tag = args.variant.lower()
         NET, ROWS = NET.with_name(f"cnn_{tag}.pt"), ROWS.with_name(f"cnn_{tag}_rows.npz")
         MODELS = {"A shipped fifteen": FEATURES, f"{args.variant} fifteen + network": FEATURES + CNN}
     if not NET.exists():  # training in a process of its own: torch's thread pool does not survive a fork
         torch.set_num_threads(2)
-        later = ("H4", "H5")
+        later = ("H4", "H5", "H6")
         train(args.epochs, exposure=args.variant in ("H2", "H3", *later), more=args.variant in ("H3", *later),
-              default=args.variant in later, invisible=args.variant != "H5")
+              default=args.variant in later, invisible=args.variant != "H5", wide=args.variant == "H6")
         print(f"trained {NET}; run again for the reading")
         return
     NETWORK = CellNet()

@@ -46,6 +46,18 @@ def test_exposure_suffix_changes_only_the_exposure():
     assert appearance.palette_named("blocks@x2").expose(image)[0, 0, 0] == 255  # saturates
 
 
+def test_a_product_jitter_suffix_changes_only_the_products_spread_and_combines_with_exposure():
+    wide = appearance.palette_named("random-800@j0.05")
+    base = appearance.random_palette(800)
+    assert wide.product_jitter == 0.05 and wide.name == "random-800@j0.05"
+    assert (wide.product_shades, wide.impurity_colors, wide.exposure) == \
+        (base.product_shades, base.impurity_colors, base.exposure)
+    both = appearance.palette_named("random-800@j0.05@x0.5")
+    assert both.product_jitter == 0.05 and both.exposure == 0.5
+    with pytest.raises(ValueError, match="product_jitter"):
+        appearance.palette_named("blocks@j0.5")  # beyond the field's range
+
+
 def test_random_palettes_are_seeded_and_keep_impurities_distinguishable():
     assert appearance.palette_named("random-7") == appearance.random_palette(7)
     assert appearance.random_palette(7) != appearance.random_palette(8)

@@ -91,6 +91,11 @@ class Palette:
     def with_exposure(self, exposure: float) -> Palette:
         return replace(self, name=f"{self.name}@x{exposure:g}", exposure=float(exposure))
 
+    def with_product_jitter(self, jitter: float) -> Palette:
+        """The same appearance with each product block's colour spread +- `jitter` per channel (0..1 scale):
+        a product whose pieces vary more (or less) around its shades."""
+        return replace(self, name=f"{self.name}@j{jitter:g}", product_jitter=float(jitter))
+
     def colours(self, scene_seed: int) -> BlockColours:
         return BlockColours(self, scene_seed)
 
@@ -382,11 +387,14 @@ def known_palette_names() -> list:
 
 
 _EXPOSURE_SUFFIX = re.compile(r"^(?P<name>.+)@x(?P<exposure>[0-9.]+)$")
+_JITTER_SUFFIX = re.compile(r"^(?P<name>.+)@j(?P<jitter>[0-9.]+)$")
 
 
 def palette_named(name: str) -> Palette:
     """A palette by name: "" (the default), a named palette, `random-<seed>`, and any of them with an
-    exposure suffix `@x<factor>` (e.g. `blocks@x0.5`). ValueError lists the known names otherwise."""
+    exposure suffix `@x<factor>` (e.g. `blocks@x0.5`) or a product jitter suffix `@j<jitter>` (e.g.
+    `random-800@j0.05`, Palette.with_product_jitter), both in that order (`random-800@j0.05@x0.5`). ValueError
+    lists the known names otherwise, or names the field out of range."""
     name = (name or DEFAULT_PALETTE).strip()
     suffix = _EXPOSURE_SUFFIX.match(name)
     if suffix:
@@ -395,9 +403,16 @@ def palette_named(name: str) -> Palette:
         except ValueError:
             exposure = float("nan")
         return palette_named(suffix.group("name")).with_exposure(exposure)
+    suffix = _JITTER_SUFFIX.match(name)
+    if suffix:
+        try:
+            jitter = float(suffix.group("jitter"))
+        except ValueError:
+            jitter = float("nan")
+        return palette_named(suffix.group("name")).with_product_jitter(jitter)
     if name in PALETTES:
         return PALETTES[name]
     if name.startswith(RANDOM_PREFIX) and name[len(RANDOM_PREFIX):].isdigit():
         return random_palette(int(name[len(RANDOM_PREFIX):]))
     raise ValueError(f"unknown palette {name!r}; known: {', '.join(known_palette_names())} "
-                     f"(any of them with @x<exposure>, e.g. blocks@x0.5)")
+                     f"(any of them with @j<product jitter> and @x<exposure>, e.g. random-800@j0.05@x0.5)")
