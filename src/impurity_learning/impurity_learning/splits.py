@@ -321,9 +321,11 @@ TUNING_SEED_BLOCKS = (
               "OWN_LAYOUT_SEED_BASE's scheme for random-96 ... 191 as palettes 101-196; its first row "
               "(random) runs to 21 181, into the own layouts' second row (challenging, 21 000-21 403): "
               "seeds 21 000-21 181 serve both, not by design (other scenario and palettes)"),
-    SeedBlock(26_200, 30_000, "docs/experiments_s33/cnn_screen.py",
-              "TRAINING_LAYOUT_SEED_BASE: random-800 ... 999 on layouts of their own, the network's further "
-              "training views (variant H3), PALETTE_PLAN's rows packed: row offset + palette x count + i"),
+    SeedBlock(26_200, 30_000, _CA,
+              "NETWORK_PALETTE_SEED_BASE (cnn_screen.py's TRAINING_LAYOUT_SEED_BASE in the thirty-third "
+              "session): random-800 ... 999 on layouts of their own, the impurity network's further training "
+              "views (network-fit; the screens' variants H3-H5, H6 the same palettes with a product jitter "
+              "suffix @j), PALETTE_PLAN's rows packed: row offset + palette x count + i"),
     SeedBlock(30_000, 34_030, _CA, "EXPOSURE_CHECK_SEED_BASE: the default palette's EXPOSURE_PLAN, 1000 x "
               "row + i, never fitted on (experiments_s11/exposure_wide.py's default; experiments_s12/"
               "recovery.py, experiments_s13/trees_check.py)"),
@@ -373,9 +375,10 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(72_100, 76_160, "docs/experiments_s33/run_threshold.sh",
               "exposure_wide.py report --seed-base 72100 --count-scale 2: the thirty-third session's fresh "
               "default-palette exposure set for the verifier threshold at a 2 % cap"),
-    SeedBlock(76_200, 76_620, "docs/experiments_s33/cnn_screen.py",
-              "DEFAULT_TRAINING_SEED_BASE: the default palette's EXPOSURE_PLAN at twice its counts, rows "
-              "packed, the network's further training views (variant H4, thirty-fourth session)"),
+    SeedBlock(76_200, 76_620, _CA,
+              "NETWORK_DEFAULT_SEED_BASE: the default palette's EXPOSURE_PLAN at twice its counts, rows "
+              "packed, the impurity network's further training views (network-fit; the screens' H4-H6, "
+              "thirty-fourth session)"),
     SeedBlock(80_000, 92_200, "docs/experiments_s12/more_palettes.py",
               "SEED_BASE: random-192 ... 391 on layouts of their own, 2000 x row + palette x count + i"),
     SeedBlock(94_000, 98_860, "docs/experiments_s13/fresh_layouts.py",
