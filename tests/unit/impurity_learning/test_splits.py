@@ -174,10 +174,11 @@ def planned_seeds() -> list:
         (ORIENTED_S20, [17_000 + k for k in range(300)]),  # push_out.py --seed-base 17000 (twentieth session)
         # twentieth session: exposure_wide.py report --seed-base 2000 --count-scale 2 [--model ...]
         ("docs/experiments_s11/exposure_wide.py", exposure_seeds(2_000, 2)),
-        # network-fit's further views: 200 palettes x PALETTE_PLAN's 19 scenes, and EXPOSURE_PLAN twice, packed
+        # network-fit's further views, packed: random-800 ... 999 x PALETTE_PLAN's scenes; EXPOSURE_PLAN twice
         (CA, [ca["NETWORK_PALETTE_SEED_BASE"] + k
-              for k in range(200 * sum(count for *_, count in ca["PALETTE_PLAN"]))]),  # random-800 ... 999
-        (CA, [ca["NETWORK_DEFAULT_SEED_BASE"] + k for k in range(2 * sum(c for *_, c in ca["EXPOSURE_PLAN"]))]),
+              for k in range(200 * sum(count for *_, count in ca["PALETTE_PLAN"]))]),
+        (CA, [ca["NETWORK_DEFAULT_SEED_BASE"] + k
+              for k in range(2 * sum(count for *_, count in ca["EXPOSURE_PLAN"]))]),
         # loop_views.py collect: invisible k < 160, challenging --start 200 (80), random --start 400 (80)
         (LOOP_VIEWS, [module_constants(ROOT / LOOP_VIEWS)["SEED_BASE"] + k
                       for k in [*range(160), *range(200, 280), *range(400, 480)]]),
