@@ -743,6 +743,13 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     from sklearn.preprocessing import StandardScaler
 
     from impurity_attention.core.verifier import ALL_FEATURES, FEATURES, RegionVerifier
+    unknown = sorted(set(feature_names or ()) - set(ALL_FEATURES))
+    if unknown:
+        raise SystemExit(f"verifier-fit: unknown features {', '.join(unknown)}; known: "
+                         f"{', '.join(ALL_FEATURES)}")
+    if network is None and set(feature_names or ()) - set(FEATURES):
+        raise SystemExit(f"verifier-fit: {', '.join(sorted(set(feature_names) - set(FEATURES)))} need the "
+                         "impurity network: give --network (shipped, or a weights file)")
     records, default = rule_sweep_records()
     halves = {"shared layouts": records}
     if exposure_scenes:
@@ -758,9 +765,6 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
         records = records + loop
     features, on, scene, group, visible = verifier_rows(records, params, network)
     feature_names = tuple(feature_names or (ALL_FEATURES if network is not None else FEATURES))
-    if network is None and set(feature_names) - set(FEATURES):
-        raise SystemExit(f"verifier-fit: {', '.join(sorted(set(feature_names) - set(FEATURES)))} need the "
-                         "impurity network: give --network (shipped, or a weights file)")
     features = features[:, [ALL_FEATURES.index(name) for name in feature_names]]
     count = len(visible)
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity), {len(features)} regions, "
@@ -914,8 +918,11 @@ def read_network_option(value: pathlib.Path | None):
     """--network: None, "shipped" (impurity_net.SHIPPED_NETWORK) or a weights file, read."""
     if value is None:
         return None
-    from impurity_attention.core.impurity_net import read_network
-    return read_network(None if str(value) == "shipped" else value)
+    from impurity_attention.core.impurity_net import NetworkFileError, read_network
+    try:
+        return read_network(None if str(value) == "shipped" else value)
+    except NetworkFileError as error:
+        raise SystemExit(f"--network: {error}") from error
 
 
 def main() -> None:
