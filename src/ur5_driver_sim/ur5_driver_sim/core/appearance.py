@@ -386,8 +386,9 @@ def known_palette_names() -> list:
     return sorted(PALETTES) + [f"{RANDOM_PREFIX}<seed>"]
 
 
-_EXPOSURE_SUFFIX = re.compile(r"^(?P<name>.+)@x(?P<exposure>[0-9.]+)$")
-_JITTER_SUFFIX = re.compile(r"^(?P<name>.+)@j(?P<jitter>[0-9.]+)$")
+# name suffixes, the outermost first: (pattern, the Palette method that applies its value)
+_SUFFIXES = ((re.compile(r"^(?P<name>.+)@x(?P<value>[0-9.]+)$"), Palette.with_exposure),
+             (re.compile(r"^(?P<name>.+)@j(?P<value>[0-9.]+)$"), Palette.with_product_jitter))
 
 
 def palette_named(name: str) -> Palette:
@@ -396,20 +397,14 @@ def palette_named(name: str) -> Palette:
     `random-800@j0.05`, Palette.with_product_jitter), both in that order (`random-800@j0.05@x0.5`). ValueError
     lists the known names otherwise, or names the field out of range."""
     name = (name or DEFAULT_PALETTE).strip()
-    suffix = _EXPOSURE_SUFFIX.match(name)
-    if suffix:
-        try:
-            exposure = float(suffix.group("exposure"))
-        except ValueError:
-            exposure = float("nan")
-        return palette_named(suffix.group("name")).with_exposure(exposure)
-    suffix = _JITTER_SUFFIX.match(name)
-    if suffix:
-        try:
-            jitter = float(suffix.group("jitter"))
-        except ValueError:
-            jitter = float("nan")
-        return palette_named(suffix.group("name")).with_product_jitter(jitter)
+    for pattern, apply in _SUFFIXES:
+        suffix = pattern.match(name)
+        if suffix:
+            try:
+                value = float(suffix.group("value"))
+            except ValueError:  # e.g. "1.2.3": Palette's range check names the field
+                value = float("nan")
+            return apply(palette_named(suffix.group("name")), value)
     if name in PALETTES:
         return PALETTES[name]
     if name.startswith(RANDOM_PREFIX) and name[len(RANDOM_PREFIX):].isdigit():
