@@ -19,9 +19,7 @@ one line when the bag cannot be written, 2 with one line for a bad parameter.
   bag_recorder --ros-args -p output:=/tmp/episode_bag -p topics:="[/heightmap, /policy/primitive]"
 """
 
-import signal
 import sys
-import threading
 import time
 from dataclasses import dataclass
 from functools import partial
@@ -30,7 +28,6 @@ import rclpy
 from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from rclpy.signals import SignalHandlerOptions
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
 from impurity_common import names
@@ -43,7 +40,7 @@ from impurity_common.bags import (
     subscription_request,
     weakened_request,
 )
-from impurity_common.node_main import bound_malloc_arenas, exit_if_help
+from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
     ParameterError,
@@ -195,10 +192,7 @@ def main(args=None) -> int:
     """Signals only set `stop`; the loop then leaves spin_once and the bag is closed in `finally`."""
     exit_if_help(args, BagRecorderParameters, __doc__.split("\n\n")[0])
     bound_malloc_arenas()  # as spin_node: flat memory over long recordings
-    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-    stop = threading.Event()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, lambda *_: stop.set())
+    stop = init_with_stop_event(args)
     node = None
     code = 0
     try:

@@ -62,7 +62,7 @@ from impurity_common.bags import (
     run_replay,
     select_topics,
 )
-from impurity_common.node_main import bound_malloc_arenas, exit_if_help
+from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
 FASTDDS_LARGE_SHM_PROFILE = """<?xml version="1.0" encoding="UTF-8" ?>
@@ -212,6 +212,7 @@ class BagReplayNode(Node):
     def play(self, spin_once, should_stop) -> int:
         """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
         self._spin_once = spin_once
+        self._should_stop = should_stop
         self._wait_for_subscribers(should_stop)
         deadline = time.monotonic() + self.params.delay
         while not should_stop() and (remaining := deadline - time.monotonic()) > 0:
@@ -272,9 +273,9 @@ class BagReplayNode(Node):
         retries = self.params.ack_retries
         for attempt in range(retries + 1):
             deadline = time.monotonic() + timeout
-            while stamp not in self._acked_stamps and rclpy.ok() and time.monotonic() < deadline:
+            while stamp not in self._acked_stamps and not self._should_stop() and time.monotonic() < deadline:
                 self._spin_once(0.02)
-            if stamp in self._acked_stamps or not rclpy.ok():
+            if stamp in self._acked_stamps or self._should_stop():
                 break
             if attempt < retries:
                 self.get_logger().warn(f"no answer on {self.params.ack_topic} for stamp {stamp} within "
@@ -292,7 +293,7 @@ def main(args=None) -> int:
     exit_if_help(args, BagReplayParameters, __doc__.split("\n\n")[0])
     use_large_shm_segment()
     bound_malloc_arenas()  # as spin_node: flat memory over long recordings
-    rclpy.init(args=args)
+    stop = init_with_stop_event(args)  # Ctrl-C / SIGTERM: stop playing, wait for readers, exit 0
     node = None
     code = 0
     try:
@@ -300,7 +301,7 @@ def main(args=None) -> int:
         executor = SingleThreadedExecutor()
         executor.add_node(node)
         count = node.play(lambda timeout: executor.spin_once(timeout_sec=timeout),
-                          should_stop=lambda: not rclpy.ok())
+                          should_stop=lambda: stop.is_set() or not rclpy.ok())
         node.get_logger().info(f"played {count} message(s) from {node.reader.path}")
     except (BagError, ValueError) as error:
         print(f"bag_replay: error: {error}", file=sys.stderr, flush=True)
@@ -308,7 +309,7 @@ def main(args=None) -> int:
     except ParameterError as error:
         print(error, file=sys.stderr, flush=True)
         code = PARAMETER_ERROR_EXIT_CODE
-    except (KeyboardInterrupt, ExternalShutdownException):
+    except ExternalShutdownException:
         pass
     finally:
         if node is not None:

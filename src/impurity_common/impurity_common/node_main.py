@@ -6,13 +6,16 @@ import ctypes
 import ctypes.util
 import dataclasses
 import pathlib
+import signal
 import sys
 import textwrap
+import threading
 import typing
 from collections.abc import Sequence
 
 import rclpy
 from rclpy.executors import ExternalShutdownException
+from rclpy.signals import SignalHandlerOptions
 
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
@@ -37,6 +40,22 @@ def bound_malloc_arenas(arenas: int = MALLOC_ARENAS) -> bool:
         return bool(libc.mallopt(_M_ARENA_MAX, int(arenas)))
     except (OSError, AttributeError):
         return False
+
+
+def init_with_stop_event(args=None, signals=(signal.SIGINT, signal.SIGTERM)) -> threading.Event:
+    """rclpy.init without rclpy's signal handlers; instead each of `signals` only sets the returned event.
+    For executables that spin in their own loop with bounded `spin_once(timeout)` (bag_recorder,
+    bag_replay) and must finish their work (close a bag, wait for reliable readers) after Ctrl-C.
+
+    Why not rclpy's handlers: they shut the context down from another thread and then raise
+    KeyboardInterrupt in the main thread, in no fixed order; a spin_once that starts in between fails
+    with RCLError ("the given context is not valid") and the KeyboardInterrupt then lands in the
+    clean-up, so Ctrl-C ended the process by SIGINT instead of exit 0 (seen in CI on bag_replay)."""
+    rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+    stop = threading.Event()
+    for sig in signals:
+        signal.signal(sig, lambda *_: stop.set())
+    return stop
 
 
 HELP_FLAGS = ("-h", "--help")

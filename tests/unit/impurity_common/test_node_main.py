@@ -3,6 +3,7 @@ parameters dataclass of each node found from its class alone."""
 
 import importlib
 import pathlib
+import subprocess
 import sys
 import types
 from dataclasses import dataclass
@@ -125,3 +126,28 @@ def test_every_spin_node_node_lists_the_parameters_it_declares(module_name):
     node_class, parameters_class = SPIN_NODE_NODES[module_name]
     assert parameters_of(getattr(module, node_class)) is getattr(module, parameters_class)
     assert f"declare_parameters(self, {parameters_class})" in pathlib.Path(module.__file__).read_text()
+
+
+# ------------------------------------------------------------------------------------ stopping on signals
+STOP_SCRIPT = """
+import os, signal, sys
+import rclpy
+from impurity_common.node_main import init_with_stop_event
+stop = init_with_stop_event([])
+for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGINT):
+    os.kill(os.getpid(), sig)
+    if not stop.wait(10.0):
+        sys.exit(3)
+    # the context is still valid: the node can still finish its work (close a bag, wait for readers)
+    print(sig.name, stop.is_set(), rclpy.ok(), flush=True)
+    stop.clear()
+rclpy.shutdown()
+"""
+
+
+def test_with_the_stop_event_signals_only_set_it_and_leave_the_context_valid():
+    """What bag_recorder and bag_replay rely on to close cleanly on Ctrl-C: no KeyboardInterrupt, no
+    shut-down context under a spin_once (a separate process: it replaces the signal handlers)."""
+    run = subprocess.run([sys.executable, "-c", STOP_SCRIPT], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split("\n")[:3] == ["SIGINT True True", "SIGTERM True True", "SIGINT True True"]
