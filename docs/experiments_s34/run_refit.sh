@@ -3,11 +3,11 @@
 # check of the criterion written there, in order. From the repository root of a tree with the network's code
 # after `source scripts/env.sh`; writes runs/s34/. The candidate network is put where attention reads the
 # shipped one (src/impurity_attention/checkpoints/impurity_net.pt, not committed until it ships).
-# Usage: docs/experiments_s34/run_refit.sh [step ...] (steps: network views fit check exposure specs picking;
-# default all).
+# Usage: docs/experiments_s34/run_refit.sh [step ...] (steps: network views fit check exposure specs picking
+# picking_default; default all). picking_default: the thirty-fifth session's default-palette picking test.
 set -euo pipefail
 mkdir -p runs/s34
-steps=("${@:-network views fit check exposure specs picking}")
+steps=("${@:-network views fit check exposure specs picking picking_default}")
 steps=(${steps[*]})
 ca=scripts/calibrate_attention.py
 lv=docs/experiments_s17/loop_views.py
@@ -63,6 +63,24 @@ for step in "${steps[@]}"; do
             python docs/experiments_s14/push_out.py paired runs/s34/picking_shipped/$s.jsonl \
                 runs/s34/picking_net/$s.jsonl
         done > runs/s34/picking_paired.txt 2>&1 ;;
+    picking_default)
+        common=(--seed-base 14300 --palette blocks --jobs 1)
+        for arm in shipped net; do
+            extra=()
+            [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
+            out=runs/s34/picking_default_$arm
+            mkdir -p $out
+            (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "${common[@]}" "${extra[@]}"
+             python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
+                 "${common[@]}" "${extra[@]}"
+             python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
+                 "${common[@]}" "${extra[@]}") > runs/s34/picking_default_$arm.log 2>&1 &
+        done
+        wait
+        for s in invisible challenging random; do
+            python docs/experiments_s14/push_out.py paired runs/s34/picking_default_shipped/$s.jsonl \
+                runs/s34/picking_default_net/$s.jsonl
+        done > runs/s34/picking_default_paired.txt 2>&1 ;;
     *) echo "unknown step $step" >&2; exit 2 ;;
     esac
 done

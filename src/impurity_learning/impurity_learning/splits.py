@@ -295,6 +295,11 @@ TUNING_SEED_BLOCKS = (
               "of the rule grasp_along_ridge (--with) on random-700 ... 799, random 14 000-14 099, "
               "challenging 14 100-14 199 (--start 100), invisible 14 200-14 299 (--start 200), with and "
               "without it"),
+    SeedBlock(14_300, 14_600, "docs/experiments_s34/run_refit.sh",
+              "push_out.py --seed-base 14300 --palette blocks: the thirty-fifth session's picking test of "
+              "the verifier refitted with the impurity network on the default palette, invisible "
+              "14 300-14 399, challenging 14 400-14 499 (--start 100), random 14 500-14 599 (--start 200), "
+              "both arms on the same seeds"),
     SeedBlock(15_000, 15_300, "docs/experiments_s19/run_ridge.sh",
               "its argument 2, push_out.py --seed-base 15000 --random-from 600 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's revision (a crest over the middle, 35 deg) on "
