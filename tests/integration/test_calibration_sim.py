@@ -4,6 +4,7 @@ calibration recovers each pose within 5 mm and 0.5 deg (issue 18's acceptance). 
 tool runs on such renders offline (--image) and live (frames published on the camera topics)."""
 
 import math
+import signal
 
 import cv2
 import numpy as np
@@ -195,3 +196,19 @@ def test_the_tool_without_a_camera_gives_up_in_time_naming_the_topics(launch, ro
     spin_until(ros_node, lambda: not tool.alive, 30.0, "calibrate_camera to give up")
     assert tool.process.returncode == calibrate_camera.FAILURE_EXIT_CODE
     assert f"nothing on {color} and {info} within 1 s: is the camera driver running" in tool.output()
+
+
+def test_the_tool_interrupted_while_waiting_writes_nothing_and_says_so(launch, ros_node, tmp_path):
+    """Ctrl-C during the live wait: one line, the failure status, no traceback, no file."""
+    output = tmp_path / "camera_calibration.yaml"
+    tool = launch("impurity_common", "calibrate_camera",
+                  [*board_arguments(), "--timeout", "60", "--output", str(output), "--ros-args",
+                   "-r", f"{names.COLOR_TOPIC}:=/no_camera/color/image_raw"])
+    spin_until(ros_node, lambda: "waiting up to 60 s" in tool.output(), 30.0, "calibrate_camera to wait",
+               [tool])
+    tool.send_signal(signal.SIGINT)
+    spin_until(ros_node, lambda: not tool.alive, 30.0, "calibrate_camera to stop")
+    assert tool.process.returncode == calibrate_camera.FAILURE_EXIT_CODE, tool.output()
+    assert "interrupted: nothing written" in tool.output()
+    assert "Traceback" not in tool.output()
+    assert not output.exists()

@@ -43,6 +43,7 @@ from sensor_msgs.msg import CameraInfo, Image
 from impurity_common import calibration, names
 from impurity_common.calibration import CalibrationError, CameraIntrinsics, CharucoBoardSpec
 from impurity_common.conversions import ImageFormatError, image_to_rgb
+from impurity_common.node_main import init_with_stop_event
 
 DEFAULTS = CharucoBoardSpec()
 FAILURE_EXIT_CODE = 1
@@ -180,7 +181,7 @@ def calibrate_offline(args, spec, base_from_board) -> int:
 
 def calibrate_live(args, spec, base_from_board, ros_args: list[str]) -> int:
     """Subscribe, calibrate on --frames fresh frames within --timeout s, combine them."""
-    rclpy.init(args=ros_args)
+    stop = init_with_stop_event(ros_args)  # Ctrl-C ends the wait; nothing is written
     node = rclpy.create_node("calibrate_camera")
     state = {"info": None, "image": None, "images": 0}
 
@@ -198,7 +199,7 @@ def calibrate_live(args, spec, base_from_board, ros_args: list[str]) -> int:
     results, last_error, rgb, intrinsics = [], None, None, None
     deadline = time.monotonic() + args.timeout
     try:
-        while len(results) < args.frames and time.monotonic() < deadline:
+        while len(results) < args.frames and time.monotonic() < deadline and not stop.is_set():
             rclpy.spin_once(node, timeout_sec=0.1)
             if state["image"] is None or state["info"] is None:
                 continue
@@ -219,6 +220,9 @@ def calibrate_live(args, spec, base_from_board, ros_args: list[str]) -> int:
     finally:
         node.destroy_node()
         rclpy.try_shutdown()
+    if stop.is_set():
+        say("interrupted: nothing written")
+        return FAILURE_EXIT_CODE
     if not results:
         if state["images"] == 0 or state["info"] is None:
             seen = ((color_topic, state["images"]), (info_topic, state["info"]))
