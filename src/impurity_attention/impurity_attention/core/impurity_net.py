@@ -31,6 +31,8 @@ import numpy as np
 import torch
 from torch import nn
 
+from impurity_common.weights_file import check_tensors, read_versioned
+
 MAD_FLOOR = 2.0  # Lab units: the least spread a channel is divided by
 HEIGHT_SCALE = 20.0  # height plane = height (m) x this
 POOL = 2  # cells averaged per side before the network
@@ -143,27 +145,10 @@ def read_network(path=None) -> ImpurityNet:
     """The network in `path` (None: shipped_network_path()), float32, in eval mode. NetworkFileError when the
     file is missing, unreadable, of another format version or does not match ImpurityNet's shapes."""
     path = pathlib.Path(path) if path is not None else shipped_network_path()
-    if not path.is_file():
-        raise NetworkFileError(f"impurity network {path} does not exist")
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=True)
-    except Exception as error:  # noqa: BLE001 - any unreadable file gets the same clear message
-        raise NetworkFileError(f"impurity network {path} cannot be read: {error}") from error
-    if not isinstance(data, dict) or data.get("format_version") != FORMAT_VERSION:
-        version = data.get("format_version") if isinstance(data, dict) else None
-        raise NetworkFileError(f"impurity network {path} has format version {version}, this code reads "
-                               f"version {FORMAT_VERSION}")
+    data = read_versioned(path, "impurity network", FORMAT_VERSION, NetworkFileError)
     net = ImpurityNet(int(data.get("width", 24)))
-    reference = net.state_dict()
     weights = data.get("state_dict", {})
-    if set(weights) != set(reference):
-        raise NetworkFileError(f"impurity network {path} does not match ImpurityNet: missing "
-                               f"{sorted(set(reference) - set(weights))[:5]}, unexpected "
-                               f"{sorted(set(weights) - set(reference))[:5]}")
-    for name, tensor in reference.items():
-        if tuple(weights[name].shape) != tuple(tensor.shape):
-            raise NetworkFileError(f"impurity network {path}: tensor '{name}' has shape "
-                                   f"{tuple(weights[name].shape)}, ImpurityNet needs {tuple(tensor.shape)}")
+    check_tensors(weights, net.state_dict(), f"impurity network {path}", "ImpurityNet", NetworkFileError)
     net.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in weights.items()})
     net.provenance = str(data.get("provenance", ""))
     return net.eval()

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import pathlib
 
-import torch
+from impurity_common.weights_file import check_tensors, read_versioned
 
 from .network import NetworkConfig, QNetwork, resolve_device
 
@@ -26,35 +26,15 @@ class CheckpointError(RuntimeError):
 
 def read_checkpoint(path, expected: NetworkConfig | None = None) -> dict:
     """Load and check a checkpoint: format version, network config and every tensor's shape."""
-    path = pathlib.Path(path)
-    if not path.is_file():
-        raise CheckpointError(f"checkpoint {path} does not exist")
-    try:
-        data = torch.load(path, map_location="cpu", weights_only=False)
-    except Exception as error:  # noqa: BLE001 - any unreadable file gets the same clear message
-        raise CheckpointError(f"checkpoint {path} cannot be read: {error}") from error
-    if not isinstance(data, dict) or "format_version" not in data:
-        raise CheckpointError(f"checkpoint {path} is not an impurity_policy checkpoint (no format_version)")
-    if data["format_version"] != CHECKPOINT_FORMAT_VERSION:
-        raise CheckpointError(f"checkpoint {path} has format version {data['format_version']}, this code "
-                              f"reads version {CHECKPOINT_FORMAT_VERSION}")
+    data = read_versioned(path, "checkpoint", CHECKPOINT_FORMAT_VERSION, CheckpointError, weights_only=False)
     try:
         stored = NetworkConfig.from_dict(data["network_config"])
     except (KeyError, TypeError) as error:
         raise CheckpointError(f"checkpoint {path} has an unreadable network_config: {error}") from error
     if expected is not None and stored != expected:
         raise CheckpointError(f"checkpoint {path} was made for network {stored}, expected {expected}")
-    reference = QNetwork(stored).state_dict()
-    weights = data.get("online", {})
-    missing = sorted(set(reference) - set(weights))
-    unexpected = sorted(set(weights) - set(reference))
-    if missing or unexpected:
-        raise CheckpointError(f"checkpoint {path} does not match the network: missing {missing[:5]}, "
-                              f"unexpected {unexpected[:5]}")
-    for name, tensor in reference.items():
-        if tuple(weights[name].shape) != tuple(tensor.shape):
-            raise CheckpointError(f"checkpoint {path}: tensor '{name}' has shape "
-                                  f"{tuple(weights[name].shape)}, the network needs {tuple(tensor.shape)}")
+    check_tensors(data.get("online", {}), QNetwork(stored).state_dict(), f"checkpoint {path}", "the network",
+                  CheckpointError)
     return data
 
 
