@@ -217,10 +217,11 @@ class AttentionNode(Node):
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         p = self._params
-        threshold = p.verifier_threshold or (p.verifier or default_verifier()).threshold
+        model = p.verifier or default_verifier()
+        threshold = p.verifier_threshold or model.threshold
         decided = (f"verifier, threshold {threshold:.2f}, last look {p.verifier_last_look:.2f}"
                    if p.decision == "verifier" else f"{p.decision} thresholds")
-        if p.uses_verifier and (p.verifier or default_verifier()).reads_network:
+        if p.uses_verifier and model.reads_network:
             # read now, not at the first heightmap: a missing or wrong weights file stops the node, saying why
             network = shipped_network()
             decided += f", impurity network ({network.provenance or 'no provenance'})"
