@@ -442,14 +442,29 @@ def grasps(paths: list) -> None:
         print("  lowest palettes:", ", ".join(f"{k} {100 * np.mean(v):.0f} % ({len(v)})" for k, v in low))
 
 
+def episodes_by_seed(path: str) -> dict:
+    """seed -> episode record of a run file, or of every *.jsonl file of a directory pooled (the scenarios of
+    one arm, run on distinct seeds; a seed in two of its files is refused)."""
+    where = pathlib.Path(path)
+    files = sorted(where.glob("*.jsonl")) if where.is_dir() else [where]
+    rows = {}
+    for file in files:
+        for record in map(json.loads, file.read_text().splitlines()):
+            if record["seed"] in rows:
+                raise SystemExit(f"{path}: seed {record['seed']} in two files; pool only runs on distinct "
+                                 "seeds")
+            rows[record["seed"]] = record
+    return rows
+
+
 def paired(base_path: str, other_path: str, draws: int = 5000, fill: bool = False) -> None:
     """The change in grasp success (pooled, and make eval's per-episode mean with an episode without a grasp
     attempt at 0 %) and in completion from base to other on the seeds both ran: point estimates and a paired
-    bootstrap's 95 % intervals over the seeds (numpy's default_rng(0)). fill: a seed only base ran counts
-    as alike in other (a run of --only candidates, where the variant cannot act elsewhere; thirty-first
-    session)."""
-    base = {r["seed"]: r for r in map(json.loads, open(base_path))}
-    other = {r["seed"]: r for r in map(json.loads, open(other_path))}
+    bootstrap's 95 % intervals over the seeds (numpy's default_rng(0)), after each arm's pooled grasp success
+    and completion. A directory pools its run files (episodes_by_seed: e.g. one arm's three scenarios).
+    fill: a seed only base ran counts as alike in other (a run of --only candidates, where the variant
+    cannot act elsewhere; thirty-first session)."""
+    base, other = episodes_by_seed(base_path), episodes_by_seed(other_path)
     filled = sorted(set(base) - set(other)) if fill else []
     other.update({s: base[s] for s in filled})
     seeds = np.array(sorted(set(base) & set(other)))
@@ -479,6 +494,10 @@ def paired(base_path: str, other_path: str, draws: int = 5000, fill: bool = Fals
     actions = [np.mean([d[s]["actions"] for s in seeds]) for d in (base, other)]
     if filled:
         print(f"{len(filled)} seeds only {base_path} ran, counted alike in {other_path} (--fill)")
+    for path, d in ((base_path, base), (other_path, other)):
+        pooled = 100 * sum(d[s]["picked"] for s in seeds) / max(sum(d[s]["attempts"] for s in seeds), 1)
+        print(f"{path}: grasp success pooled {pooled:.2f} %, completion "
+              f"{100 * np.mean([d[s]['completed'] for s in seeds]):.2f} %")
     print(f"per-episode grasp success (make eval's; no attempt 0 %) change {per_episode(seeds):+.2f} points, "
           f"interval {mean[0]:+.2f} to {mean[1]:+.2f}; actions/episode {actions[0]:.2f} -> {actions[1]:.2f} "
           f"({100 * (actions[1] / actions[0] - 1):+.1f} %)")
@@ -548,7 +567,8 @@ def main(argv=None) -> int:
     s.add_argument("files", nargs="+")
     g = sub.add_parser("grasps", help="grasp success and the failed grasps sorted (files run with grasps)")
     g.add_argument("files", nargs="+")
-    c = sub.add_parser("paired", help="the change in grasp success from BASE to OTHER, paired over seeds")
+    c = sub.add_parser("paired", help="the change in grasp success from BASE to OTHER, paired over seeds "
+                                      "(a directory: its run files pooled)")
     c.add_argument("base")
     c.add_argument("other")
     c.add_argument("--fill", action="store_true",
