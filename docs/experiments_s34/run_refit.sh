@@ -14,6 +14,29 @@ lv=docs/experiments_s17/loop_views.py
 model=runs/s34/verifier_net.json
 views=(runs/s34/views_inv.npz runs/s34/views_chal.npz runs/s34/views_rand.npz)
 last_look() { sed -n 's/^chosen t = //p' runs/s34/last_look.txt; }
+# paired_picking NAME ARGS...: both arms (shipped, and net with the refit's model and last look) on the same
+# seeds, invisible / challenging / random 100 each (--start 0 / 100 / 200), runs/s34/NAME_{shipped,net}/, then
+# push_out.py paired per scenario into runs/s34/NAME_paired.txt.
+paired_picking() {
+    local name=$1 arm scenario out extra
+    shift
+    for arm in shipped net; do
+        extra=()
+        [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
+        out=runs/s34/${name}_$arm
+        mkdir -p $out
+        (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "$@" --jobs 1 "${extra[@]}"
+         python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
+             "$@" --jobs 1 "${extra[@]}"
+         python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
+             "$@" --jobs 1 "${extra[@]}") > runs/s34/${name}_$arm.log 2>&1 &
+    done
+    wait
+    for scenario in invisible challenging random; do
+        python docs/experiments_s14/push_out.py paired runs/s34/${name}_shipped/$scenario.jsonl \
+            runs/s34/${name}_net/$scenario.jsonl
+    done > runs/s34/${name}_paired.txt 2>&1
+}
 for step in "${steps[@]}"; do
     case $step in
     network)
@@ -46,41 +69,9 @@ for step in "${steps[@]}"; do
         python docs/experiments_s21/with_model.py $model --last-look "$(last_look)" tests/unit/impurity_attention \
             > runs/s34/specs.txt 2>&1 || true ;;
     picking)
-        common=(--seed-base 13600 --random-from 600 --random-only --random-palettes 100 --jobs 1)
-        for arm in shipped net; do
-            extra=()
-            [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
-            out=runs/s34/picking_$arm
-            mkdir -p $out
-            (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
-                 "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
-                 "${common[@]}" "${extra[@]}") > runs/s34/picking_$arm.log 2>&1 &
-        done
-        wait
-        for s in invisible challenging random; do
-            python docs/experiments_s14/push_out.py paired runs/s34/picking_shipped/$s.jsonl \
-                runs/s34/picking_net/$s.jsonl
-        done > runs/s34/picking_paired.txt 2>&1 ;;
+        paired_picking picking --seed-base 13600 --random-from 600 --random-only --random-palettes 100 ;;
     picking_default)
-        common=(--seed-base 14300 --palette blocks --jobs 1)
-        for arm in shipped net; do
-            extra=()
-            [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
-            out=runs/s34/picking_default_$arm
-            mkdir -p $out
-            (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
-                 "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
-                 "${common[@]}" "${extra[@]}") > runs/s34/picking_default_$arm.log 2>&1 &
-        done
-        wait
-        for s in invisible challenging random; do
-            python docs/experiments_s14/push_out.py paired runs/s34/picking_default_shipped/$s.jsonl \
-                runs/s34/picking_default_net/$s.jsonl
-        done > runs/s34/picking_default_paired.txt 2>&1 ;;
+        paired_picking picking_default --seed-base 14300 --palette blocks ;;
     *) echo "unknown step $step" >&2; exit 2 ;;
     esac
 done
