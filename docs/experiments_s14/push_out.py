@@ -102,7 +102,8 @@ def run_one(task: tuple) -> dict:
     if _WORKER.get("key") != key:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
                           "stall_look_views", "verifier_last_look", "canonical_colours", "mask_truth",
-                          "grasp_geometry", "temporal", "known_product", "near_miss")
+                          "grasp_geometry", "temporal", "known_product", "near_miss",
+                          "stall_look_threshold")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -297,6 +298,8 @@ def run_one(task: tuple) -> dict:
                                 verifier=verifier)
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
+    if "stall_look_threshold" in rule_params:
+        attention = dataclasses.replace(attention, stall_look_threshold=rule_params["stall_look_threshold"])
     if "near_miss" in rule_params:  # the default since the twenty-seventh session
         attention = dataclasses.replace(attention, known_product_near_miss=rule_params["near_miss"])
     recording = RecordingCell(_WORKER["world"], _WORKER["agent"], attention)
@@ -367,6 +370,8 @@ def run(args) -> None:
         rule_params["verifier"] = args.verifier
     if args.last_look is not None:
         rule_params["verifier_last_look"] = args.last_look
+    if args.stall_look_threshold is not None:
+        rule_params["stall_look_threshold"] = args.stall_look_threshold
     if args.near_miss:
         rule_params["near_miss"] = True
     if args.no_near_miss:
@@ -561,6 +566,8 @@ def main(argv=None) -> int:
                         "--model-json; default: the shipped model)")
     r.add_argument("--last-look", type=float, default=None,
                    help="attention's verifier_last_look (default: AttentionParams' own; 21st session)")
+    r.add_argument("--stall-look-threshold", type=float, default=None,
+                   help="attention's stall_look_threshold (default: AttentionParams' own; 36th session)")
     r.add_argument("--palette", default="",
                    help="this palette for every episode (default: the tuning group's)")
     s = sub.add_parser("report")

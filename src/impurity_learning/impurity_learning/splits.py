@@ -300,10 +300,20 @@ TUNING_SEED_BLOCKS = (
               "the verifier refitted with the impurity network on the default palette, invisible "
               "14 300-14 399, challenging 14 400-14 499 (--start 100), random 14 500-14 599 (--start 200), "
               "both arms on the same seeds"),
+    SeedBlock(14_600, 14_900, "docs/experiments_s36/run_match.sh",
+              "push_out.py --seed-base 14600 --random-from 600 --random-only: the thirty-sixth session's "
+              "picking test of the network cell with thresholds matched to the shipped cell's on "
+              "random-600 ... 699, invisible 14 600-14 699, challenging 14 700-14 799 (--start 100), random "
+              "14 800-14 899 (--start 200), both arms on the same seeds"),
     SeedBlock(15_000, 15_300, "docs/experiments_s19/run_ridge.sh",
               "its argument 2, push_out.py --seed-base 15000 --random-from 600 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's revision (a crest over the middle, 35 deg) on "
               "random-600 ... 699, random 15 000-15 099, challenging 15 100-15 199, invisible 15 200-15 299"),
+    SeedBlock(15_300, 15_600, "docs/experiments_s36/run_match.sh",
+              "push_out.py --seed-base 15300 --palette blocks: the thirty-sixth session's picking test of "
+              "the network cell with matched thresholds on the default palette, invisible 15 300-15 399, "
+              "challenging 15 400-15 499 (--start 100), random 15 500-15 599 (--start 200), both arms on "
+              "the same seeds"),
     SeedBlock(16_000, 16_300, "docs/experiments_s19/run_ridge.sh",
               "its argument 3, push_out.py --seed-base 16000 --random-from 500 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's second revision (the outline's step) on random-500 ... "

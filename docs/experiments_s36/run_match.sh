@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Thirty-sixth session (docs/experiments.md): the thirty-fifth session's candidate (the impurity network and the
+# verifier refitted with it, docs/experiments_s35/) with its three thresholds matched to the shipped cell's
+# (match_thresholds.py), and every check of the criterion written there, in order. From the repository root
+# after `source scripts/env.sh`; writes runs/s36/. The candidate network is put where attention reads the
+# shipped one (src/impurity_attention/checkpoints/impurity_net.pt, not committed unless it ships); the shipped
+# cell's verifier does not read it.
+# Usage: docs/experiments_s36/run_match.sh [step ...] (steps: match check exposure specs picking
+# picking_default; default all).
+set -euo pipefail
+out=runs/s36
+mkdir -p $out src/impurity_attention/checkpoints
+cp docs/experiments_s35/impurity_net.pt src/impurity_attention/checkpoints/impurity_net.pt
+steps=("${@:-match check exposure specs picking picking_default}")
+steps=(${steps[*]})
+model=$out/verifier_c2.json
+threshold() { sed -n "s/^$1 //p" $out/thresholds.txt; }
+# paired_picking NAME ARGS...: both arms (shipped, and c2 with the matched model, last look and stall look)
+# on the same seeds, invisible / challenging / random 100 each (--start 0 / 100 / 200), $out/NAME_{shipped,c2}/,
+# then push_out.py paired on the two directories (pooled) and per scenario into $out/NAME_paired.txt.
+paired_picking() {
+    local name=$1 arm scenario dir extra
+    shift
+    for arm in shipped c2; do
+        extra=()
+        [ $arm = c2 ] && extra=(--verifier $model --last-look "$(threshold last_look)"
+                                --stall-look-threshold "$(threshold stall_look)")
+        dir=$out/${name}_$arm
+        mkdir -p $dir
+        (python docs/experiments_s14/push_out.py run invisible 100 $dir/invisible.jsonl "$@" --jobs 1 "${extra[@]}"
+         python docs/experiments_s14/push_out.py run challenging 100 $dir/challenging.jsonl --start 100 \
+             "$@" --jobs 1 "${extra[@]}"
+         python docs/experiments_s14/push_out.py run random 100 $dir/random.jsonl --start 200 \
+             "$@" --jobs 1 "${extra[@]}") > $out/${name}_$arm.log 2>&1 &
+    done
+    wait
+    {
+        python docs/experiments_s14/push_out.py paired $out/${name}_shipped $out/${name}_c2
+        for scenario in invisible challenging random; do
+            python docs/experiments_s14/push_out.py paired $out/${name}_shipped/$scenario.jsonl \
+                $out/${name}_c2/$scenario.jsonl
+        done
+    } > $out/${name}_paired.txt 2>&1
+}
+for step in "${steps[@]}"; do
+    case $step in
+    match)
+        python docs/experiments_s36/match_thresholds.py docs/experiments_s35/verifier_net.json \
+            docs/experiments_s35/impurity_net.pt runs/s34/views_inv.npz runs/s34/views_chal.npz \
+            runs/s34/views_rand.npz --out $model --thresholds $out/thresholds.txt --check \
+            > $out/match.txt 2>&1 ;;
+    check)
+        python docs/experiments_s33/check_palettes.py $model --last-look "$(threshold last_look)" \
+            > $out/check_palettes.txt 2>$out/check.err ;;
+    exposure)
+        python docs/experiments_s11/exposure_wide.py report --seed-base 72100 --count-scale 2 --model $model \
+            --last-look "$(threshold last_look)" > $out/exposure72100_c2.txt 2>&1 ;;
+    specs)
+        python docs/experiments_s21/with_model.py $model --last-look "$(threshold last_look)" \
+            tests/unit/impurity_attention > $out/specs.txt 2>&1 || true
+        python docs/experiments_s36/spec_with_network.py $model docs/experiments_s35/impurity_net.pt \
+            >> $out/specs.txt 2>&1 || true ;;
+    picking)
+        paired_picking picking --seed-base 14600 --random-from 600 --random-only --random-palettes 100 ;;
+    picking_default)
+        paired_picking picking_default --seed-base 15300 --palette blocks ;;
+    *) echo "unknown step $step" >&2; exit 2 ;;
+    esac
+done
+echo "run_match: ${steps[*]} done"
