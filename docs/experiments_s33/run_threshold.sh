@@ -22,23 +22,10 @@ for step in "${steps[@]}"; do
         python docs/experiments_s11/exposure_wide.py report --seed-base 72100 --count-scale 2 --model $model \
             > runs/s33/exposure72100_cap2.txt 2>&1 ;;
     picking)
-        common=(--seed-base 13300 --random-from 600 --random-only --random-palettes 100 --jobs 1)
-        for arm in shipped cap2; do
-            extra=()
-            [ $arm = cap2 ] && extra=(--verifier $model)
-            out=runs/s33/picking_$arm
-            mkdir -p $out
-            (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
-                 "${common[@]}" "${extra[@]}"
-             python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
-                 "${common[@]}" "${extra[@]}") > runs/s33/picking_$arm.log 2>&1 &
-        done
-        wait
-        for s in invisible challenging random; do
-            python docs/experiments_s14/push_out.py paired runs/s33/picking_shipped/$s.jsonl \
-                runs/s33/picking_cap2/$s.jsonl
-        done > runs/s33/picking_paired.txt 2>&1 ;;
+        # docs/experiments_s14/paired_picking.sh since the thirty-sixth session (the same runs; it adds the
+        # pooled comparison at the top of runs/s33/picking_paired.txt)
+        bash docs/experiments_s14/paired_picking.sh runs/s33 picking cap2 --verifier $model -- \
+            --seed-base 13300 --random-from 600 --random-only --random-palettes 100 ;;
     *) echo "unknown step $step" >&2; exit 2 ;;
     esac
 done

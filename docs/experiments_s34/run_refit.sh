@@ -14,28 +14,14 @@ lv=docs/experiments_s17/loop_views.py
 model=runs/s34/verifier_net.json
 views=(runs/s34/views_inv.npz runs/s34/views_chal.npz runs/s34/views_rand.npz)
 last_look() { sed -n 's/^chosen t = //p' runs/s34/last_look.txt; }
-# paired_picking NAME ARGS...: both arms (shipped, and net with the refit's model and last look) on the same
-# seeds, invisible / challenging / random 100 each (--start 0 / 100 / 200), runs/s34/NAME_{shipped,net}/, then
-# push_out.py paired per scenario into runs/s34/NAME_paired.txt.
+# paired_picking NAME COMMON OPTIONS...: docs/experiments_s14/paired_picking.sh (since the thirty-sixth
+# session; it adds the pooled comparison at the top of runs/s34/NAME_paired.txt), the arm net with the refit's
+# model and last look; writes runs/s34/NAME_{shipped,net}/.
 paired_picking() {
-    local name=$1 arm scenario out extra
+    local name=$1
     shift
-    for arm in shipped net; do
-        extra=()
-        [ $arm = net ] && extra=(--verifier $model --last-look "$(last_look)")
-        out=runs/s34/${name}_$arm
-        mkdir -p $out
-        (python docs/experiments_s14/push_out.py run invisible 100 $out/invisible.jsonl "$@" --jobs 1 "${extra[@]}"
-         python docs/experiments_s14/push_out.py run challenging 100 $out/challenging.jsonl --start 100 \
-             "$@" --jobs 1 "${extra[@]}"
-         python docs/experiments_s14/push_out.py run random 100 $out/random.jsonl --start 200 \
-             "$@" --jobs 1 "${extra[@]}") > runs/s34/${name}_$arm.log 2>&1 &
-    done
-    wait
-    for scenario in invisible challenging random; do
-        python docs/experiments_s14/push_out.py paired runs/s34/${name}_shipped/$scenario.jsonl \
-            runs/s34/${name}_net/$scenario.jsonl
-    done > runs/s34/${name}_paired.txt 2>&1
+    bash docs/experiments_s14/paired_picking.sh runs/s34 "$name" net --verifier $model \
+        --last-look "$(last_look)" -- "$@"
 }
 for step in "${steps[@]}"; do
     case $step in

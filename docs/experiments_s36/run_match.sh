@@ -15,32 +15,13 @@ steps=("${@:-match check exposure specs picking picking_default}")
 steps=(${steps[*]})
 model=$out/verifier_c2.json
 threshold() { sed -n "s/^$1 //p" $out/thresholds.txt; }
-# paired_picking NAME ARGS...: both arms (shipped, and c2 with the matched model, last look and stall look)
-# on the same seeds, invisible / challenging / random 100 each (--start 0 / 100 / 200), $out/NAME_{shipped,c2}/,
-# then push_out.py paired on the two directories (pooled) and per scenario into $out/NAME_paired.txt.
+# paired_picking NAME COMMON OPTIONS...: docs/experiments_s14/paired_picking.sh, the arm c2 with the matched
+# model, last look and stall look; writes $out/NAME_{shipped,c2}/ and $out/NAME_paired.txt.
 paired_picking() {
-    local name=$1 arm scenario dir extra
+    local name=$1
     shift
-    for arm in shipped c2; do
-        extra=()
-        [ $arm = c2 ] && extra=(--verifier $model --last-look "$(threshold last_look)"
-                                --stall-look-threshold "$(threshold stall_look)")
-        dir=$out/${name}_$arm
-        mkdir -p $dir
-        (python docs/experiments_s14/push_out.py run invisible 100 $dir/invisible.jsonl "$@" --jobs 1 "${extra[@]}"
-         python docs/experiments_s14/push_out.py run challenging 100 $dir/challenging.jsonl --start 100 \
-             "$@" --jobs 1 "${extra[@]}"
-         python docs/experiments_s14/push_out.py run random 100 $dir/random.jsonl --start 200 \
-             "$@" --jobs 1 "${extra[@]}") > $out/${name}_$arm.log 2>&1 &
-    done
-    wait
-    {
-        python docs/experiments_s14/push_out.py paired $out/${name}_shipped $out/${name}_c2
-        for scenario in invisible challenging random; do
-            python docs/experiments_s14/push_out.py paired $out/${name}_shipped/$scenario.jsonl \
-                $out/${name}_c2/$scenario.jsonl
-        done
-    } > $out/${name}_paired.txt 2>&1
+    bash docs/experiments_s14/paired_picking.sh $out "$name" c2 --verifier $model \
+        --last-look "$(threshold last_look)" --stall-look-threshold "$(threshold stall_look)" -- "$@"
 }
 for step in "${steps[@]}"; do
     case $step in
