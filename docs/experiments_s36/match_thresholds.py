@@ -67,7 +67,7 @@ def main() -> None:
     best_c, hit_c = ca.scene_decisions(candidate.probability(features), on, scene, count)
     clean = ~visible
     print(f"{count} tuning scenes ({int(visible.sum())} with a visible impurity, {int(clean.sum())} without), "
-          f"{len(features)} regions; S {shipped.features.__len__()} features, C {len(candidate.features)}")
+          f"{len(features)} regions; S {len(shipped.features)} features, C {len(candidate.features)}")
     chosen = {}
     for name, shipped_t in (("main", shipped.threshold), ("last_look", base.verifier_last_look),
                             ("stall_look", base.stall_look_threshold)):
