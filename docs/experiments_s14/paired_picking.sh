@@ -7,7 +7,7 @@
 # Usage (from the repository root, after `source scripts/env.sh`):
 #   docs/experiments_s14/paired_picking.sh DIR NAME ARM [ARM's options ...] -- COMMON OPTIONS ...
 # e.g. docs/experiments_s14/paired_picking.sh runs/s36 picking c2 --verifier runs/s36/verifier_c2.json -- \
-#          --seed-base 14600 --random-from 600 --random-only --random-palettes 100
+#          --seed-base SEED --palette blocks   (SEED: a block registered in splits.TUNING_SEED_BLOCKS)
 set -euo pipefail
 [ $# -ge 4 ] || { echo "usage: $0 DIR NAME ARM [ARM's options ...] -- COMMON OPTIONS ..." >&2; exit 2; }
 dir=$1 name=$2 candidate=$3
