@@ -399,15 +399,17 @@ def network_records(invisible: bool = True) -> list:
                                                                             r.scenario != "invisible")]
 
 
-def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path, invisible: bool = True) -> None:
+def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path, invisible: bool = True,
+                positive_weight: float | None = None) -> None:
     """Train the impurity network (impurity_learning.impurity_net_training) on network_records(invisible) and
-    write it to `out` (impurity_net.write_network), with its provenance; prints each epoch's mean loss."""
+    write it to `out` (impurity_net.write_network), with its provenance; prints each epoch's mean loss.
+    positive_weight: an impurity cell's weight in the loss (None: impurity_net_training.POSITIVE_WEIGHT)."""
     import torch
 
     from impurity_attention.core.attention import sanitize
     from impurity_attention.core.impurity_net import write_network
     from impurity_learning import splits
-    from impurity_learning.impurity_net_training import train_impurity_net
+    from impurity_learning.impurity_net_training import POSITIVE_WEIGHT, train_impurity_net
 
     torch.set_num_threads(max(1, min(4, torch.get_num_threads())))
     records = network_records(invisible)
@@ -416,8 +418,11 @@ def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path, invisib
         color, height = sanitize(record.color, record.height)
         views.append((color, height, height > params.density.occupied_height, record.visible_target_cells))
     palettes = len({r.palette or "blocks" for r in records})
-    net, losses = train_impurity_net(views, epochs, exposure=splits.TRAINING_EXPOSURE)
-    provenance = (f"scripts/calibrate_attention.py network-fit{'' if invisible else ' --no-invisible'}: "
+    weight = POSITIVE_WEIGHT if positive_weight is None else positive_weight
+    net, losses = train_impurity_net(views, epochs, exposure=splits.TRAINING_EXPOSURE, positive_weight=weight)
+    options = ('' if invisible else ' --no-invisible') + ('' if positive_weight is None
+                                                         else f' --positive-weight {positive_weight:g}')
+    provenance = (f"scripts/calibrate_attention.py network-fit{options}: "
                   f"{len(views)} tuning views of {palettes} palettes, {epochs} epochs, exposure drawn in "
                   f"{splits.TRAINING_EXPOSURE}; mean loss {losses[0]:.4f} -> {losses[-1]:.4f}")
     write_network(net, out, provenance)
@@ -962,6 +967,12 @@ def main() -> None:
                         help="network-fit: write the network to "
                              "impurity_attention/checkpoints/impurity_net.pt "
                              f"(else {NETWORK_OUT.relative_to(ROOT)})")
+    parser.add_argument("--positive-weight", type=float, default=None,
+                        help="network-fit: an impurity cell's weight in the loss (default "
+                             "impurity_net_training.POSITIVE_WEIGHT, 5)")
+    parser.add_argument("--network-out", type=pathlib.Path, default=None,
+                        help="network-fit: write the network here (instead of the default or "
+                             "--write-network)")
     parser.add_argument("--no-invisible", action="store_true",
                         help="network-fit: leave the invisible-layout scenes out (their impurities are "
                              "cubes)")
@@ -994,8 +1005,9 @@ def main() -> None:
         return
     if args.action == "network-fit":
         from impurity_attention.core.impurity_net import SHIPPED_NETWORK
-        network_fit(params, args.epochs, SHIPPED_NETWORK if args.write_network else NETWORK_OUT,
-                    invisible=not args.no_invisible)
+        out = args.network_out or (SHIPPED_NETWORK if args.write_network else NETWORK_OUT)
+        network_fit(params, args.epochs, out, invisible=not args.no_invisible,
+                    positive_weight=args.positive_weight)
         return
     if args.action == "verifier-fit":
         verifier_fit(params, args.write_model, args.own_layouts, check=not args.no_check,

@@ -34,11 +34,14 @@ def train_impurity_net(views: Sequence, epochs: int, exposure: tuple = (0.5, 2.0
     """Train an ImpurityNet (module docstring). views: (color (H, W, 3) uint8, height (H, W) m, objects (H, W)
     bool, impurity cells (H, W) bool) of one size; exposure: (low, high) factors (low = high = 1: none).
     Returns (the network in eval mode, the mean loss of each epoch). ValueError on no views, views of
-    different sizes or epochs < 1."""
+    different sizes, epochs < 1 or positive_weight <= 0."""
     if not views:
         raise ValueError("train_impurity_net needs at least one view")
     if epochs < 1:
         raise ValueError(f"epochs must be >= 1, got {epochs}")
+    if not positive_weight > 0:
+        raise ValueError(f"positive_weight must be > 0 (an impurity cell's weight in the loss), got "
+                         f"{positive_weight}")
     shape = np.asarray(views[0][2]).shape
     if any(np.asarray(v[2]).shape != shape for v in views):
         raise ValueError(f"train_impurity_net needs views of one size; the first is {shape}")

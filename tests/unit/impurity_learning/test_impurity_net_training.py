@@ -27,13 +27,16 @@ def palette_view(seed: int, size: int = 40):
     return color, height, np.ones((size, size), bool), target
 
 
-def test_it_refuses_no_views_no_epochs_and_views_of_different_sizes():
+def test_it_refuses_no_views_no_epochs_views_of_different_sizes_and_a_weight_not_above_zero():
     with pytest.raises(ValueError, match="at least one view"):
         train_impurity_net([], 1)
     with pytest.raises(ValueError, match="epochs"):
         train_impurity_net([palette_view(0)], 0)
     with pytest.raises(ValueError, match="one size"):
         train_impurity_net([palette_view(0), palette_view(1, size=48)], 1)
+    for weight in (0.0, -1.0, float("nan")):
+        with pytest.raises(ValueError, match="positive_weight"):
+            train_impurity_net([palette_view(0)], 1, positive_weight=weight)
 
 
 def test_exposure_scales_and_clips_like_a_saturating_camera():
