@@ -390,6 +390,9 @@ TUNING_SEED_BLOCKS = (
     SeedBlock(72_100, 76_160, "docs/experiments_s33/run_threshold.sh",
               "exposure_wide.py report --seed-base 72100 --count-scale 2: the thirty-third session's fresh "
               "default-palette exposure set for the verifier threshold at a 2 % cap"),
+    SeedBlock(72_100, 76_160, "docs/experiments_s36/run_weight.sh",
+              "exposure_wide.py report --seed-base 72100 --count-scale 2: the same exposure set read again "
+              "for the thirty-sixth session's screen of the network's positive weight"),
     SeedBlock(76_200, 76_620, _CA,
               "NETWORK_DEFAULT_SEED_BASE: the default palette's EXPOSURE_PLAN at twice its counts, rows "
               "packed, the impurity network's further training views (network-fit; the screens' H4-H6, "
