@@ -696,8 +696,13 @@ def scene_decisions(probability, on, scene, count) -> tuple:
 def threshold_at(best, visible, cap: float) -> float:
     """The least threshold (just above a clean scene's probability) that lets at most `cap` of the scenes
     without a visible impurity through."""
+    return threshold_letting_through(best, visible, int(np.floor(cap * np.sum(~visible))))
+
+
+def threshold_letting_through(best, visible, allowed: int) -> float:
+    """The least threshold (just above a clean scene's probability) that lets at most `allowed` of the scenes
+    without a visible impurity through (0.0 when there are no more than `allowed` of them)."""
     clean = np.sort(best[~visible])[::-1]
-    allowed = int(np.floor(cap * len(clean)))
     return float(np.nextafter(clean[allowed], 1.0)) if allowed < len(clean) else 0.0
 
 

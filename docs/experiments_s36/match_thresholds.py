@@ -40,7 +40,7 @@ def matched(best_shipped: np.ndarray, best_candidate: np.ndarray, clean: np.ndar
     lets through at its threshold): the least threshold, rounded up to 0.001, at which the candidate lets
     through at most as many clean scenes as S does at shipped_t."""
     allowed = int(np.sum(best_shipped[clean] >= shipped_t))
-    exact = ca.threshold_at(best_candidate, ~clean, allowed / max(int(clean.sum()), 1) + 1e-12)
+    exact = ca.threshold_letting_through(best_candidate, ~clean, allowed)
     threshold = math.ceil(exact * 1000) / 1000
     return threshold, allowed, int(np.sum(best_candidate[clean] >= threshold))
 
