@@ -24,4 +24,4 @@ for r in ca.rule_sweep_records()[0]:
         h = (np.clip(r.height / 0.1, 0, 1) * 255).astype(np.uint8)
         tiles.append(np.hstack([img, cv2.cvtColor(h, cv2.COLOR_GRAY2BGR)]))
         print(r.palette, r.seed, r.category(), out.mode.name, out.reason[:80])
-cv2.imwrite("docs/experiments_s36/layout202.png", cv2.resize(np.vstack(tiles), None, fx=1, fy=1, interpolation=cv2.INTER_NEAREST))
+cv2.imwrite("docs/experiments_s36/layout202.png", np.vstack(tiles))
