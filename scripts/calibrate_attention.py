@@ -323,12 +323,19 @@ NETWORK_EPOCHS = 6
 NETWORK_OUT = ROOT / "runs" / "impurity_net.pt"  # network-fit without --write-network
 
 
-def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale: float = 1.0) -> list:
+def collect_exposure_scenes(seed_base: int = EXPOSURE_FIT_SEED_BASE, count_scale: float = 1.0,
+                            packed: bool = False, cache: str | None = None) -> list:
     """The default palette's EXPOSURE_PLAN scenes on seeds seed_base + 1000 x row + i (at exposure x1; callers
-    expose them), cached in runs/perception/exposure_<seed_base>.npz; count_scale scales every row's count."""
-    wanted = [("", scenario, seed_base + 1000 * row + i, targets) for row, (scenario, targets, count)
-              in enumerate(EXPOSURE_PLAN) for i in range(int(count * count_scale))]
-    return render_cached(CACHE / f"exposure_{seed_base}.npz", wanted, f"exposure scenes {seed_base}+")
+    expose them), cached in runs/perception/exposure_<seed_base>.npz (or `cache`); count_scale scales every
+    row's count. packed: the rows one after the other instead, seeds seed_base + i (exposure_<seed_base>
+    _packed.npz), for a stretch of free tuning seeds shorter than 1000 x the rows."""
+    counts = [int(count * count_scale) for *_, count in EXPOSURE_PLAN]
+    starts = np.concatenate([[0], np.cumsum(counts)]) if packed else 1000 * np.arange(len(counts))
+    wanted = [("", scenario, seed_base + int(starts[row]) + i, targets)
+              for row, ((scenario, targets, _), count) in enumerate(zip(EXPOSURE_PLAN, counts, strict=True))
+              for i in range(count)]
+    cache = cache or f"exposure_{seed_base}{'_packed' if packed else ''}.npz"
+    return render_cached(CACHE / cache, wanted, f"exposure scenes {seed_base}+")
 
 
 def collect_palettes(split: str, scale: int = 1, own_layouts: bool = False) -> list:
@@ -378,13 +385,8 @@ def network_default_records() -> list:
     """The default palette's EXPOSURE_PLAN at twice its counts (420 scenes), the rows packed one after the
     other on seeds NETWORK_DEFAULT_SEED_BASE + i (76 200 ... 76 619), at exposure x1; cached in
     default_train76200.npz."""
-    counts = [2 * count for *_, count in EXPOSURE_PLAN]
-    starts = np.concatenate([[0], np.cumsum(counts)])
-    wanted = [("", scenario, NETWORK_DEFAULT_SEED_BASE + int(starts[row]) + i, targets)
-              for row, ((scenario, targets, _), count) in enumerate(zip(EXPOSURE_PLAN, counts, strict=True))
-              for i in range(count)]
-    return render_cached(CACHE / f"default_train{NETWORK_DEFAULT_SEED_BASE}.npz", wanted,
-                         "network training, default palette")
+    return collect_exposure_scenes(NETWORK_DEFAULT_SEED_BASE, 2, packed=True,
+                                   cache=f"default_train{NETWORK_DEFAULT_SEED_BASE}.npz")
 
 
 def network_records(invisible: bool = True) -> list:

@@ -28,10 +28,11 @@ SEED_BASE = ca.EXPOSURE_CHECK_SEED_BASE  # 30000: tuning seeds nothing is fitted
 EVAL_SEED_BASE = 900_800_000  # the evaluation set (only measured), fixed in experiments.md before rendering
 
 
-def collect(count_scale: float = 1.0, seed_base: int = SEED_BASE) -> list:
+def collect(count_scale: float = 1.0, seed_base: int = SEED_BASE, packed: bool = False) -> list:
     """ca.collect_exposure_scenes: 60 random and 60 challenging scenes without an impurity, 30 invisible ones
-    without, 30 random and 30 challenging with two (count_scale scales them)."""
-    return ca.collect_exposure_scenes(seed_base, count_scale)
+    without, 30 random and 30 challenging with two (count_scale scales them; packed: rows one after the
+    other)."""
+    return ca.collect_exposure_scenes(seed_base, count_scale, packed=packed)
 
 
 def report(records, params: AttentionParams) -> None:
@@ -106,19 +107,25 @@ def main() -> None:
                              f"evaluation set fixed before it was rendered: {EVAL_SEED_BASE})")
     parser.add_argument("--model", type=pathlib.Path, default=None,
                         help="a RegionVerifier as JSON (refit.py's runs/s11/refit_*.json), not the shipped")
+    parser.add_argument("--packed", action="store_true",
+                        help="the plan's rows packed one after the other on seeds seed_base + i")
+    parser.add_argument("--network", type=pathlib.Path, default=None,
+                        help="the impurity network a model reading its features runs on (a weights file), "
+                             "not the shipped one")
     args = parser.parse_args()
-    params = AttentionParams()
+    params = AttentionParams(impurity_net=ca.read_network_option(args.network))
     if args.model:
         from impurity_attention.core.verifier import RegionVerifier
         model = RegionVerifier.from_dict(json.loads(args.model.read_text()))
         params = dataclasses.replace(params, verifier=model)
     if args.last_look is not None:
         params = dataclasses.replace(params, verifier_last_look=args.last_look)
-    records = collect(args.count_scale, args.seed_base)
+    records = collect(args.count_scale, args.seed_base, args.packed)
     if args.command == "report":
         kind = "tuning" if args.seed_base < EVAL_SEED_BASE else "evaluation"
         print(f"== blocks (default): {len(records)} {kind} scenes, seeds {args.seed_base}+, "
-              f"verifier_last_look {params.verifier_last_look}, model {args.model or 'shipped'}")
+              f"verifier_last_look {params.verifier_last_look}, model {args.model or 'shipped'}, network "
+              f"{args.network or 'shipped'}")
         report(records, params)
     elif args.command == "diagnose":
         diagnose(records, params)

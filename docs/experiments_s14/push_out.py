@@ -53,10 +53,13 @@ _WORKER = {}
 
 
 def palettes(count: int, start: int = RANDOM_FROM, named: bool = True) -> list:
-    """The named tuning palettes (unless not `named`), then random-<start> ... random-<start + count - 1>."""
+    """The named tuning palettes (unless not `named`), then random-<start> ... random-<start + count - 1>,
+    tuning palettes only (splits.palette_group; the fresh ones from 2 000 000 too, thirty-seventh session)."""
     from impurity_learning import splits
-    seeds = splits.TUNING_RANDOM_SEEDS[start:start + count]
-    return (list(splits.TUNING_NAMED) if named else []) + [f"random-{s}" for s in seeds]
+    names = [f"random-{s}" for s in range(start, start + count)]
+    if {splits.palette_group(name) for name in names} != {"tuning"}:
+        raise SystemExit(f"random-{start} ... {start + count - 1}: not all tuning palettes (splits.py)")
+    return (list(splits.TUNING_NAMED) if named else []) + names
 
 
 def edge_distance(x: float, y: float) -> float:
@@ -103,7 +106,7 @@ def run_one(task: tuple) -> dict:
         attention_keys = ("without", "with", "verifier_heap_threshold", "verifier", "stall",
                           "stall_look_views", "verifier_last_look", "canonical_colours", "mask_truth",
                           "grasp_geometry", "temporal", "known_product", "near_miss",
-                          "stall_look_threshold")
+                          "stall_look_threshold", "network")
         values = {k: v for k, v in rule_params.items() if k not in attention_keys}
         params = dataclasses.replace(RuleParams(), **values)
         preset = RulePipeline.preset("cell", params, without=rule_params.get("without", ()))
@@ -294,8 +297,11 @@ def run_one(task: tuple) -> dict:
         where.append(targets_at())
 
     verifier = verifier_from_json(rule_params["verifier"]) if "verifier" in rule_params else None
+    if "network" in rule_params and "network" not in _WORKER:  # read once per worker
+        from impurity_attention.core.impurity_net import read_network
+        _WORKER["network"] = read_network(rule_params["network"])
     attention = AttentionParams(verifier_heap_threshold=rule_params.get("verifier_heap_threshold", 0.0),
-                                verifier=verifier)
+                                verifier=verifier, impurity_net=_WORKER.get("network"))
     if "verifier_last_look" in rule_params:
         attention = dataclasses.replace(attention, verifier_last_look=rule_params["verifier_last_look"])
     if "stall_look_threshold" in rule_params:
@@ -368,6 +374,8 @@ def run(args) -> None:
         rule_params["known_product"] = False
     if args.verifier is not None:
         rule_params["verifier"] = args.verifier
+    if args.network is not None:
+        rule_params["network"] = args.network
     if args.last_look is not None:
         rule_params["verifier_last_look"] = args.last_look
     if args.stall_look_threshold is not None:
@@ -447,6 +455,20 @@ def grasps(paths: list) -> None:
         print("  lowest palettes:", ", ".join(f"{k} {100 * np.mean(v):.0f} % ({len(v)})" for k, v in low))
 
 
+FAILED_GRASP_BINS_M = (0.01, 0.02, 0.04)  # the thirty-sixth section's: < 1 / 1-2 / 2-4 / >= 4 cm
+
+
+def failed_grasps(episodes: list) -> str:
+    """A line on the episodes' targets and failed grasps: targets picked of all, failed grasps, how many of
+    them lifted a product piece (thrown away with it), and their grasp points' distance to the nearest target
+    at decision time (`target_m`) in FAILED_GRASP_BINS_M's bins (>= 4 cm: a grasp at product)."""
+    failed = [g for r in episodes for g in r["grasps"] if not g["target"]]
+    bins = np.bincount(np.digitize([g["target_m"] for g in failed], FAILED_GRASP_BINS_M), minlength=4)
+    return (f"targets picked {sum(r['picked'] for r in episodes)} of {sum(r['total'] for r in episodes)}; "
+            f"failed grasps {len(failed)}, product lifted {sum(bool(g['lifted']) for g in failed)}; by "
+            f"distance to the nearest target < 1 / 1-2 / 2-4 / >= 4 cm: {' / '.join(map(str, bins))}")
+
+
 def episodes_by_seed(path: str) -> dict:
     """seed -> episode record of a run file, or of every *.jsonl file of a directory pooled (the scenarios of
     one arm, run on distinct seeds; a seed in two of its files is refused)."""
@@ -503,6 +525,7 @@ def paired(base_path: str, other_path: str, draws: int = 5000, fill: bool = Fals
         pooled = 100 * sum(d[s]["picked"] for s in seeds) / max(sum(d[s]["attempts"] for s in seeds), 1)
         print(f"{path}: grasp success pooled {pooled:.2f} %, completion "
               f"{100 * np.mean([d[s]['completed'] for s in seeds]):.2f} %")
+        print(f"   {failed_grasps([d[s] for s in seeds])}")
     print(f"per-episode grasp success (make eval's; no attempt 0 %) change {per_episode(seeds):+.2f} points, "
           f"interval {mean[0]:+.2f} to {mean[1]:+.2f}; actions/episode {actions[0]:.2f} -> {actions[1]:.2f} "
           f"({100 * (actions[1] / actions[0] - 1):+.1f} %)")
@@ -564,6 +587,9 @@ def main(argv=None) -> int:
     r.add_argument("--verifier", default=None,
                    help="attention's region verifier from this JSON (calibrate_attention.py verifier-fit "
                         "--model-json; default: the shipped model)")
+    r.add_argument("--network", default=None,
+                   help="attention's impurity network from this weights file, for a --verifier that reads "
+                        "its features (default: the shipped one; 37th session)")
     r.add_argument("--last-look", type=float, default=None,
                    help="attention's verifier_last_look (default: AttentionParams' own; 21st session)")
     r.add_argument("--stall-look-threshold", type=float, default=None,

@@ -2,13 +2,16 @@
 impurity_attention/core/verifier_model.py, and optionally another default verifier_last_look in attention.py,
 then put the shipped files back, whatever pytest answered. It rewrites the checkout's source files while
 pytest runs: run it in a clone of its own (with its own `make setup`), never beside a job reading this one's.
+--network W (thirty-seventh session): the impurity network W is put where the shipped one is read
+(impurity_net.SHIPPED_NETWORK) while pytest runs, and taken away after (refused if one is there already).
 
     python docs/experiments_s21/with_model.py runs/s21/verifier_oriented.json [--last-look T] \
-        tests/unit/impurity_attention
+        [--network W] tests/unit/impurity_attention
 """
 import argparse
 import pathlib
 import re
+import shutil
 import subprocess
 import sys
 
@@ -26,10 +29,17 @@ def main() -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("model")
     parser.add_argument("--last-look", type=float, default=None)
+    parser.add_argument("--network", type=pathlib.Path, default=None)
     args, tests = parser.parse_known_args()
     shipped_model, shipped_attention = MODEL_FILE.read_text(), ATTENTION_FILE.read_text()
     assert LAST_LOOK_LINE.search(shipped_attention), "attention.py's verifier_last_look line moved"
+    from impurity_attention.core.impurity_net import SHIPPED_NETWORK
+    if args.network is not None and SHIPPED_NETWORK.exists():
+        raise SystemExit(f"{SHIPPED_NETWORK} exists: --network would replace a shipped network")
     try:
+        if args.network is not None:
+            SHIPPED_NETWORK.parent.mkdir(exist_ok=True)
+            shutil.copyfile(args.network, SHIPPED_NETWORK)
         MODEL_FILE.write_text(ca.model_source(push_out.verifier_from_json(args.model)))
         if args.last_look is not None:
             ATTENTION_FILE.write_text(LAST_LOOK_LINE.sub(
@@ -39,6 +49,8 @@ def main() -> int:
     finally:
         MODEL_FILE.write_text(shipped_model)
         ATTENTION_FILE.write_text(shipped_attention)
+        if args.network is not None:
+            SHIPPED_NETWORK.unlink(missing_ok=True)
 
 
 if __name__ == "__main__":

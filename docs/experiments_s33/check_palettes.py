@@ -7,7 +7,11 @@ registered in impurity_learning.splits). Reads found / false TARGET / hidden tar
 through attend() for the shipped verifier and for each model given (JSON of RegionVerifier's fields, as
 `calibrate_attention.py verifier-fit --model-json` writes them).
 
-    python docs/experiments_s33/check_palettes.py [model.json ...] [--last-look T ...]
+    python docs/experiments_s33/check_palettes.py [model.json ...] [--last-look T ...] [--network W]
+
+Another check set (thirty-seventh session): --random-from N --count K --layout-seed-base B --packed reads
+random-N ... N + K - 1 (tuning palettes: splits.palette_group) on layouts of their own, PALETTE_PLAN's rows
+packed one after the other from B (palette k's scenes of a row follow palette k - 1's).
 """
 import argparse
 import dataclasses
@@ -17,6 +21,7 @@ import sys
 
 sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
+import numpy as np  # noqa: E402
 
 from impurity_attention.core.attention import AttentionParams  # noqa: E402
 from impurity_attention.core.verifier import RegionVerifier, default_verifier  # noqa: E402
@@ -25,14 +30,32 @@ LAYOUT_SEED_BASE = 61_000
 FIRST, COUNT = 400, 200
 
 
-def check_records() -> list:
-    """The check set's scene records (rendered once, cached in runs/perception/palettes_check400_own.npz)."""
-    palettes = [f"random-{FIRST + number}" for number in range(COUNT)]
-    wanted = ca.palette_scenes(palettes,
-                               lambda row, number, scenes: LAYOUT_SEED_BASE + 1400 * row + number * scenes)
-    assert max(seed for *_, seed, _ in wanted) < 70_000  # the registered block
-    return ca.render_cached(ca.CACHE / f"palettes_check{FIRST}_own.npz", wanted,
-                            f"check palettes {FIRST}+ on their own layouts")
+def check_records(first: int = FIRST, count: int = COUNT, seed_base: int = LAYOUT_SEED_BASE,
+                  packed: bool = False) -> list:
+    """The check set's scene records (rendered once, cached in runs/perception/palettes_check400_own.npz;
+    another set in palettes_check<first>_<count>_<seed_base>.npz). Raises SystemExit if a palette is not a
+    tuning palette or a seed leaves the tuning block registered for it (splits.TUNING_SEED_BLOCKS)."""
+    from impurity_learning import splits
+
+    palettes = [f"random-{first + number}" for number in range(count)]
+    if {splits.palette_group(name) for name in palettes} != {"tuning"}:
+        raise SystemExit(f"random-{first} ... {first + count - 1}: not all tuning palettes (splits.py)")
+    if packed:
+        offsets = np.concatenate([[0], np.cumsum([count * rows for *_, rows in ca.PALETTE_PLAN])])
+        wanted = ca.palette_scenes(palettes,
+                                   lambda row, number, scenes: seed_base + int(offsets[row]) + number * scenes)
+    else:
+        wanted = ca.palette_scenes(palettes,
+                                   lambda row, number, scenes: seed_base + 1400 * row + number * scenes)
+    last = max(seed for *_, seed, _ in wanted)
+    if not any(block.start <= seed_base and last < block.stop and block.user.startswith("docs/")
+               for block in splits.TUNING_SEED_BLOCKS):
+        raise SystemExit(f"seeds {seed_base} ... {last}: no registered block holds them "
+                         "(splits.TUNING_SEED_BLOCKS)")
+    name = (f"palettes_check{first}_own.npz" if (first, count, seed_base, packed) == (FIRST, COUNT,
+                                                                                      LAYOUT_SEED_BASE, False)
+            else f"palettes_check{first}_{count}_{seed_base}{'_packed' if packed else ''}.npz")
+    return ca.render_cached(ca.CACHE / name, wanted, f"check palettes {first}+ on their own layouts")
 
 
 def main() -> None:
@@ -40,11 +63,21 @@ def main() -> None:
     parser.add_argument("models", nargs="*", type=pathlib.Path)
     parser.add_argument("--last-look", type=float, nargs="*", default=[],
                         help="each model's verifier_last_look (default: the shipped one)")
+    parser.add_argument("--network", type=pathlib.Path, default=None,
+                        help="the impurity network the models reading its features run on (a weights file; "
+                             "default: the shipped one)")
+    parser.add_argument("--random-from", type=int, default=FIRST, help="the first palette, random-<N>")
+    parser.add_argument("--count", type=int, default=COUNT, help="how many palettes")
+    parser.add_argument("--layout-seed-base", type=int, default=LAYOUT_SEED_BASE,
+                        help="the first layout seed (a block of splits.TUNING_SEED_BLOCKS)")
+    parser.add_argument("--packed", action="store_true", help="PALETTE_PLAN's rows packed one after the other")
     args = parser.parse_args()
-    records = check_records()
+    records = check_records(args.random_from, args.count, args.layout_seed_base, args.packed)
+    network = ca.read_network_option(args.network)
     arms = [("shipped", AttentionParams())]
     for k, path in enumerate(args.models):
-        params = AttentionParams(verifier=RegionVerifier.from_dict(json.loads(path.read_text())))
+        params = AttentionParams(verifier=RegionVerifier.from_dict(json.loads(path.read_text())),
+                                 impurity_net=network)
         if k < len(args.last_look):
             params = dataclasses.replace(params, verifier_last_look=args.last_look[k])
         arms.append((str(path), params))

@@ -18,6 +18,9 @@ DEFAULT_PALETTE = "blocks"
 # measurement.
 TUNING_NAMED = ("coal_slate", "beans_stones", "plastic_flakes", "rice_husks")
 TUNING_RANDOM_SEEDS = range(0, 1000)  # random-<seed> for tuning
+# More random palettes for tuning (thirty-seventh session): by then every one of random-0 ... 999 had been
+# fitted on or read, so a candidate's check on palettes nothing was fitted on or read draws from here.
+TUNING_FRESH_RANDOM_SEEDS = range(2_000_000, 2_010_000)
 # The held-out set, only measured. Rotated thirteen times:
 # - fifth session (2026-11-30): the first set had been measured after every change of four sessions, so
 #   whatever was changed next was changed knowing its figures;
@@ -141,7 +144,7 @@ def palette_group(name: str) -> str:
         return "retired"
     if base.startswith("random-") and base[7:].isdigit():
         seed = int(base[7:])
-        if seed in TUNING_RANDOM_SEEDS:
+        if seed in TUNING_RANDOM_SEEDS or seed in TUNING_FRESH_RANDOM_SEEDS:
             return "tuning"
         if seed in HELD_OUT_RANDOM_SEEDS:
             return "held_out"
@@ -318,10 +321,18 @@ TUNING_SEED_BLOCKS = (
               "its argument 3, push_out.py --seed-base 16000 --random-from 500 --random-only: the nineteenth "
               "session's test of grasp_along_ridge's second revision (the outline's step) on random-500 ... "
               "599, random 16 000-16 099, challenging 16 100-16 199, invisible 16 200-16 299"),
+    SeedBlock(16_300, 16_600, "docs/experiments_s37/run_fresh.sh",
+              "push_out.py --seed-base 16300 --random-from 2000200 --random-only --random-palettes 100: the "
+              "thirty-seventh session's paired picking of the network cell C2 on fresh tuning palettes "
+              "random-2 000 200 ... 2 000 299, invisible 16 300-16 399, challenging (--start 100), random "
+              "(--start 200)"),
     SeedBlock(17_000, 17_300, "docs/experiments_s20/run_oriented.sh",
               "push_out.py --seed-base 17000 --random-from 800 --random-only: the twentieth session's test "
               "of the verifier refitted with the orientation-matched features on random-800 ... 899, "
               "invisible 17 000-17 099, challenging 17 100-17 199, random 17 200-17 299"),
+    SeedBlock(17_300, 17_600, "docs/experiments_s37/run_fresh.sh",
+              "push_out.py --seed-base 17300 --palette blocks: the thirty-seventh session's paired picking "
+              "of C2 on the default palette, invisible 17 300-17 399, challenging, random"),
     SeedBlock(18_000, 18_300, "docs/experiments_s21/run_oriented.sh",
               "push_out.py --seed-base 18000 --random-from 900 --random-only: the twenty-first session's "
               "test of the verifier refitted with the orientation-matched features on unclipped cells, on "
@@ -397,8 +408,15 @@ TUNING_SEED_BLOCKS = (
               "NETWORK_DEFAULT_SEED_BASE: the default palette's EXPOSURE_PLAN at twice its counts, rows "
               "packed, the impurity network's further training views (network-fit; the screens' H4-H6, "
               "thirty-fourth session)"),
+    SeedBlock(76_620, 79_964, "docs/experiments_s37/run_fresh.sh",
+              "check_palettes.py --random-from 2000000 --count 176 --layout-seed-base 76620 --packed: the "
+              "thirty-seventh session's check set, fresh tuning palettes random-2 000 000 ... 2 000 175 on "
+              "layouts of their own, PALETTE_PLAN's rows packed"),
     SeedBlock(80_000, 92_200, "docs/experiments_s12/more_palettes.py",
               "SEED_BASE: random-192 ... 391 on layouts of their own, 2000 x row + palette x count + i"),
+    SeedBlock(92_200, 92_620, "docs/experiments_s37/run_fresh.sh",
+              "exposure_wide.py report --seed-base 92200 --count-scale 2 --packed: the thirty-seventh "
+              "session's fresh default-palette exposure set, EXPOSURE_PLAN's rows packed"),
     SeedBlock(94_000, 98_860, "docs/experiments_s13/fresh_layouts.py",
               "LAYOUT_SEED_BASE: random-700 ... 759 on layouts of their own, 800 x row + palette x count "
               "+ i"),

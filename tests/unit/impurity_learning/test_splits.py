@@ -20,7 +20,8 @@ def test_every_named_palette_of_the_split_exists_in_the_simulator():
 def test_groups_do_not_overlap():
     named = [set(splits.TUNING_NAMED), set(splits.HELD_OUT_NAMED), set(splits.RETIRED_NAMED)]
     assert all(not (a & b) for i, a in enumerate(named) for b in named[i + 1:])
-    seeds = [set(splits.TUNING_RANDOM_SEEDS), set(splits.HELD_OUT_RANDOM_SEEDS),
+    seeds = [set(splits.TUNING_RANDOM_SEEDS) | set(splits.TUNING_FRESH_RANDOM_SEEDS),
+             set(splits.HELD_OUT_RANDOM_SEEDS),
              *(set(s) for _, s in splits.RETIRED_SETS), set(splits.TRAINING_RANDOM_SEEDS)]
     assert all(not (a & b) for i, a in enumerate(seeds) for b in seeds[i + 1:])
 
@@ -46,6 +47,13 @@ def test_the_readme_names_the_current_held_out_set_and_every_retired_one():
     for names, seeds in splits.RETIRED_SETS:
         assert all(f"`{name}`" in retired for name in names)
         assert f"`random-{seeds[0]}…{seeds[-1]}`" in retired
+
+def test_the_fresh_tuning_palettes_are_tuning_palettes():
+    first, last = splits.TUNING_FRESH_RANDOM_SEEDS[0], splits.TUNING_FRESH_RANDOM_SEEDS[-1]
+    assert {splits.palette_group(f"random-{s}") for s in (first, last)} == {"tuning"}
+    with pytest.raises(ValueError, match="no group"):
+        splits.palette_group(f"random-{last + 1}")
+
 
 def test_a_palette_outside_the_split_is_refused():
     with pytest.raises(ValueError, match="no group"):
