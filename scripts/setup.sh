@@ -170,7 +170,8 @@ done
 
 build_sha=$( (echo "$req_sha"; echo "fallback: ${fallback[*]+${fallback[*]}}";
   find src ros2_ws/fallback -type f \( -name package.xml -o -name setup.py -o -name setup.cfg \
-  -o -name CMakeLists.txt -o -name '*.msg' -o -name '*.srv' -o -name '*.action' \) -print0 \
+  -o -name CMakeLists.txt -o -name '*.msg' -o -name '*.srv' -o -name '*.action' \
+  -o -path '*/checkpoints/*' \) -print0 \
   | sort -z | xargs -0 sha256sum) | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$build_stamp" 2>/dev/null)" != "$build_sha" ]; then
   echo "setup: colcon build in ros2_ws/"

@@ -9,6 +9,7 @@ import pytest
 from impurity_attention.core import attention as att
 from impurity_attention.core import saliency
 from impurity_attention.core import verifier as ver
+from impurity_attention.core.attention import shipped_network
 
 
 def two_colour_view(impurity=(200, 60, 40), product=(40, 120, 200), size=60, block=12):
@@ -82,10 +83,10 @@ def test_context_features_place_a_region_among_the_others():
 
 def test_a_feature_beyond_the_fitted_range_counts_as_its_end():
     model = ver.default_verifier()
-    inside = np.zeros(len(ver.FEATURES))
-    inside[[ver.FEATURES.index(name) for name in model.features]] = model.high
+    inside = np.zeros(len(ver.ALL_FEATURES))
+    inside[[ver.ALL_FEATURES.index(name) for name in model.features]] = model.high
     beyond = inside.copy()
-    beyond[ver.FEATURES.index("log_object_share")] = 0.0  # a view full of objects
+    beyond[ver.ALL_FEATURES.index("log_object_share")] = 0.0  # a view full of objects
     assert model.probability(beyond) == pytest.approx(model.probability(inside))
 
 
@@ -96,8 +97,10 @@ def test_a_model_reads_the_features_it_names_and_no_others():
     row = np.full(len(ver.FEATURES), 5.0)  # every other feature: anything
     row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
     assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
-    assert ver.default_verifier().features == ver.FEATURES  # the shipped model: all fifteen (21st session)
+    # the shipped model: all fifteen and the network's two (37th session)
+    assert ver.default_verifier().features == ver.ALL_FEATURES
     assert ver.default_verifier().reads_oriented and not model.reads_oriented
+    assert ver.default_verifier().reads_network and not model.reads_network
 
 
 def test_the_oriented_features_are_computed_only_for_a_model_that_reads_them():
@@ -242,9 +245,10 @@ def test_hue_rarity_and_shape_features_do_not_move_with_exposure():
 def test_the_shipped_model_rates_a_colour_distinct_region_above_a_product_coloured_one():
     color, height, objects, impurity, product = two_colour_view()
     maps = conspicuity_of(color, objects)
-    candidates = ver.candidate_features(color, height, objects, maps,
-                                        [region(impurity, 2.0), region(product, 2.0)])
     model = ver.default_verifier()
+    network = shipped_network() if model.reads_network else None  # read as attend reads it
+    candidates = ver.candidate_features(color, height, objects, maps,
+                                        [region(impurity, 2.0), region(product, 2.0)], network=network)
     odd, same = model.probability(np.array([features for _, features in candidates]))
     assert odd >= model.threshold > same
 

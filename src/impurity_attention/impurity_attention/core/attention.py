@@ -181,16 +181,21 @@ class AttentionParams:
     # 0.52 for the twenty-first session's (fifteen features), by the same rule on views the choosing model
     # was not fitted on (a model fitted on the even-index palettes' loop views, read on the odd-index ones'
     # 16 views where the last look decides: no clean view and 2 impurities taken from 0.46 to 0.58;
-    # docs/experiments_s21/last_look.py, docs/experiments.md, twenty-first section).
-    verifier_last_look: float = 0.52
+    # docs/experiments_s21/last_look.py, docs/experiments.md, twenty-first section). 0.391 for the network
+    # model (seventeen features, shipped in the thirty-seventh session): the least value at which it lets
+    # through no more of the verifier fit's 2933 tuning scenes without a visible impurity than the fifteen-
+    # feature model did at 0.52 (127 each; docs/experiments_s36/match_thresholds.py, thirty-sixth section).
+    verifier_last_look: float = 0.391
     # verifier: the threshold of a stall look (attend's closer=True), which the picking loop asks for on the
     # EpisodeLimits.stall_look_views-th OCCLUDED_REGION view in a row (picking's module docstring); 0 = off
     # (a closer look then decides as any other). 0.25 lies between the reads of missed targets (0.07-0.54
     # in most views of stalled challenging episodes) and of the product pieces that were likeliest there
     # (0.00-0.14) in the twenty-seventh session's replays on tuning data; tested in the thirtieth session
     # (200 challenging episodes, criterion not met on an interval touching 0) and adopted in the
-    # thirty-first on 400 more, read as make eval reads (docs/experiments.md, thirty-first section).
-    stall_look_threshold: float = 0.25
+    # thirty-first on 400 more, read as make eval reads (docs/experiments.md, thirty-first section). 0.134
+    # for the network model (thirty-seventh session), matched to 0.25 of the fifteen-feature model as the
+    # last look was (331 against 333 of the 2933 clean tuning scenes; docs/experiments_s36/match.txt).
+    stall_look_threshold: float = 0.134
     # verifier: on a clipped view (heightmap.clipped_view: half the object cells at 250+ of 255 in one
     # channel, when the heightmap node warns about exposure), a target needs at least this probability; 0 =
     # the same threshold as elsewhere. Off: tried in the twelfth session and not adopted. Clipping changes a

@@ -330,6 +330,18 @@ PALETTES = {p.name: p for p in (
     _palette("pet_flakes_labels", [(176, 204, 216), (166, 196, 210)], [(236, 236, 230), (196, 56, 52)],
              "light blue PET flakes with white and red label pieces", product_jitter=0.02,
              light_direction=(-0.2, -0.3, 1.0)),
+    # the fifteenth held-out set (thirty-seventh session), named before any of it was rendered
+    _palette("durum_wheat_stones", [(200, 162, 98), (188, 150, 90), (210, 174, 108)], [(122, 112, 102)],
+             "amber durum wheat of several shades with grey-brown stones", product_jitter=0.02,
+             light_direction=(0.3, -0.2, 1.0)),
+    _palette("green_lentils_stones", [(124, 120, 72), (112, 110, 66)], [(76, 72, 66), (152, 132, 102)],
+             "olive-green lentils with dark stones and light clay lumps", product_jitter=0.015, ambient=0.5,
+             diffuse=0.55),
+    _palette("brazil_nuts_shells", [(214, 198, 162), (202, 184, 148)], [(112, 78, 48)],
+             "cream brazil nut kernels with brown shell pieces", product_jitter=0.02, exposure=0.95),
+    _palette("pla_flakes_pet", [(226, 222, 210), (216, 212, 200)], [(184, 206, 218), (70, 70, 74)],
+             "off-white PLA flakes with light blue PET and dark grey PP pieces", product_jitter=0.02,
+             light_direction=(-0.3, 0.2, 1.0)),
 )}
 
 
