@@ -48,8 +48,7 @@ def check_records(first: int = FIRST, count: int = COUNT, seed_base: int = LAYOU
         wanted = ca.palette_scenes(palettes,
                                    lambda row, number, scenes: seed_base + 1400 * row + number * scenes)
     last = max(seed for *_, seed, _ in wanted)
-    if not any(block.start <= seed_base and last < block.stop and block.user.startswith("docs/")
-               for block in splits.TUNING_SEED_BLOCKS):
+    if not any(block.start <= seed_base and last < block.stop for block in splits.TUNING_SEED_BLOCKS):
         raise SystemExit(f"seeds {seed_base} ... {last}: no registered block holds them "
                          "(splits.TUNING_SEED_BLOCKS)")
     name = (f"palettes_check{first}_own.npz" if (first, count, seed_base, packed) == (FIRST, COUNT,
