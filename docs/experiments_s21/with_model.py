@@ -3,7 +3,8 @@ impurity_attention/core/verifier_model.py, and optionally another default verifi
 then put the shipped files back, whatever pytest answered. It rewrites the checkout's source files while
 pytest runs: run it in a clone of its own (with its own `make setup`), never beside a job reading this one's.
 --network W (thirty-seventh session): the impurity network W is put where the shipped one is read
-(impurity_net.SHIPPED_NETWORK) while pytest runs, and taken away after (refused if one is there already).
+(impurity_net.SHIPPED_NETWORK) while pytest runs, and the shipped one (if any) put back after, as the model
+and attention.py are.
 
     python docs/experiments_s21/with_model.py runs/s21/verifier_oriented.json [--last-look T] \
         [--network W] tests/unit/impurity_attention
@@ -34,8 +35,7 @@ def main() -> int:
     shipped_model, shipped_attention = MODEL_FILE.read_text(), ATTENTION_FILE.read_text()
     assert LAST_LOOK_LINE.search(shipped_attention), "attention.py's verifier_last_look line moved"
     from impurity_attention.core.impurity_net import SHIPPED_NETWORK
-    if args.network is not None and SHIPPED_NETWORK.exists():
-        raise SystemExit(f"{SHIPPED_NETWORK} exists: --network would replace a shipped network")
+    shipped_network = SHIPPED_NETWORK.read_bytes() if SHIPPED_NETWORK.exists() else None
     try:
         if args.network is not None:
             SHIPPED_NETWORK.parent.mkdir(exist_ok=True)
@@ -49,8 +49,10 @@ def main() -> int:
     finally:
         MODEL_FILE.write_text(shipped_model)
         ATTENTION_FILE.write_text(shipped_attention)
-        if args.network is not None:
+        if args.network is not None and shipped_network is None:
             SHIPPED_NETWORK.unlink(missing_ok=True)
+        elif args.network is not None:
+            SHIPPED_NETWORK.write_bytes(shipped_network)
 
 
 if __name__ == "__main__":
