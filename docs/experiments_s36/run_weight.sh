@@ -2,8 +2,9 @@
 # Thirty-sixth session, a screen after the reading (docs/experiments.md, thirty-sixth section; decides nothing):
 # the impurity network trained as H4 but with an impurity cell weighing 2 instead of 5 in the loss, the verifier
 # refitted with it as the thirty-fifth's C was, and the default palette's exposure set read with it. From the
-# repository root after `source scripts/env.sh`; writes runs/s36/. The network is put where attention reads the
-# shipped one for the exposure step and removed after.
+# repository root after `source scripts/env.sh`; writes runs/s36/. The exposure step passes the network
+# (--network; the run itself, at a589447, copied it where attention reads the shipped one and removed it
+# after, which would now delete the shipped network).
 # Usage: docs/experiments_s36/run_weight.sh [step ...] (steps: network fit exposure; default all).
 set -euo pipefail
 out=runs/s36
@@ -22,12 +23,8 @@ for step in "${steps[@]}"; do
         python scripts/calibrate_attention.py verifier-fit --own-layouts --loop-views "${views[@]}" \
             --threshold-on first-views --network $net --model-json $model > $out/fit_w2.txt 2>&1 ;;
     exposure)
-        mkdir -p src/impurity_attention/checkpoints
-        cp $net src/impurity_attention/checkpoints/impurity_net.pt
         python docs/experiments_s11/exposure_wide.py report --seed-base 72100 --count-scale 2 --model $model \
-            > $out/exposure72100_w2.txt 2>&1 || true
-        rm -f src/impurity_attention/checkpoints/impurity_net.pt
-        rmdir src/impurity_attention/checkpoints 2>/dev/null || true ;;
+            --network $net > $out/exposure72100_w2.txt 2>&1 || true ;;
     *) echo "unknown step $step" >&2; exit 2 ;;
     esac
 done
