@@ -374,9 +374,7 @@ def network_palette_records(palettes: list | None = None, cache: str = "palettes
     offset + palette index x the row's count + i (26 200 ... 29 999); cached in CACHE / `cache`."""
     palettes = palettes or NETWORK_PALETTES
     assert len(palettes) == len(NETWORK_PALETTES)  # the registered block holds this many
-    offsets = np.concatenate([[0], np.cumsum([len(palettes) * count for *_, count in PALETTE_PLAN])])
-    wanted = palette_scenes(palettes, lambda row, number, scenes: NETWORK_PALETTE_SEED_BASE
-                            + int(offsets[row]) + number * scenes)
+    wanted = palette_scenes(palettes, packed_layouts(NETWORK_PALETTE_SEED_BASE, len(palettes)))
     assert max(seed for *_, seed, _ in wanted) < 30_000  # the registered block
     return render_cached(CACHE / cache, wanted, f"network training palettes ({cache})")
 
@@ -429,6 +427,14 @@ def network_fit(params: AttentionParams, epochs: int, out: pathlib.Path, invisib
                   f"{splits.TRAINING_EXPOSURE}; mean loss {losses[0]:.4f} -> {losses[-1]:.4f}")
     write_network(net, out, provenance)
     print(f"wrote {out}: {provenance}")
+
+
+def packed_layouts(seed_base: int, palette_count: int):
+    """A palette_scenes base giving `palette_count` palettes layouts of their own with PALETTE_PLAN's rows
+    packed one after the other from seed_base: row r starts after every palette's scenes of rows < r, and a
+    palette's scenes of a row follow the previous palette's (palette_count x 19 seeds in all)."""
+    offsets = np.concatenate([[0], np.cumsum([palette_count * count for *_, count in PALETTE_PLAN])])
+    return lambda row, number, scenes: seed_base + int(offsets[row]) + number * scenes
 
 
 def palette_scenes(palettes: list, base, scale: int = 1) -> list:

@@ -54,12 +54,9 @@ _WORKER = {}
 
 def palettes(count: int, start: int = RANDOM_FROM, named: bool = True) -> list:
     """The named tuning palettes (unless not `named`), then random-<start> ... random-<start + count - 1>,
-    tuning palettes only (splits.palette_group; the fresh ones from 2 000 000 too, thirty-seventh session)."""
+    tuning palettes only (splits.tuning_random_palettes; the fresh ones from 2 000 000 too, 37th session)."""
     from impurity_learning import splits
-    names = [f"random-{s}" for s in range(start, start + count)]
-    if {splits.palette_group(name) for name in names} != {"tuning"}:
-        raise SystemExit(f"random-{start} ... {start + count - 1}: not all tuning palettes (splits.py)")
-    return (list(splits.TUNING_NAMED) if named else []) + names
+    return (list(splits.TUNING_NAMED) if named else []) + splits.tuning_random_palettes(start, count)
 
 
 def edge_distance(x: float, y: float) -> float:

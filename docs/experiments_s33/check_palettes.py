@@ -21,7 +21,6 @@ import sys
 
 sys.path.insert(0, "scripts")
 import calibrate_attention as ca  # noqa: E402
-import numpy as np  # noqa: E402
 
 from impurity_attention.core.attention import AttentionParams  # noqa: E402
 from impurity_attention.core.verifier import RegionVerifier, default_verifier  # noqa: E402
@@ -33,17 +32,14 @@ FIRST, COUNT = 400, 200
 def check_records(first: int = FIRST, count: int = COUNT, seed_base: int = LAYOUT_SEED_BASE,
                   packed: bool = False) -> list:
     """The check set's scene records (rendered once, cached in runs/perception/palettes_check400_own.npz;
-    another set in palettes_check<first>_<count>_<seed_base>.npz). Raises SystemExit if a palette is not a
-    tuning palette or a seed leaves the tuning block registered for it (splits.TUNING_SEED_BLOCKS)."""
+    another set in palettes_check<first>_<count>_<seed_base>.npz). Raises ValueError if a palette is not a
+    tuning palette (splits.tuning_random_palettes), SystemExit if no block of splits.TUNING_SEED_BLOCKS holds
+    the seeds."""
     from impurity_learning import splits
 
-    palettes = [f"random-{first + number}" for number in range(count)]
-    if {splits.palette_group(name) for name in palettes} != {"tuning"}:
-        raise SystemExit(f"random-{first} ... {first + count - 1}: not all tuning palettes (splits.py)")
+    palettes = splits.tuning_random_palettes(first, count)
     if packed:
-        offsets = np.concatenate([[0], np.cumsum([count * rows for *_, rows in ca.PALETTE_PLAN])])
-        wanted = ca.palette_scenes(palettes,
-                                   lambda row, number, scenes: seed_base + int(offsets[row]) + number * scenes)
+        wanted = ca.palette_scenes(palettes, ca.packed_layouts(seed_base, count))
     else:
         wanted = ca.palette_scenes(palettes,
                                    lambda row, number, scenes: seed_base + 1400 * row + number * scenes)

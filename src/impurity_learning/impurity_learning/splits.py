@@ -120,6 +120,16 @@ def tuning_palettes(random_count: int = 8) -> list:
     return [DEFAULT_PALETTE, *TUNING_NAMED] + [f"random-{s}" for s in TUNING_RANDOM_SEEDS[:random_count]]
 
 
+def tuning_random_palettes(start: int, count: int) -> list:
+    """random-<start> ... random-<start + count - 1>, every one a tuning palette (TUNING_RANDOM_SEEDS or
+    TUNING_FRESH_RANDOM_SEEDS). Raises ValueError naming the range if any is not."""
+    names = [f"random-{seed}" for seed in range(start, start + count)]
+    if not all(seed in TUNING_RANDOM_SEEDS or seed in TUNING_FRESH_RANDOM_SEEDS
+               for seed in range(start, start + count)):
+        raise ValueError(f"random-{start} ... {start + count - 1}: not all tuning palettes (splits.py)")
+    return names
+
+
 def held_out_palettes(random_count: int = HELD_OUT_RANDOM_COUNT) -> list:
     return list(HELD_OUT_NAMED) + [f"random-{s}" for s in HELD_OUT_RANDOM_SEEDS[:random_count]]
 

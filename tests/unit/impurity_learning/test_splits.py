@@ -53,6 +53,12 @@ def test_the_fresh_tuning_palettes_are_tuning_palettes():
     assert {splits.palette_group(f"random-{s}") for s in (first, last)} == {"tuning"}
     with pytest.raises(ValueError, match="no group"):
         splits.palette_group(f"random-{last + 1}")
+    assert splits.tuning_random_palettes(first, 2) == [f"random-{first}", f"random-{first + 1}"]
+    assert splits.tuning_random_palettes(998, 2) == ["random-998", "random-999"]
+    with pytest.raises(ValueError, match="random-999 ... 1000: not all tuning palettes"):
+        splits.tuning_random_palettes(999, 2)
+    with pytest.raises(ValueError, match="not all tuning palettes"):
+        splits.tuning_random_palettes(last, 2)
 
 
 def test_a_palette_outside_the_split_is_refused():
