@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Re-check the test-time rules' presets on the split that is kept (issue 17): tuning seeds and tuning
+"""Re-check the test-time rules' presets on the split that is kept for it: tuning seeds and tuning
 palettes only (impurity_learning.splits), never the evaluation seeds or the held-out palettes.
 
 Ours (the shipped network) runs the same fast-sim episodes with the `none` preset, the `cell` preset,
