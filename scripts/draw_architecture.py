@@ -39,7 +39,7 @@ PLACES = {
     CLIENT: (6.5, 1.4),
 }
 COLOURS = {"ur5_driver_sim": "#eeeeee", "impurity_attention": "#fde9c9", "impurity_policy": "#dff2dd",
-           "impurity_common": "#dbe9f6"}
+           "impurity_common": "#dbe9f6", "impurity_viz": "#dbe9f6"}
 WIDTH, HEIGHT, GAP = 3.2, 1.1, 0.06
 
 
