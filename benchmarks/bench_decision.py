@@ -1,4 +1,4 @@
-"""Decision latency, side by side in one run (issue 8): ours (heightmap + attention + 32 Q maps on the
+"""Decision latency, side by side in one run: ours (heightmap + attention + 32 Q maps on the
 112^2 crop) against a VPG-sized network (VPG's four DenseNet-121 trunks: colour and depth for push
 and for grasp, on the 224^2 heightmap padded to 320^2, 16 rotations), both from the same sim frame.
 

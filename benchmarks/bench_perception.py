@@ -6,9 +6,9 @@ Scenes are synthetic (impurity_attention.core.synthetic, seeded) so the figures 
 simulator; pass --sim to also time frames rendered by the PyBullet cell. Also printed: the depth sanity
 check and, for cameras coarser than the cells, the cost of filling the gaps, and what the known product
 (core/product_memory.py) adds to attention on a view with a visible impurity and a heap left, and what the
-impurity network (core/impurity_net.py, read by the shipped verifier since the thirty-seventh session) adds:
-its map alone, and attention with the shipped verifier against a verifier reading no network (as the
-fifteen-feature verifier shipped before it did). Aims (issue 4): heightmap <= 20 ms, attention <= 30 ms p50.
+impurity network (core/impurity_net.py, read by the shipped verifier) adds: its map alone, and attention
+with the shipped verifier against a verifier of the same size reading no network. Aims: heightmap <= 20 ms,
+attention <= 30 ms p50.
 """
 
 import argparse
@@ -98,8 +98,8 @@ def main() -> None:
     print(f"{'':48s} known product / none: {p50['product only'] / p50['none']:.2f}x (region kept), "
           f"{p50['with the impurity'] / p50['none']:.2f}x (passed over)")
 
-    # the impurity network (shipped since the thirty-seventh session): its map alone, and attention with the
-    # shipped verifier (which reads it) against a verifier of the same size reading no network
+    # the impurity network: its map alone, and attention with the shipped verifier (which reads it) against
+    # a verifier of the same size reading no network
     import torch
 
     from impurity_attention.core.attention import shipped_network

@@ -4,7 +4,7 @@ the Q-map picture.
 
     python benchmarks/bench_policy.py [--threads 2] [--repeats 30]
 
-Budget (issue 5): a decision's 32 maps <= 100 ms p50 on this 2-core machine. Printed, never asserted.
+Budget: a decision's 32 maps <= 100 ms p50 on this 2-core machine. Printed, never asserted.
 """
 
 import argparse

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Ray against the process pool on this machine (issue 20), side by side in one run: Ray's start-up
+"""Ray against the process pool on this machine, side by side in one run: Ray's start-up
 seconds and memory; evaluation episodes per minute with the process pool and with Ray at 1 and 2
 workers (the same episodes, checked equal); training iterations per hour of the one-process loop and
 of the actor-learner at 1 and 2 actors. Printed, never asserted.

@@ -108,7 +108,7 @@ def agreement(seeds: int, scenario: str = "random") -> None:
 
 
 def oracle_grasps(mode: str, seeds: int) -> None:
-    """Issue 3's oracle: one block alone, true centre, closing across its short horizontal axis (a prism
+    """The oracle: one block alone, true centre, closing across its short horizontal axis (a prism
     across its flat ends), the same cases as tests/unit/ur5_driver_sim/test_sim_*.py."""
     import json
     import tempfile

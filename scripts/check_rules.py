@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Re-check the test-time rules' presets on the split that is kept (issue 17): tuning seeds and tuning
+"""Re-check the test-time rules' presets on the split that is kept for it: tuning seeds and tuning
 palettes only (impurity_learning.splits), never the evaluation seeds or the held-out palettes.
 
 Ours (the shipped network) runs the same fast-sim episodes with the `none` preset, the `cell` preset,
@@ -7,7 +7,7 @@ and `cell` without each of its rules in turn (leave one out). A rule earns its p
 leaving it out costs grasp success, action efficiency or completion on these tuning episodes; the table
 says so rule by rule. Episodes are counted by the simulator's truth, as `make eval` counts them.
 
-    python scripts/check_rules.py --episodes 6 --jobs 2 --out docs/rules_check.md
+    python scripts/check_rules.py --episodes 6 --jobs 2 --out runs/rules_check.md
 
 Resumable: every finished episode is appended to --journal and a rerun skips what it holds.
 """
@@ -121,7 +121,7 @@ def main(argv=None) -> int:
     p.add_argument("--jobs", type=int, default=2, help="worker processes")
     p.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
     p.add_argument("--journal", default="runs/rules_check.jsonl", help="finished episodes (resume)")
-    p.add_argument("--out", default="docs/rules_check.md")
+    p.add_argument("--out", default="runs/rules_check.md")
     args = p.parse_args(argv)
     journal = pathlib.Path(args.journal)
     journal.parent.mkdir(parents=True, exist_ok=True)

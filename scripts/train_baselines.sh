@@ -2,7 +2,8 @@
 # `make train-baselines`: trains the networks the evaluation compares ours with (VPG, which S-VPG also
 # runs, and the ablations No-TSD, No-OI, No-T), all four at once with one torch thread each and the
 # same wall-clock budget, then exports each to src/impurity_learning/checkpoints/<method>.pt and copies
-# its log and Fig. 9 plot to docs/training/<method>/. Rerunning resumes every run from its checkpoint.
+# its Fig. 9 plot and summary to docs/training/<method>/ (the full log stays in runs/<method>/log.csv).
+# Rerunning resumes every run from its checkpoint.
 #   BASELINE_HOURS  wall-clock budget per run (default 1.3)
 #   BASELINE_ITERS  iteration cap per run (default 12000, the same cap as ours)
 #   BASELINE_METHODS  subset, e.g. "vpg no_t"
@@ -25,7 +26,7 @@ status=0
 for pid in "${pids[@]}"; do wait "$pid" || status=1; done
 for method in $methods; do
   mkdir -p "docs/training/$method"
-  cp "runs/$method/log.csv" "runs/$method/success.png" "docs/training/$method/"
+  cp "runs/$method/success.png" "docs/training/$method/"
   # the run's JSON summary is the last {...} block the CLI printed
   python - "$method" <<'PY'
 import json, pathlib, re, sys

@@ -1,6 +1,6 @@
 """Camera calibration against the simulator: a ChArUco board lies textured on the PyBullet table, the
 simulated camera renders it from known poses (TinyRenderer, 640x480, the sim's intrinsics), and the
-calibration recovers each pose within 5 mm and 0.5 deg (issue 18's acceptance). The calibrate_camera
+calibration recovers each pose within 5 mm and 0.5 deg (the acceptance bound). The calibrate_camera
 tool runs on such renders offline (--image) and live (frames published on the camera topics)."""
 
 import math

@@ -1,8 +1,0 @@
-#!/bin/bash
-# issue 17, eleventh session: the sixth held-out set measured once with the shipped attention and network, on
-# evaluation seeds fixed before it was rendered (900700000 + k). The held-out group cycles through all 28
-# palettes (generalisation.group_palettes), 56 episodes per scenario: each palette twice per scenario.
-# The same eval_cli run through scripts/run_heldout.sh (the body it had when it ran is in git history; like
-# that body, it measures the held-out group splits.py names today).
-root=$(cd "$(dirname "$0")/../.." && pwd)
-exec "$root/scripts/run_heldout.sh" "$root/runs/s11/heldout6" 900700000 56
