@@ -1,7 +1,7 @@
 # Deployment image for a real cell: the runtime only. apt ROS 2 Jazzy, pip for what the runtime packages
 # import (no PyBullet, no simulator, no training or evaluation code), the colcon-built runtime packages
-# (impurity_interfaces, impurity_common, impurity_attention, impurity_policy with its shipped checkpoint,
-# ur5_driver_rtde), bringup's launchers and parameter files, and an entrypoint that sources both, so
+# (impurity_interfaces, impurity_common, impurity_bags, impurity_calibration, impurity_viz, ur5_motion,
+# impurity_attention, impurity_policy with its shipped checkpoint, ur5_driver_rtde), bringup's launchers and parameter files, and an entrypoint that sources both, so
 #   docker run --rm -it --network host --privileged <image> \
 #       ros2 launch /ws/bringup/launch/cell.launch.py cell:=real
 # works beside the RealSense driver (README, "Running on a real cell"). The simulated cell (`make demo`)
@@ -56,12 +56,16 @@ RUN python3 -m venv --system-site-packages /opt/venv \
 WORKDIR /ws
 COPY src/impurity_interfaces/ /ws/src/impurity_interfaces/
 COPY src/impurity_common/ /ws/src/impurity_common/
+COPY src/impurity_bags/ /ws/src/impurity_bags/
+COPY src/impurity_calibration/ /ws/src/impurity_calibration/
+COPY src/impurity_viz/ /ws/src/impurity_viz/
+COPY src/ur5_motion/ /ws/src/ur5_motion/
 COPY src/impurity_attention/ /ws/src/impurity_attention/
 COPY src/impurity_policy/ /ws/src/impurity_policy/
 COPY src/ur5_driver_rtde/ /ws/src/ur5_driver_rtde/
 RUN . /opt/ros/jazzy/setup.bash \
-    && colcon build --packages-select impurity_interfaces impurity_common impurity_attention impurity_policy \
-        ur5_driver_rtde --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
+    && colcon build --packages-select impurity_interfaces impurity_common impurity_bags impurity_calibration \
+        impurity_viz ur5_motion impurity_attention impurity_policy ur5_driver_rtde --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
     && rm -rf build log
 
 # bringup's launch file with its node lists and parameter files, and the episode client (not demo.py or

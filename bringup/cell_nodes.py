@@ -24,8 +24,8 @@ COMMON_NODES = (
     ("impurity_attention", "attention_node"),
     ("impurity_policy", "policy_node"),
     ("impurity_policy", "episode_node"),
-    ("impurity_common", "cell_state_publisher"),
-    ("impurity_common", "decision_markers"),
+    ("impurity_viz", "cell_state_publisher"),
+    ("impurity_viz", "decision_markers"),
 )
 CELLS = {
     "sim": (("ur5_driver_sim", "sim_cell"), *COMMON_NODES),

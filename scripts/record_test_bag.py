@@ -26,8 +26,8 @@ import time
 
 import yaml
 
+from impurity_bags.bags import BagReader, BagWriter, cell_typestore, file_sha256
 from impurity_common import names
-from impurity_common.bags import BagReader, BagWriter, cell_typestore, file_sha256
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
@@ -164,7 +164,7 @@ def main(argv=None) -> int:
                   "--log-dir", str(work / "logs"), "--record-dir", str(work / "records"), "--quiet"],
                  work / "launch_cell.log")
     recorder_log = work / "bag_recorder.log"
-    recorder = start([str(INSTALL / "impurity_common" / "lib" / "impurity_common" / "bag_recorder"),
+    recorder = start([str(INSTALL / "impurity_bags" / "lib" / "impurity_bags" / "bag_recorder"),
                       "--ros-args", "-p", f"output:={raw}", "-p", f"topics:=[{','.join(RECORDED_TOPICS)}]"],
                      recorder_log)
     recorder_code = None

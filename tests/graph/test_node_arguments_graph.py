@@ -27,9 +27,9 @@ NODES = {
     "attention_node": ("impurity_attention.attention_node", "AttentionNode", "attention"),
     "policy_node": ("impurity_policy.policy_node", "PolicyNode", "policy"),
     "episode_node": ("impurity_policy.episode_node", "EpisodeNode", "episode"),
-    "cell_state_publisher": ("impurity_common.cell_state_publisher", "CellStatePublisher",
+    "cell_state_publisher": ("impurity_viz.cell_state_publisher", "CellStatePublisher",
                              "cell_state_publisher"),
-    "decision_markers": ("impurity_common.decision_markers", "DecisionMarkers", "decision_markers"),
+    "decision_markers": ("impurity_viz.decision_markers", "DecisionMarkers", "decision_markers"),
 }
 
 
@@ -89,7 +89,7 @@ MISSPELLED = {
                "policy: unknown parameter push_end_margn:=0.1 (did you mean push_end_margin"),
     "nested": ("impurity_attention", "attention_node", "saliency.center_sigm", 2.0,
                "attention: unknown parameter saliency.center_sigm:=2.0 (did you mean saliency.center_sigma"),
-    "own-main": ("impurity_common", "bag_replay", "rat", 2.0,
+    "own-main": ("impurity_bags", "bag_replay", "rat", 2.0,
                  "bag_replay: unknown parameter rat:=2.0 (did you mean rate"),
 }
 
@@ -125,7 +125,7 @@ def test_help_on_the_bag_tools_starts_no_recording_or_replay(ros_node, launch, t
                                                              parameter):
     """Their main() does not go through spin_node: they ask exit_if_help themselves, first."""
     log_dir, target = tmp_path / "ros_log", tmp_path / "bag"
-    proc = launch("impurity_common", executable, ["--help", "--ros-args", "-p", f"{parameter}:={target}"],
+    proc = launch("impurity_bags", executable, ["--help", "--ros-args", "-p", f"{parameter}:={target}"],
                   env={"ROS_LOG_DIR": str(log_dir)})
     spin_until(ros_node, lambda: not proc.alive, 60.0, f"{executable} --help to exit")
     output = proc.output()

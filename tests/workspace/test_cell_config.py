@@ -15,7 +15,7 @@ import rclpy
 import yaml
 from parameter_files import as_declared, flatten
 
-from impurity_common.calibration import read_calibration_file
+from impurity_calibration.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
@@ -43,8 +43,8 @@ PARAMETER_CLASSES = {
     "attention": ("impurity_attention.attention_node", "AttentionNodeParameters"),
     "policy": ("impurity_policy.policy_node", "PolicyParameters"),
     "episode": ("impurity_policy.episode_node", "EpisodeParameters"),
-    "cell_state_publisher": ("impurity_common.cell_state_publisher", "CellStateParameters"),
-    "decision_markers": ("impurity_common.decision_markers", "DecisionMarkersParameters"),
+    "cell_state_publisher": ("impurity_viz.cell_state_publisher", "CellStateParameters"),
+    "decision_markers": ("impurity_viz.decision_markers", "DecisionMarkersParameters"),
 }
 
 

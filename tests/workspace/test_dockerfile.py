@@ -16,8 +16,8 @@ from source_scan import imported_top_levels
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DOCKERFILE = ROOT / "Dockerfile"
 SRC = ROOT / "src"
-RUNTIME_PACKAGES = {"impurity_interfaces", "impurity_common", "impurity_attention", "impurity_policy",
-                    "ur5_driver_rtde"}
+RUNTIME_PACKAGES = {"impurity_interfaces", "impurity_common", "impurity_bags", "impurity_calibration",
+                    "impurity_viz", "ur5_motion", "impurity_attention", "impurity_policy", "ur5_driver_rtde"}
 NEVER_IN_THE_IMAGE = ("pybullet", "ur5_driver_sim", "impurity_learning", "matplotlib", "pytest")
 # Distribution that provides an imported module, where the names differ.
 DISTRIBUTION_OF_MODULE = {"cv2": "opencv-python-headless", "sklearn": "scikit-learn", "yaml": "PyYAML",

@@ -23,26 +23,27 @@ RUNTIME_EXECUTABLES = [
     ("impurity_attention", "impurity_attention.attention_node"),
     ("impurity_policy", "impurity_policy.policy_node"),
     ("impurity_policy", "impurity_policy.episode_node"),
-    ("impurity_common", "impurity_common.bag_recorder_node"),
-    ("impurity_common", "impurity_common.bag_replay_node"),
+    ("impurity_bags", "impurity_bags.bag_recorder_node"),
+    ("impurity_bags", "impurity_bags.bag_replay_node"),
     ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node"),
-    ("impurity_common", "impurity_common.calibrate_camera"),
-    ("impurity_common", "impurity_common.cell_state_publisher"),
-    ("impurity_common", "impurity_common.decision_markers"),
+    ("impurity_calibration", "impurity_calibration.calibrate_camera"),
+    ("impurity_viz", "impurity_viz.cell_state_publisher"),
+    ("impurity_viz", "impurity_viz.decision_markers"),
 ]
 # Executables that never run the network, so never load torch.
-NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_recorder_node",
-                          "impurity_common.bag_replay_node", "impurity_attention.heightmap_node",
+NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_bags.bag_recorder_node",
+                          "impurity_bags.bag_replay_node", "impurity_attention.heightmap_node",
                           "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node",
-                          "impurity_common.calibrate_camera", "impurity_common.cell_state_publisher",
-                          "impurity_common.decision_markers")
+                          "impurity_calibration.calibrate_camera", "impurity_viz.cell_state_publisher",
+                          "impurity_viz.decision_markers")
 # Never on a real cell: the simulator, its physics engine, training and evaluation, and the cluster
 # runtime they may run on (ray, issue 20).
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning", "ray")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
-RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy", "ur5_driver_rtde")
+RUNTIME_PACKAGES = ("impurity_common", "impurity_bags", "impurity_calibration", "impurity_viz", "ur5_motion",
+                    "impurity_attention", "impurity_policy", "ur5_driver_rtde")
 # Dependencies on a package's installed files rather than its modules.
-DATA_DEPENDENCIES = {"impurity_common": {"impurity_interfaces"}}  # bags.py reads its .msg files
+DATA_DEPENDENCIES = {"impurity_bags": {"impurity_interfaces"}}  # bags.py reads its .msg files
 
 
 def imported_modules(module: str) -> list[str]:

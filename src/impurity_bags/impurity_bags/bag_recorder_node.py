@@ -1,6 +1,6 @@
 """Bag recorder: the cell's topics -> a rosbag2 directory (MCAP, as Jazzy), raw CDR, never re-serialised.
 
-Thin shell around impurity_common.bags.BagWriter. Each wanted topic is subscribed as soon as it has
+Thin shell around impurity_bags.bags.BagWriter. Each wanted topic is subscribed as soon as it has
 a publisher, with the type its publishers announce and the QoS rosbag2 would request from their offers
 (bags.subscription_request, read with get_publishers_info_by_topic): best effort if any publisher is
 best effort, transient local if every publisher offers it, so that a latched message published before
@@ -30,8 +30,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import Qos, QosDurability, QosHistory, QosLiveliness, QosReliability, QosTime
 
-from impurity_common import names
-from impurity_common.bags import (
+from impurity_bags.bags import (
     BagError,
     BagWriter,
     cell_typestore,
@@ -40,6 +39,7 @@ from impurity_common.bags import (
     subscription_request,
     weakened_request,
 )
+from impurity_common import names
 from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,

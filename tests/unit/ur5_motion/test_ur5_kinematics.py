@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from impurity_common import ur5_kinematics as kin
+from ur5_motion import ur5_kinematics as kin
 
 
 @pytest.mark.parametrize("seed", range(5))

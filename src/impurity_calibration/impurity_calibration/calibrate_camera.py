@@ -3,11 +3,11 @@ calibration file (bringup/config/camera_calibration.yaml) that heightmap_node an
 
 Live, on a cell: with the camera driver running (realsense2_camera), lay the printed board flat on the
 table, measure where its origin lies in base_link (the lower-left outer corner of the squares, the
-page upright as read; see impurity_common.calibration) and its yaw, or touch the origin and the
+page upright as read; see impurity_calibration.calibration) and its yaw, or touch the origin and the
 other end of the bottom row of squares with the tool tip, and run
 
-  ros2 run impurity_common calibrate_camera --board-position 0.32 -0.14 0.0 --board-yaw 0.0
-  ros2 run impurity_common calibrate_camera --board-position 0.32 -0.14 0.0 --board-x-point 0.68 -0.14 0.0
+  ros2 run impurity_calibration calibrate_camera --board-position 0.32 -0.14 0.0 --board-yaw 0.0
+  ros2 run impurity_calibration calibrate_camera --board-position 0.32 -0.14 0.0 --board-x-point 0.68 -0.14 0.0
 
 It subscribes to the colour image and camera_info (impurity_common.names: COLOR_TOPIC,
 CAMERA_INFO_TOPIC; rename with `--ros-args -r`), waits at most --timeout s, calibrates on --frames
@@ -40,8 +40,9 @@ from rclpy.qos import qos_profile_sensor_data
 from rclpy.utilities import remove_ros_args
 from sensor_msgs.msg import CameraInfo, Image
 
-from impurity_common import calibration, names
-from impurity_common.calibration import CalibrationError, CameraIntrinsics, CharucoBoardSpec
+from impurity_calibration import calibration
+from impurity_calibration.calibration import CalibrationError, CameraIntrinsics, CharucoBoardSpec
+from impurity_common import names
 from impurity_common.conversions import ImageFormatError, image_to_rgb
 from impurity_common.node_main import init_with_stop_event
 

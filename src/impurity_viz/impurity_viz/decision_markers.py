@@ -20,8 +20,7 @@ from impurity_common import names
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Primitive
-
-from .visualisation import attention_markers, heightmap_marker, primitive_markers
+from impurity_viz.visualisation import attention_markers, heightmap_marker, primitive_markers
 
 
 @dataclass(frozen=True)

@@ -35,7 +35,7 @@ from impurity_common.parameters import (
     declare_parameters,
     param,
 )
-from impurity_common.visualisation import (
+from impurity_viz.visualisation import (
     RobotTree,
     camera_transform,
     joint_positions,

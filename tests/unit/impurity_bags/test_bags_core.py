@@ -29,7 +29,7 @@ from rosbags.rosbag2 import Writer
 from rosbags.rosbag2.enums import StoragePlugin
 from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-from impurity_common.bags import (
+from impurity_bags.bags import (
     BagError,
     BagMessage,
     BagReader,

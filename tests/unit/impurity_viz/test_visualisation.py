@@ -9,10 +9,10 @@ from geometry_msgs.msg import Point
 from visualization_msgs.msg import Marker
 
 from impurity_common import cell, names
-from impurity_common import ur5_kinematics as kin
-from impurity_common import visualisation as vis
 from impurity_common.conversions import numpy_to_image
 from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
+from impurity_viz import visualisation as vis
+from ur5_motion import ur5_kinematics as kin
 
 UR_LINKS = ("base_link", "base_link_inertia", "base", "shoulder_link", "upper_arm_link", "forearm_link",
             "wrist_1_link", "wrist_2_link", "wrist_3_link", "flange", "tool0")

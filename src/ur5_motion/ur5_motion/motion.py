@@ -13,7 +13,7 @@ speed (m/s), an acceleration (m/s^2) and a kind saying how to run it:
            z, RETREAT home
 
 The TCP is the centre between the fingertips' lower ends; the gripper frame is Rz(yaw) with z up, and
-tool0 is cell.FLANGE_TO_TCP above the TCP (impurity_common.ur5_kinematics). Every constant comes from
+tool0 is cell.FLANGE_TO_TCP above the TCP (ur5_motion.ur5_kinematics). Every constant comes from
 impurity_common.cell. `run_plan` is the one stepping logic (phases, skipping the rest of a descent
 after a guarded stop, the record of executed steps); executors supply `execute_step(step) -> bool`.
 
@@ -29,8 +29,9 @@ import threading
 from collections.abc import Callable, Sequence
 from dataclasses import asdict, dataclass
 
-from impurity_common import cell, names, ur5_kinematics
+from impurity_common import cell, names
 from impurity_common.enums import PrimitiveKind
+from ur5_motion import ur5_kinematics
 
 GRASP = "grasp"
 PUSH = "push"

@@ -1,4 +1,4 @@
-"""Specification of the motion plan (impurity_common.motion): the steps of a grasp and a push, their
+"""Specification of the motion plan (ur5_motion.motion): the steps of a grasp and a push, their
 heights, speeds and limits, how a guarded stop ends a descent, and the reasons a primitive is refused
 before anything moves."""
 
@@ -6,8 +6,9 @@ import math
 
 import pytest
 
-from impurity_common import cell, motion, ur5_kinematics
-from impurity_common.motion import StepKind
+from impurity_common import cell
+from ur5_motion import motion, ur5_kinematics
+from ur5_motion.motion import StepKind
 
 
 def kinds(plan):

@@ -1,7 +1,7 @@
 """UR5 kinematics from its published DH parameters (pure numpy): forward kinematics, Jacobian and a
 damped-least-squares IK for the gripper's TCP. The PyBullet body (ur5.py) is generated from the same
-table, so the model and the simulated arm cannot disagree. It lives in impurity_common because runtime
-nodes (cell_state_publisher's TF and /robot_description) need the same kinematics without the simulator.
+table, so the model and the simulated arm cannot disagree. Runtime nodes (cell_state_publisher's TF and
+/robot_description, the real arm driver) use the same kinematics without the simulator.
 
 Frames: DH frame 0 is the UR controller's `base`, which is base_link turned by pi about z (as in the
 UR ROS driver). tool0 is DH frame 6 (z out of the flange); the TCP is FLANGE_TO_TCP further along
@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from .cell import (
+from impurity_common.cell import (
     FINGER_LENGTH,
     FINGER_THICKNESS,
     FINGER_WIDTH,
@@ -22,7 +22,7 @@ from .cell import (
     GRIPPER_MAX_OPENING,
     PALM_HALF_EXTENTS,
 )
-from .names import BASE_FRAME
+from impurity_common.names import BASE_FRAME
 
 JOINT_NAMES = ("shoulder_pan_joint", "shoulder_lift_joint", "elbow_joint",
                "wrist_1_joint", "wrist_2_joint", "wrist_3_joint")

@@ -466,7 +466,7 @@ class CameraCalibration:
     board_position: tuple[float, ...] | None = None
     board_yaw: float | None = None
     measured: str = ""
-    method: str = "calibrate_camera (ChArUco board, impurity_common.calibration)"
+    method: str = "calibrate_camera (ChArUco board, impurity_calibration.calibration)"
     frames: int = 1
     spread_mm: float = 0.0  # largest distance of a frame's camera position from the combined one
     spread_deg: float = 0.0  # largest angle of a frame's camera orientation from the combined one
@@ -560,7 +560,7 @@ def calibration_file_text(calibration: CameraCalibration, note: str = "") -> str
     orientation = ", ".join(f"{v:.8f}" for v in c.orientation)
     return (
         f"# Camera calibration: {names.CAMERA_OPTICAL_FRAME} in {names.BASE_FRAME}, read by heightmap_node\n"
-        "# and sim_cell (--params-file) and published as TF. Written by impurity_common.calibration;\n"
+        "# and sim_cell (--params-file) and published as TF. Written by impurity_calibration.calibration;\n"
         "# re-measure with `calibrate_camera` whenever the camera or its mount moves.\n"
         f"# Measured: {c.measured or 'unknown'} by {c.method}\n"
         f"# Board: {c.board.describe()}\n"

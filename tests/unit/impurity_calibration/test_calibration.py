@@ -1,4 +1,4 @@
-"""The camera pose from a ChArUco board (impurity_common.calibration), on synthetic views: the board
+"""The camera pose from a ChArUco board (impurity_calibration.calibration), on synthetic views: the board
 image warped into a pinhole camera at a known pose (a plane's homography), anti-aliased as a sensor
 integrates light over its pixels. No simulator: tests/integration/test_calibration_sim.py renders it."""
 
@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.spatial.transform import Rotation
 
-from impurity_common import calibration, cell
-from impurity_common.calibration import (
+from impurity_calibration import calibration
+from impurity_calibration.calibration import (
     BoardNotFound,
     CalibrationError,
     CalibrationFileError,
@@ -19,6 +19,7 @@ from impurity_common.calibration import (
     InvalidIntrinsics,
     TooFewCorners,
 )
+from impurity_common import cell
 
 SPEC = CharucoBoardSpec()
 WIDTH, HEIGHT = cell.CAMERA_WIDTH, cell.CAMERA_HEIGHT

@@ -13,12 +13,12 @@ from sensor_msgs.msg import JointState
 from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import MarkerArray
 
+from impurity_bags.bags import BagWriter, cell_typestore
 from impurity_common import cell, names
-from impurity_common import ur5_kinematics as kin
-from impurity_common import visualisation as vis
-from impurity_common.bags import BagWriter, cell_typestore
 from impurity_common.conversions import numpy_to_image
 from impurity_interfaces.msg import Heightmap, Primitive
+from impurity_viz import visualisation as vis
+from ur5_motion import ur5_kinematics as kin
 
 SCRIPT = pathlib.Path(__file__).resolve().parents[3] / "scripts" / "render_cell_3d.py"
 JOINTS = (0.2, -1.5, 1.3, -1.3, -1.57, 0.1)

@@ -5,7 +5,7 @@ the chosen primitive and the attended region.
 Conventions: every pose is a 4 x 4 homogeneous matrix in metres; quaternions are (x, y, z, w) as in
 geometry_msgs; frames follow REP-103 (impurity_common.names). The robot model is
 ur5_kinematics.urdf_text(ros_frames=True), generated from the UR5's DH table, so the TF tree here and
-the kinematics the simulator and the motion plan use cannot disagree (tests/unit/impurity_common/
+the kinematics the simulator and the motion plan use cannot disagree (tests/unit/impurity_viz/
 test_visualisation.py walks the URDF and compares with ur5_kinematics.joint_frames).
 
 Nodes: cell_state_publisher (TF, /robot_description) and decision_markers (MarkerArray).
@@ -23,9 +23,10 @@ from geometry_msgs.msg import Point, TransformStamped
 from std_msgs.msg import ColorRGBA
 from visualization_msgs.msg import Marker
 
-from impurity_common import cell, names, ur5_kinematics
+from impurity_common import cell, names
 from impurity_common.conversions import image_to_numpy
 from impurity_common.enums import AttentionMode, PrimitiveKind
+from ur5_motion import ur5_kinematics
 
 TCP_FRAME = "gripper_tcp"  # the URDF's TCP link: centre between the fingertips' lower ends, z up the wrist
 TOOL_FRAME = "tool0"  # the UR flange frame, z out of the flange (REP-199 / ur_description)

@@ -1,6 +1,6 @@
 """Bag replay: publishes a rosbag2 bag's messages as raw CDR, bytes exactly as recorded.
 
-Thin shell around impurity_common.bags (BagReader, replay_plan, run_replay). Timing: the original
+Thin shell around impurity_bags.bags (BagReader, replay_plan, run_replay). Timing: the original
 one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. Topics
 are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
 
@@ -49,7 +49,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import QosDurability
 
-from impurity_common.bags import (
+from impurity_bags.bags import (
     BagError,
     BagMessage,
     BagReader,
