@@ -2,8 +2,8 @@
 """Regenerate the regression bags: one short sim episode each, recorded with bag_recorder, trimmed to what
 tests/graph/test_bag_replay_regression.py replays (a few MB each).
 
-Steps: start the cell (bringup/launch_cell.py), start bag_recorder on the camera, decision and step
-topics, run one episode (bringup/episode_client.py), stop the recorder and the cell, then keep only
+Steps: start the cell (impurity_bringup.launch_cell), start bag_recorder on the camera, decision and step
+topics, run one episode (impurity_bringup.episode_client), stop the recorder and the cell, then keep only
   - the colour and depth frames whose decisions the episode executed (stamps of /episode/steps),
   - every camera_info, /attention/known_product, /policy/primitive and /episode/steps message (small),
 and note in the bag's custom_data which policy weights decided (checkpoint SHA-256, or untrained + seed).
@@ -160,7 +160,7 @@ def main(argv=None) -> int:
     raw = work / "raw_bag"
     print(f"record_test_bag: working in {work}", flush=True)
 
-    cell = start([sys.executable, str(ROOT / "bringup" / "launch_cell.py"), "--config", str(config),
+    cell = start([sys.executable, "-m", "impurity_bringup.launch_cell", "--config", str(config),
                   "--log-dir", str(work / "logs"), "--record-dir", str(work / "records"), "--quiet"],
                  work / "launch_cell.log")
     recorder_log = work / "bag_recorder.log"
@@ -171,7 +171,7 @@ def main(argv=None) -> int:
     try:
         wait_for_log(recorder_log, [f"recording {t} (" for t in RECORDED_TOPICS], 180.0, [cell, recorder])
         print("record_test_bag: cell up, recorder subscribed; running the episode", flush=True)
-        client = subprocess.run([sys.executable, str(ROOT / "bringup" / "episode_client.py"), *episode,
+        client = subprocess.run([sys.executable, "-m", "impurity_bringup.episode_client", *episode,
                                  "--timeout", str(args.timeout)], timeout=args.timeout + 60)
         if client.returncode != 0:
             raise RuntimeError(f"episode_client exited with {client.returncode} (logs in {work / 'logs'})")

@@ -4,20 +4,15 @@ the names ROS and the calibration file give every node pass; `--help` prints the
 parameters and exits 0 before rclpy starts."""
 
 import importlib
-import pathlib
-import sys
 
 import pytest
 import rclpy
 from rclpy.parameter import Parameter
 
+from impurity_bringup.cell_nodes import CELLS, parameter_files, ros_arguments
 from impurity_common.node_main import parameters_of
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, UnknownParameter, declare_parameters
 from ros_harness import ros_args, spin_until
-
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "bringup"))
-from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
 
 # executable -> (module, Node class, the node's name: its section in a parameter file)
 NODES = {

@@ -7,7 +7,8 @@ page upright as read; see impurity_calibration.calibration) and its yaw, or touc
 other end of the bottom row of squares with the tool tip, and run
 
   ros2 run impurity_calibration calibrate_camera --board-position 0.32 -0.14 0.0 --board-yaw 0.0
-  ros2 run impurity_calibration calibrate_camera --board-position 0.32 -0.14 0.0 --board-x-point 0.68 -0.14 0.0
+  ros2 run impurity_calibration calibrate_camera --board-position 0.32 -0.14 0.0 \
+      --board-x-point 0.68 -0.14 0.0
 
 It subscribes to the colour image and camera_info (impurity_common.names: COLOR_TOPIC,
 CAMERA_INFO_TOPIC; rename with `--ros-args -r`), waits at most --timeout s, calibrates on --frames

@@ -1,7 +1,9 @@
-#!/usr/bin/env python3
 """`make demo`: start the cell's node graph, run one picking episode, print it, draw it, stop.
 
-Writes runs/demo/<episode>/ (steps.jsonl, summary.json, episode.png) and node logs in runs/demo/logs/.
+    python -m impurity_bringup.demo [--scenario S] [--seed N] ...   (or the `demo` console script)
+
+Writes runs/demo/<episode>/ (steps.jsonl, summary.json, episode.png) and node logs in runs/demo/logs/, under
+the checkout (checkout.root(): IMPURITY_CELL_ROOT, else the working directory).
 """
 
 import argparse
@@ -15,15 +17,12 @@ import time
 import rclpy
 from rclpy.action import ActionClient
 
+from impurity_bringup import checkout
+from impurity_bringup.episode_client import format_result, run_episode, running_cell
 from impurity_common.enums import EPISODE_SCENARIOS, Scenario
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
 from impurity_policy.core.episode import EpisodeRequest, describe_request, is_failure
-
-BRINGUP = pathlib.Path(__file__).resolve().parent
-ROOT = BRINGUP.parent
-sys.path.insert(0, str(BRINGUP))
-from episode_client import format_result, run_episode, running_cell  # noqa: E402
 
 
 def main(argv=None) -> int:
@@ -35,7 +34,7 @@ def main(argv=None) -> int:
     parser.add_argument("--objects", type=int, default=20)
     parser.add_argument("--palette", default="", help="the scene's appearance (default: the blue blocks)")
     parser.add_argument("--timeout", type=float, default=900.0)
-    parser.add_argument("--out", type=pathlib.Path, default=ROOT / "runs" / "demo")
+    parser.add_argument("--out", type=pathlib.Path, default=checkout.root() / "runs" / "demo")
     parser.add_argument("--probe", type=float, default=3.0,
                         help="s to look for another cell on this ROS domain first (0 = do not look)")
     args = parser.parse_args(argv)

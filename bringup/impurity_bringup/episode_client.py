@@ -1,5 +1,6 @@
-#!/usr/bin/env python3
 """Command-line client: start a picking episode, print one line per action, then the paper's metrics.
+
+    episode_client --scenario random --seed 7     (or python -m impurity_bringup.episode_client ...)
 
 Equivalent on a ROS install:
   ros2 action send_goal --feedback /episode/run impurity_interfaces/action/RunEpisode \
@@ -45,7 +46,6 @@ from impurity_policy.core.episode import (
     validate_request,
 )
 
-BRINGUP = pathlib.Path(__file__).resolve().parent
 CANCEL_TIMEOUT = 30.0  # s for the episode node to confirm a cancel (the arm stops and leaves upwards)
 OPTION_OF_FIELD = {"num_targets": "--targets", "num_objects": "--objects", "max_actions": "--max-actions",
                    "scene_file": "--scene-file"}
@@ -54,13 +54,13 @@ STOP_TIMEOUT = 45.0  # s for /episode/stop's answer (the node answers once the e
 
 @contextlib.contextmanager
 def running_cell(out: pathlib.Path, config: pathlib.Path | None = None):
-    """The whole node graph (launch_cell.py, with `config` or bringup/config/cell.yaml) for the
+    """The whole node graph (impurity_bringup.launch_cell, with `config` or the installed cell.yaml) for the
     duration of a `with`: episode records in `out`, node logs in out/logs; stopped with SIGINT (SIGKILL
     after 30 s) on the way out."""
     out.mkdir(parents=True, exist_ok=True)
     extra = ["--config", str(config)] if config is not None else []
     launcher = subprocess.Popen(
-        [sys.executable, str(BRINGUP / "launch_cell.py"), "--quiet", "--log-dir", str(out / "logs"),
+        [sys.executable, "-m", "impurity_bringup.launch_cell", "--quiet", "--log-dir", str(out / "logs"),
          "--record-dir", str(out), *extra], start_new_session=True)
     try:
         yield launcher
@@ -203,7 +203,7 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
                 if pressed(2):
                     raise KeyboardInterrupt
                 raise TimeoutError(f"the episode did not confirm the cancel within {CANCEL_TIMEOUT:.0f} "
-                                   "s: stop the cell (Ctrl-C on launch_cell.py) or the arm (pendant)")
+                                   "s: stop the cell (Ctrl-C on launch_cell) or the arm (pendant)")
         return result_future.result().result
     finally:
         client.destroy()

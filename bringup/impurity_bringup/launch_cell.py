@@ -1,12 +1,15 @@
-#!/usr/bin/env python3
 """Pip-environment launcher: every node of the cell as its own process, with the cell's parameter file
 and the camera calibration.
 
-`--cell sim` (default): the PyBullet cell, bringup/config/cell.yaml. `--cell real`: the UR5 driver on
-ur-rtde instead of the simulator, bringup/config/real_cell.yaml read over cell.yaml (start the camera
+    launch_cell [--cell sim|real] [--config FILE] [--calibration FILE] [--param EXE:NAME:=VALUE]...
+    python -m impurity_bringup.launch_cell ...   (the same)
+
+`--cell sim` (default): the PyBullet cell, config/cell.yaml. `--cell real`: the UR5 driver on
+ur-rtde instead of the simulator, config/real_cell.yaml read over cell.yaml (start the camera
 driver apart: README, "Running on a real cell"). Every node reads the cell's files (`--config` replaces
 the cell's own), then `--calibration`, then its `--param` overrides. `--print` lists the command lines
-and starts nothing.
+and starts nothing. The files and executables are the installed ones (share/impurity_bringup/config,
+lib/<package>/<executable> of each package's install prefix, found through the ament index).
 
 Ctrl-C (SIGINT) or SIGTERM stops all of them; if any node dies, the others are stopped and the
 launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node.
@@ -22,16 +25,24 @@ import sys
 import threading
 import time
 
-BRINGUP = pathlib.Path(__file__).resolve().parent
-ROOT = BRINGUP.parent
-sys.path.insert(0, str(BRINGUP))
-from cell_nodes import CALIBRATION, CELLS, parameter_files, ros_arguments  # noqa: E402
+from ament_index_python.packages import PackageNotFoundError, get_package_prefix
 
-INSTALL = ROOT / "ros2_ws" / "install"
+from impurity_bringup.cell_nodes import (
+    CELLS,
+    NotInstalledError,
+    calibration_file,
+    parameter_files,
+    ros_arguments,
+)
 
 
 def executable(package: str, name: str) -> pathlib.Path:
-    path = INSTALL / package / "lib" / package / name
+    """Where `ros2 run <package> <name>` finds it: lib/<package>/<name> under the package's install prefix.
+    SystemExit names what is missing."""
+    try:
+        path = pathlib.Path(get_package_prefix(package)) / "lib" / package / name
+    except PackageNotFoundError:
+        raise SystemExit(f"launch_cell: package {package} is not installed; run `make setup` first") from None
     if not path.exists():
         raise SystemExit(f"launch_cell: {path} not found; run `make setup` first")
     return path
@@ -112,8 +123,9 @@ def main(argv=None) -> int:
     parser.add_argument("--config", type=pathlib.Path, default=None,
                         help="the cell's own parameter file (default: config/cell.yaml; --cell real: "
                         "config/real_cell.yaml, read over config/cell.yaml)")
-    parser.add_argument("--calibration", type=pathlib.Path, default=CALIBRATION,
-                        help="camera calibration file, read after --config (default: %(default)s)")
+    parser.add_argument("--calibration", type=pathlib.Path, default=None,
+                        help="camera calibration file, read after --config (default: config/"
+                        "camera_calibration.yaml of the installed impurity_bringup)")
     parser.add_argument("--only", default="", help="comma-separated executables to start (default: all)")
     parser.add_argument("--param", action="append", default=[], metavar="EXECUTABLE:NAME:=VALUE",
                         help="a parameter override for one executable, after both files (repeatable), "
@@ -124,10 +136,14 @@ def main(argv=None) -> int:
     parser.add_argument("--print", action="store_true", dest="print_only",
                         help="print each node's command line and start nothing")
     args = parser.parse_args(argv)
-    files = parameter_files(args.cell, args.config, args.calibration)
+    try:
+        calibration = args.calibration or calibration_file()
+        files = parameter_files(args.cell, args.config, calibration)
+    except NotInstalledError as error:
+        parser.error(str(error))
     for path in files:
         if not path.is_file():
-            what = "calibration" if args.calibration and path == pathlib.Path(args.calibration) else "config"
+            what = "calibration" if path == calibration else "config"
             parser.error(f"{what} {path} not found")
     cell_nodes = CELLS[args.cell]
     wanted = {n for n in args.only.split(",") if n}
