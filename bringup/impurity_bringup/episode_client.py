@@ -211,8 +211,7 @@ def run_episode(node, goal: RunEpisode.Goal, timeout: float, printer=print, ctrl
 
 def field_int(field: str):
     """An argparse type for the integer option feeding the request's `field`: refused (with the option's
-    name, by argparse) outside core.episode.FIELD_RANGES, the messages' own range narrowed to a usable one
-    (a negative seed used to end in a traceback naming another field)."""
+    name, by argparse) outside core.episode.FIELD_RANGES, the messages' own range narrowed to a usable one."""
     low, high = FIELD_RANGES[field]
 
     def parse(text: str) -> int:

@@ -219,7 +219,7 @@ def test_recorder_refuses_an_existing_output(launch, tmp_path):
     assert "already exists" in recorder.output()
 
 
-# ------------------------------------------------------- issue 19 item 6: latched topics in recordings
+# ---------------------------------------------------------------------------- latched topics in recordings
 ROBOT_DESCRIPTION = "/bagtest/robot_description"
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -248,7 +248,7 @@ def publish_until_recorded(ros_node, publisher, bag, wanted: dict[str, int], rec
 
 
 def test_recorder_records_a_latched_topic_published_before_it_started(ros_node, launch, tmp_path):
-    """The field report: /robot_description (transient local) published once, then bag_recorder starts:
+    """/robot_description (transient local) published once, then bag_recorder starts:
     the message must be in the bag, and the start-up line counts the topics it records."""
     bag = tmp_path / "latched"
     description = ros_node.create_publisher(String, ROBOT_DESCRIPTION, LATCHED)
@@ -305,7 +305,7 @@ def test_recorder_waits_for_publishers_and_rechecks_when_new_ones_appear(ros_nod
     assert "offers volatile, the subscription requests transient_local" in recorder.output()
 
 
-# ------------------------------------------------- issue 19 item 5: bags that replay partly or not at all
+# -------------------------------------------------------------------- bags that replay partly or not at all
 CAMERA_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
 

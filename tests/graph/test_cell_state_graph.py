@@ -1,6 +1,6 @@
 """Graph tests: cell_state_publisher and decision_markers (real processes) give RViz and Foxglove a 3-D
 view: /robot_description and /tf_static reach a viewer that joins late, /tf follows /joint_states with
-the UR5's kinematics, and /cell/markers shows the chosen primitive and the attended crop (issue 18)."""
+the UR5's kinematics, and /cell/markers shows the chosen primitive and the attended crop."""
 
 import math
 

@@ -42,7 +42,7 @@ NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_bags.bag_rec
                           "impurity_viz.decision_markers", "impurity_bringup.launch_cell",
                           "impurity_bringup.episode_client")
 # Never on a real cell: the simulator, its physics engine, training and evaluation, and the cluster
-# runtime they may run on (ray, issue 20).
+# runtime they may run on (ray).
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning", "ray")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
 RUNTIME_PACKAGES = ("impurity_common", "impurity_bags", "impurity_calibration", "impurity_viz", "ur5_motion",

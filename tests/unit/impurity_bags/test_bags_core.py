@@ -316,7 +316,7 @@ def test_custom_data_is_kept_beside_the_checksums(tmp_path, typestore):
         assert "sha256:noted_0.mcap" in reader.custom_data
 
 
-# ------------------------------------------------- issue 19 item 5a: topics of types this environment lacks
+# ---------------------------------------------------------------- topics of types this environment lacks
 @pytest.fixture
 def camera_bag(tmp_path):
     bag = tmp_path / "camera"
@@ -377,7 +377,7 @@ def test_message_type_problem_names_what_is_missing():
     assert "not a message type name" in message_type_problem("garbage")
 
 
-# -------------------------------------------------------- issue 19 item 5b: edited QoS text, partial passes
+# ------------------------------------------------------------------------- edited QoS text, partial passes
 LATCHED = Qos(QosHistory.UNKNOWN, 0, QosReliability.RELIABLE, QosDurability.TRANSIENT_LOCAL, QosTime(0, 0),
               QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)
 
@@ -388,7 +388,7 @@ def recorded_qos(bag) -> list:
 
 
 @pytest.mark.parametrize("edit", [
-    garbled_qos,  # the field report: words no ROS knows (rosbags then matched no connection: 0 messages)
+    garbled_qos,  # words no ROS knows (rosbags then matches no connection: 0 messages)
     lambda profiles: "- history: [unclosed",  # not YAML
     lambda profiles: "garbage",  # YAML, not profiles
     lambda profiles: [{"reliability": "reliable"}],  # keys missing
@@ -468,7 +468,7 @@ def test_pass_counter_counts_only_a_first_pass_read_to_its_end():
     assert not stopped.first_pass_done and stopped.counts == {"/t": 2}
 
 
-# ---------------------------------------------------- issue 19 item 6: the QoS a recorder subscribes with
+# --------------------------------------------------------------------- the QoS a recorder subscribes with
 def offer(reliability: QosReliability, durability: QosDurability) -> Qos:
     return Qos(QosHistory.UNKNOWN, 0, reliability, durability, QosTime(0, 0), QosTime(0, 0),
                QosLiveliness.AUTOMATIC, QosTime(0, 0), False)

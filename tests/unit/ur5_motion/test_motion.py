@@ -29,7 +29,7 @@ def test_grasp_plan_is_approach_open_guarded_descent_close_lift_retreat():
     assert slow.position == pytest.approx((0.5, 0.05, 0.03))
     assert fast.force_threshold == slow.force_threshold == cell.GUARD_FORCE
     assert close.width == 0.0 and close.wait and close.grip_force == cell.GRIP_FORCE
-    assert lift.position[2] - slow.position[2] >= 0.10  # the lift of at least 10 cm
+    assert lift.position[2] - slow.position[2] >= 0.10  # a lift of at least 10 cm (GRASP_LIFT_SUCCESS)
     assert lift.speed == cell.LIFT_SPEED
     assert all(s.yaw == 0.4 for s in plan.motion_steps)
 
