@@ -1,9 +1,10 @@
 # Deployment image for a real cell: the runtime only. apt ROS 2 Jazzy, pip for what the runtime packages
 # import (no PyBullet, no simulator, no training or evaluation code), the colcon-built runtime packages
-# (impurity_interfaces, impurity_common, impurity_attention, impurity_policy with its shipped checkpoint,
-# ur5_driver_rtde), bringup's launchers and parameter files, and an entrypoint that sources both, so
+# (impurity_interfaces, impurity_common, impurity_bags, impurity_calibration, impurity_viz, ur5_motion,
+# impurity_attention, impurity_policy with its shipped checkpoint, ur5_driver_rtde, impurity_bringup with
+# the launch file and parameter files), and an entrypoint that sources both, so
 #   docker run --rm -it --network host --privileged <image> \
-#       ros2 launch /ws/bringup/launch/cell.launch.py cell:=real
+#       ros2 launch impurity_bringup cell.launch.py cell:=real
 # works beside the RealSense driver (README, "Running on a real cell"). The simulated cell (`make demo`)
 # runs from a clone with `make setup`, not from this image.
 #
@@ -22,7 +23,8 @@ ENV DEBIAN_FRONTEND=noninteractive \
     PIP_NO_CACHE_DIR=1 \
     PIP_DISABLE_PIP_VERSION_CHECK=1 \
     VIRTUAL_ENV=/opt/venv \
-    PATH=/opt/venv/bin:$PATH
+    PATH=/opt/venv/bin:$PATH \
+    IMPURITY_CELL=real
 
 # ROS packages come from apt (versions follow the Jazzy sync, hence unpinned). tf2_msgs and
 # visualization_msgs are the real ones here: ros2_ws/fallback/tf2_msgs (for PyPI wheels) is not needed.
@@ -56,19 +58,23 @@ RUN python3 -m venv --system-site-packages /opt/venv \
 WORKDIR /ws
 COPY src/impurity_interfaces/ /ws/src/impurity_interfaces/
 COPY src/impurity_common/ /ws/src/impurity_common/
+COPY src/impurity_bags/ /ws/src/impurity_bags/
+COPY src/impurity_calibration/ /ws/src/impurity_calibration/
+COPY src/impurity_viz/ /ws/src/impurity_viz/
+COPY src/ur5_motion/ /ws/src/ur5_motion/
 COPY src/impurity_attention/ /ws/src/impurity_attention/
 COPY src/impurity_policy/ /ws/src/impurity_policy/
 COPY src/ur5_driver_rtde/ /ws/src/ur5_driver_rtde/
+# impurity_bringup: cell.launch.py, config/, launch_cell and episode_client. Its demo and eval_graph
+# modules are installed too but need the simulator, which is not: IMPURITY_CELL=real (ENV above) drops
+# the simulated cell's packages from its package.xml dependencies.
+COPY bringup/ /ws/src/impurity_bringup/
 RUN . /opt/ros/jazzy/setup.bash \
-    && colcon build --packages-select impurity_interfaces impurity_common impurity_attention impurity_policy \
-        ur5_driver_rtde --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
+    && colcon build --packages-select impurity_interfaces impurity_common impurity_bags impurity_calibration \
+        impurity_viz ur5_motion impurity_attention impurity_policy ur5_driver_rtde impurity_bringup \
+        --cmake-args -DBUILD_TESTING=OFF -DPython3_EXECUTABLE=/opt/venv/bin/python \
     && rm -rf build log
 
-# bringup's launch file with its node lists and parameter files, and the episode client (not demo.py or
-# eval_graph.py: simulator only; not launch_cell.py: the pip environment's launcher, `ros2 launch` here).
-COPY bringup/cell_nodes.py bringup/episode_client.py /ws/bringup/
-COPY bringup/config/ /ws/bringup/config/
-COPY bringup/launch/ /ws/bringup/launch/
 COPY bringup/docker_entrypoint.sh /docker_entrypoint.sh
 ENTRYPOINT ["/docker_entrypoint.sh"]
 CMD ["bash"]

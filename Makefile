@@ -43,7 +43,7 @@ pytest: setup
 test: lint pytest
 
 demo: setup
-	@$(ENV) python bringup/demo.py
+	@$(ENV) python -m impurity_bringup.demo
 
 train: setup
 	@$(ENV) python -m impurity_learning.train_cli $(TRAIN_ARGS)
@@ -54,7 +54,7 @@ train-baselines: setup
 eval: setup
 	@$(ENV) python -m impurity_learning.eval_cli --rules cell none --episodes $(EVAL_EPISODES) \
 		--group-episodes $(EVAL_GROUP_EPISODES) $(EVAL_ARGS)
-	@$(ENV) python bringup/eval_graph.py --episodes $(EVAL_GRAPH_EPISODES)
+	@$(ENV) python -m impurity_bringup.eval_graph --episodes $(EVAL_GRAPH_EPISODES)
 
 soak: setup
 	@$(ENV) python benchmarks/soak_graph.py --episodes $(SOAK_EPISODES)

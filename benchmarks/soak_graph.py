@@ -3,7 +3,7 @@
     python benchmarks/soak_graph.py --episodes 200          # make soak
     python benchmarks/soak_graph.py --episodes 20 --mode arm
 
-The cell runs as `make demo` starts it (bringup/launch_cell.py, every node its own process), with the
+The cell runs as `make demo` starts it (impurity_bringup.launch_cell, every node its own process), with the
 simulator in floating-gripper mode by default (fast; the graph and its clients are the same). Episodes
 cycle through random, challenging and invisible scenes on seeds 700000000 + k. After each episode the
 resident memory (VmRSS) of every node process is printed. At the end: lost episodes (a node_lost or
@@ -22,12 +22,9 @@ import time
 import rclpy
 import yaml
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "bringup"))
-
-from episode_client import run_episode, running_cell  # noqa: E402
-
-from impurity_interfaces.action import RunEpisode  # noqa: E402
+from impurity_bringup.cell_nodes import base_config
+from impurity_bringup.episode_client import run_episode, running_cell
+from impurity_interfaces.action import RunEpisode
 
 SCENARIOS = ("random", "challenging", "invisible")
 SEED_BASE = 700_000_000  # neither training (run seed x 1 000 003 + i) nor evaluation (900 000 000 + k)
@@ -78,7 +75,7 @@ def rss_mb(pid: int) -> float:
 
 
 def soak_config(mode: str, out: pathlib.Path) -> pathlib.Path:
-    config = yaml.safe_load((ROOT / "bringup" / "config" / "cell.yaml").read_text())
+    config = yaml.safe_load(base_config().read_text())
     config["sim_cell"]["ros__parameters"]["mode"] = mode
     path = out / "soak_cell.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))

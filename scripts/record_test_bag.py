@@ -2,8 +2,8 @@
 """Regenerate the regression bags: one short sim episode each, recorded with bag_recorder, trimmed to what
 tests/graph/test_bag_replay_regression.py replays (a few MB each).
 
-Steps: start the cell (bringup/launch_cell.py), start bag_recorder on the camera, decision and step
-topics, run one episode (bringup/episode_client.py), stop the recorder and the cell, then keep only
+Steps: start the cell (impurity_bringup.launch_cell), start bag_recorder on the camera, decision and step
+topics, run one episode (impurity_bringup.episode_client), stop the recorder and the cell, then keep only
   - the colour and depth frames whose decisions the episode executed (stamps of /episode/steps),
   - every camera_info, /attention/known_product, /policy/primitive and /episode/steps message (small),
 and note in the bag's custom_data which policy weights decided (checkpoint SHA-256, or untrained + seed).
@@ -26,8 +26,8 @@ import time
 
 import yaml
 
+from impurity_bags.bags import BagReader, BagWriter, cell_typestore, file_sha256
 from impurity_common import names
-from impurity_common.bags import BagReader, BagWriter, cell_typestore, file_sha256
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 INSTALL = ROOT / "ros2_ws" / "install"
@@ -160,18 +160,18 @@ def main(argv=None) -> int:
     raw = work / "raw_bag"
     print(f"record_test_bag: working in {work}", flush=True)
 
-    cell = start([sys.executable, str(ROOT / "bringup" / "launch_cell.py"), "--config", str(config),
+    cell = start([sys.executable, "-m", "impurity_bringup.launch_cell", "--config", str(config),
                   "--log-dir", str(work / "logs"), "--record-dir", str(work / "records"), "--quiet"],
                  work / "launch_cell.log")
     recorder_log = work / "bag_recorder.log"
-    recorder = start([str(INSTALL / "impurity_common" / "lib" / "impurity_common" / "bag_recorder"),
+    recorder = start([str(INSTALL / "impurity_bags" / "lib" / "impurity_bags" / "bag_recorder"),
                       "--ros-args", "-p", f"output:={raw}", "-p", f"topics:=[{','.join(RECORDED_TOPICS)}]"],
                      recorder_log)
     recorder_code = None
     try:
         wait_for_log(recorder_log, [f"recording {t} (" for t in RECORDED_TOPICS], 180.0, [cell, recorder])
         print("record_test_bag: cell up, recorder subscribed; running the episode", flush=True)
-        client = subprocess.run([sys.executable, str(ROOT / "bringup" / "episode_client.py"), *episode,
+        client = subprocess.run([sys.executable, "-m", "impurity_bringup.episode_client", *episode,
                                  "--timeout", str(args.timeout)], timeout=args.timeout + 60)
         if client.returncode != 0:
             raise RuntimeError(f"episode_client exited with {client.returncode} (logs in {work / 'logs'})")

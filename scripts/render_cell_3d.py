@@ -25,7 +25,7 @@ import numpy as np
 
 from impurity_common import cell, names
 from impurity_common.conversions import image_to_numpy
-from impurity_common.visualisation import (
+from impurity_viz.visualisation import (
     TCP_FRAME,
     RobotTree,
     joint_positions,
@@ -90,7 +90,7 @@ class CellSnapshot:
 
 # ------------------------------------------------------------------------------------ sources
 def from_bag(path: pathlib.Path, at: float | None) -> CellSnapshot:
-    from impurity_common.bags import BagReader, cell_typestore
+    from impurity_bags.bags import BagReader, cell_typestore
 
     typestore = cell_typestore()
     snapshot = CellSnapshot()
@@ -318,7 +318,7 @@ def main(argv=None) -> int:
     if args.at is not None and args.bag is None:
         parser.error("--at applies to --bag only")
     if args.bag is not None:
-        from impurity_common.bags import BagError
+        from impurity_bags.bags import BagError
 
         try:
             snapshot = from_bag(args.bag, args.at)

@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # One-time (and idempotent) set-up: .venv with the pinned dependencies, the ROS-wheel CMake fix,
-# and `colcon build` of ros2_ws. Called by `make setup`; each step is skipped when its inputs did
-# not change since it last succeeded. Prints how long it took.
+# and `colcon build` of ros2_ws (the packages of src/ and impurity_bringup in bringup/). Called by
+# `make setup`; each step is skipped when its inputs did not change since it last succeeded. Prints how
+# long it took.
 #
 #   bash scripts/setup.sh               check the host, then set up what is out of date
 #   bash scripts/setup.sh --check-only  only check the host prerequisites (exit 0 ok, 1 missing)
@@ -168,11 +169,13 @@ for dir in ros2_ws/fallback/*/; do
   fi
 done
 
+# bringup's launch and config files are installed as symlinks (--symlink-install): their names, not
+# their contents, decide what is installed.
 build_sha=$( (echo "$req_sha"; echo "fallback: ${fallback[*]+${fallback[*]}}";
-  find src ros2_ws/fallback -type f \( -name package.xml -o -name setup.py -o -name setup.cfg \
+  find src bringup ros2_ws/fallback -type f \( -name package.xml -o -name setup.py -o -name setup.cfg \
   -o -name CMakeLists.txt -o -name '*.msg' -o -name '*.srv' -o -name '*.action' \
   -o -path '*/checkpoints/*' \) -print0 \
-  | sort -z | xargs -0 sha256sum) | sha256sum | cut -d' ' -f1)
+  | sort -z | xargs -0 sha256sum; find bringup/launch bringup/config -type f | sort) | sha256sum | cut -d' ' -f1)
 if [ "$(cat "$build_stamp" 2>/dev/null)" != "$build_sha" ]; then
   echo "setup: colcon build in ros2_ws/"
   (
@@ -180,9 +183,10 @@ if [ "$(cat "$build_stamp" 2>/dev/null)" != "$build_sha" ]; then
     source "$venv/bin/activate"
     export AMENT_PREFIX_PATH=$venv CMAKE_PREFIX_PATH=$venv
     cd ros2_ws
-    # Explicit base paths: the cell's packages, and a fallback only when the environment lacks it.
+    # Explicit base paths: the cell's packages (src, and impurity_bringup in the top-level bringup/), and
+    # a fallback only when the environment lacks it.
     colcon --log-base log build --symlink-install --event-handlers console_direct- \
-      --base-paths src ${fallback[@]+"${fallback[@]}"} \
+      --base-paths src ../bringup ${fallback[@]+"${fallback[@]}"} \
       --cmake-args -DPython3_EXECUTABLE="$venv/bin/python" -DBUILD_TESTING=OFF \
       > "$top/ros2_ws/colcon-build.log" 2>&1 \
       || { tail -40 "$top/ros2_ws/colcon-build.log" >&2; echo "setup: colcon build failed (ros2_ws/colcon-build.log)" >&2; exit 1; }

@@ -6,7 +6,7 @@ import yaml
 from mcap.reader import make_reader
 from rosbags.typesys import get_types_from_msg
 
-from impurity_common.bags import BagMessage, BagWriter
+from impurity_bags.bags import BagMessage, BagWriter
 
 STRING = "std_msgs/msg/String"
 PRIMITIVE = "impurity_interfaces/msg/Primitive"
@@ -70,7 +70,7 @@ def write_camera_bag(path, frames: int = 10) -> dict[str, list[bytes]]:
     from rclpy.serialization import serialize_message
     from sensor_msgs.msg import CameraInfo, Image
 
-    from impurity_common.bags import cell_typestore
+    from impurity_bags.bags import cell_typestore
 
     store = cell_typestore()
     store.register(get_types_from_msg("int32 value", GADGET_TYPE))

@@ -35,7 +35,7 @@ def ros_args(parameters: dict | None = None, params_file: str | os.PathLike | No
              remappings: dict | None = None, node_name: str | None = None) -> list[str]:
     """`--ros-args` for an executable: params_file, then the `-p` parameters, then remappings. The cell's
     bringup/config/cell.yaml is followed by the camera calibration file, as the launchers pass them
-    (bringup/cell_nodes.py), so that the camera pose comes from where the cell reads it."""
+    (impurity_bringup.cell_nodes), so that the camera pose comes from where the cell reads it."""
     args = ["--ros-args"]
     if params_file is not None:
         args += ["--params-file", str(params_file)]
@@ -166,7 +166,8 @@ class ActionHelper:
     def send_goal(self, goal, timeout: float = 30.0):
         """Returns the goal handle (check .accepted); raises WaitTimeout when the server says nothing about
         the goal within `timeout` s. A goal whose response is lost below rclpy is followed without it
-        (RaceFreeActionClient.send_goal_following, as bringup/episode_client.py does): never sent twice."""
+        (RaceFreeActionClient.send_goal_following, as impurity_bringup.episode_client does): never sent
+        twice."""
         def wait(predicate, seconds: float) -> bool:
             try:
                 spin_until(self.node, predicate, seconds, f"goal response from {self.name}", self.processes)

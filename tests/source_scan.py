@@ -5,10 +5,10 @@ import pathlib
 
 
 def imported_top_levels(package_dir: pathlib.Path) -> set[str]:
-    """Top-level module names (`numpy` for `numpy.linalg`) that any module under `package_dir`
-    imports with an absolute import, at any depth of the module."""
+    """Top-level module names (`numpy` for `numpy.linalg`) that any module under `package_dir` (or the
+    one module `package_dir` names) imports with an absolute import, at any depth of the module."""
     found = set()
-    for path in package_dir.rglob("*.py"):
+    for path in [package_dir] if package_dir.is_file() else package_dir.rglob("*.py"):
         for node in ast.walk(ast.parse(path.read_text(), str(path))):
             if isinstance(node, ast.Import):
                 names = [alias.name for alias in node.names]

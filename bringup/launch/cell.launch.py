@@ -1,25 +1,22 @@
-"""ROS installs: `ros2 launch bringup/launch/cell.launch.py [cell:=sim|real] [config:=...] [calibration:=...]`
-starts the whole cell.
+"""ROS installs: the whole cell,
 
-cell:=sim (default): the PyBullet cell with bringup/config/cell.yaml. cell:=real: the UR5 driver on
-ur-rtde instead of the simulator, with bringup/config/real_cell.yaml read over cell.yaml; start the
+    ros2 launch impurity_bringup cell.launch.py [cell:=sim|real] [config:=...] [calibration:=...]
+
+cell:=sim (default): the PyBullet cell with config/cell.yaml. cell:=real: the UR5 driver on
+ur-rtde instead of the simulator, with config/real_cell.yaml read over cell.yaml; start the
 camera driver apart (README, "Running on a real cell"). Every node reads the cell's files (`config`
-replaces the cell's own), then `calibration` (the camera pose).
-The pip environment (no launch/launch_ros wheels) uses bringup/launch_cell.py with the same node lists
-and parameter files (bringup/cell_nodes.py).
+replaces the cell's own; '' its default), then `calibration` (the camera pose; '' none). The files are
+impurity_bringup's installed share/impurity_bringup/config/*.yaml.
+The pip environment (no launch/launch_ros wheels) uses `launch_cell` (impurity_bringup.launch_cell) with
+the same node lists and parameter files (impurity_bringup.cell_nodes).
 """
-
-import pathlib
-import sys
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-BRINGUP = pathlib.Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(BRINGUP))
-from cell_nodes import CALIBRATION, CELLS, nodes_of, parameter_files  # noqa: E402
+from impurity_bringup.cell_nodes import CELLS, calibration_file, nodes_of, parameter_files
 
 
 def cell_nodes(context):
@@ -39,7 +36,7 @@ def generate_launch_description():
         DeclareLaunchArgument("config", default_value="",
                               description="The cell's own parameter file ('' = config/cell.yaml, or "
                               "config/real_cell.yaml, read over config/cell.yaml, for cell:=real)"),
-        DeclareLaunchArgument("calibration", default_value=str(CALIBRATION),
+        DeclareLaunchArgument("calibration", default_value=str(calibration_file()),
                               description="Camera calibration (camera pose), read after config"),
         OpaqueFunction(function=cell_nodes),
     ])

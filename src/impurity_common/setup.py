@@ -14,13 +14,6 @@ setup(
     zip_safe=True,
     maintainer="Impurity cell team",
     maintainer_email="robotics@impurity-cell.dev",
-    description="Cell geometry constants, message conversions, the node main idiom, bag tools.",
+    description="Cell geometry, names, enums, message conversions, the node main idiom, parameters.",
     license="Apache-2.0",
-    entry_points={"console_scripts": [
-        "bag_recorder = impurity_common.bag_recorder_node:main",
-        "bag_replay = impurity_common.bag_replay_node:main",
-        "calibrate_camera = impurity_common.calibrate_camera:main",
-        "cell_state_publisher = impurity_common.cell_state_publisher:main",
-        "decision_markers = impurity_common.decision_markers:main",
-    ]},
 )

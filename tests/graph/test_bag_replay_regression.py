@@ -17,8 +17,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rclpy.serialization import deserialize_message
 from sensor_msgs.msg import Image
 
+from impurity_bags.bags import BagReader, file_sha256
 from impurity_common import names
-from impurity_common.bags import BagReader, file_sha256
 from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until
 
@@ -116,7 +116,7 @@ def test_replayed_frames_give_the_recorded_decisions(bag, ros_node, launch):
         # Each colour frame waits for the previous one's attention result (same stamp), re-publishing a
         # frame that got none: the camera subscriptions are best effort, the pipeline may be slow. The
         # delay lets the best-effort subscribers discover the replay before the first camera_info.
-        replay = launch("impurity_common", "bag_replay", ros_args({
+        replay = launch("impurity_bags", "bag_replay", ros_args({
             "bag": str(bag), "topics": played, "as_fast_as_possible": True,
             "wait_for_subscribers": 1, "wait_timeout": 60.0, "delay": 2.0,
             "ack_topic": ATTENTION, "ack_before": COLOR, "ack_timeout": 10.0, "ack_retries": 4,

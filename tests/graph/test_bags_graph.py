@@ -28,7 +28,7 @@ from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 from sensor_msgs.msg import CameraInfo, Image
 from std_msgs.msg import String
 
-from impurity_common.bags import BagReader, cell_typestore
+from impurity_bags.bags import BagReader, cell_typestore
 from impurity_common.names import BASE_FRAME
 from impurity_interfaces.msg import Primitive
 from ros_harness import ros_args, spin_until, wait_for_subscribers
@@ -70,7 +70,7 @@ def make_messages(index: int):
 def record_stream(ros_node, launch, bag, stop_signal):
     """Publish both topics until the recorder has closed a few splits, signal it while still publishing,
     then return what was published (per topic, in order) and the recorder's exit code."""
-    recorder = launch("impurity_common", "bag_recorder",
+    recorder = launch("impurity_bags", "bag_recorder",
                       ros_args({"topics": [CHATTER, PRIMITIVE], "output": str(bag), "split_duration": 0.2}))
     chatter = ros_node.create_publisher(String, CHATTER, RELIABLE)
     primitives = ros_node.create_publisher(Primitive, PRIMITIVE, RELIABLE)
@@ -134,7 +134,7 @@ def test_replay_publishes_the_recorded_bytes_in_order_with_remapping(ros_node, l
         ros_node.create_subscription(String, replayed_chatter, received[CHATTER].append, RELIABLE, raw=True),
         ros_node.create_subscription(Primitive, PRIMITIVE, received[PRIMITIVE].append, RELIABLE, raw=True)]
     try:
-        replay = launch("impurity_common", "bag_replay", ros_args(
+        replay = launch("impurity_bags", "bag_replay", ros_args(
             {"bag": str(bag), "as_fast_as_possible": True, "wait_for_subscribers": 1},
             remappings={CHATTER: replayed_chatter}))
         total = sum(len(v) for v in expected.values())
@@ -155,7 +155,7 @@ def test_looping_replay_stops_on_sigint(ros_node, launch, tmp_path):
     received = []
     subscription = ros_node.create_subscription(Primitive, PRIMITIVE, received.append, RELIABLE, raw=True)
     try:
-        replay = launch("impurity_common", "bag_replay", ros_args(
+        replay = launch("impurity_bags", "bag_replay", ros_args(
             {"bag": str(bag), "loop": True, "rate": 5.0, "topics": [PRIMITIVE], "wait_for_subscribers": 1}))
         spin_until(ros_node, lambda: len(received) > per_pass, 60.0, "a second pass of the loop", [replay])
         replay.send_signal(signal.SIGINT)
@@ -196,7 +196,7 @@ def corrupted_bag(path):
 def test_replay_of_a_bad_bag_exits_non_zero_with_a_clear_message(launch, tmp_path, make_bag, expected):
     bag = tmp_path / "bad"
     make_bag(bag)
-    replay = launch("impurity_common", "bag_replay", ros_args({"bag": str(bag)}))
+    replay = launch("impurity_bags", "bag_replay", ros_args({"bag": str(bag)}))
     assert replay.process.wait(timeout=30) == 1
     assert expected in replay.output()
 
@@ -208,18 +208,18 @@ def test_replay_of_a_bad_bag_exits_non_zero_with_a_clear_message(launch, tmp_pat
 ], ids=["no-ack-topic", "unplayed"])
 def test_replay_refuses_ack_after_it_cannot_honour(launch, tmp_path, pacing, expected):
     write_sample_bag(tmp_path / "bag", cell_typestore(), count=3)
-    replay = launch("impurity_common", "bag_replay", ros_args({"bag": str(tmp_path / "bag"), **pacing}))
+    replay = launch("impurity_bags", "bag_replay", ros_args({"bag": str(tmp_path / "bag"), **pacing}))
     assert replay.process.wait(timeout=30) == 1
     assert expected in replay.output()
 
 
 def test_recorder_refuses_an_existing_output(launch, tmp_path):
-    recorder = launch("impurity_common", "bag_recorder", ros_args({"output": str(tmp_path)}))
+    recorder = launch("impurity_bags", "bag_recorder", ros_args({"output": str(tmp_path)}))
     assert recorder.process.wait(timeout=30) == 1
     assert "already exists" in recorder.output()
 
 
-# ------------------------------------------------------- issue 19 item 6: latched topics in recordings
+# ---------------------------------------------------------------------------- latched topics in recordings
 ROBOT_DESCRIPTION = "/bagtest/robot_description"
 LATCHED = QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                      durability=DurabilityPolicy.TRANSIENT_LOCAL)
@@ -248,14 +248,14 @@ def publish_until_recorded(ros_node, publisher, bag, wanted: dict[str, int], rec
 
 
 def test_recorder_records_a_latched_topic_published_before_it_started(ros_node, launch, tmp_path):
-    """The field report: /robot_description (transient local) published once, then bag_recorder starts:
+    """/robot_description (transient local) published once, then bag_recorder starts:
     the message must be in the bag, and the start-up line counts the topics it records."""
     bag = tmp_path / "latched"
     description = ros_node.create_publisher(String, ROBOT_DESCRIPTION, LATCHED)
     chatter = ros_node.create_publisher(String, CHATTER, RELIABLE)
     description.publish(String(data="<robot name='ur5'/>"))
     try:
-        recorder = launch("impurity_common", "bag_recorder", ros_args(
+        recorder = launch("impurity_bags", "bag_recorder", ros_args(
             {"topics": [ROBOT_DESCRIPTION, CHATTER], "output": str(bag), "split_duration": 0.2}))
         wait_for_subscribers(ros_node, description, processes=[recorder])
         wait_for_subscribers(ros_node, chatter, processes=[recorder])
@@ -280,7 +280,7 @@ def test_recorder_waits_for_publishers_and_rechecks_when_new_ones_appear(ros_nod
     listener = ros_node.create_subscription(String, ROBOT_DESCRIPTION, lambda _: None, RELIABLE)
     publishers = []
     try:
-        recorder = launch("impurity_common", "bag_recorder", ros_args(
+        recorder = launch("impurity_bags", "bag_recorder", ros_args(
             {"topics": [ROBOT_DESCRIPTION], "output": str(bag), "split_duration": 0.2}))
         spin_until(ros_node, lambda: "waiting for a publisher of" in recorder.output(), 30.0,
                    "the recorder's start-up line", [recorder])
@@ -305,7 +305,7 @@ def test_recorder_waits_for_publishers_and_rechecks_when_new_ones_appear(ros_nod
     assert "offers volatile, the subscription requests transient_local" in recorder.output()
 
 
-# ------------------------------------------------- issue 19 item 5: bags that replay partly or not at all
+# -------------------------------------------------------------------- bags that replay partly or not at all
 CAMERA_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
 
@@ -319,7 +319,7 @@ def test_replay_of_the_camera_topics_beside_a_type_this_environment_lacks(ros_no
         ros_node.create_subscription(Image, COLOR, received[COLOR].append, CAMERA_QOS, raw=True),
         ros_node.create_subscription(CameraInfo, INFO, received[INFO].append, CAMERA_QOS, raw=True)]
     try:
-        replay = launch("impurity_common", "bag_replay", ros_args(
+        replay = launch("impurity_bags", "bag_replay", ros_args(
             {"bag": str(bag), "topics": [COLOR, INFO], "as_fast_as_possible": True,
              "wait_for_subscribers": 1}))
         spin_until(ros_node, lambda: all(len(received[t]) >= len(written[t]) for t in received), 30.0,
@@ -341,7 +341,7 @@ def test_replay_of_the_camera_topics_beside_a_type_this_environment_lacks(ros_no
 def test_replay_of_every_topic_of_a_bag_with_a_missing_type(launch, tmp_path, allow_partial):
     bag = tmp_path / "camera"
     write_camera_bag(bag)
-    replay = launch("impurity_common", "bag_replay", ros_args(
+    replay = launch("impurity_bags", "bag_replay", ros_args(
         {"bag": str(bag), "as_fast_as_possible": True, "allow_partial": allow_partial}))
     code = replay.process.wait(timeout=30)
     output = replay.output()
@@ -368,7 +368,7 @@ def test_replay_of_a_bag_whose_qos_text_was_edited_plays_every_message(ros_node,
     subscriptions = [ros_node.create_subscription(msg_class, topic, received[topic].append, RELIABLE)
                      for topic, msg_class in classes.items()]
     try:
-        replay = launch("impurity_common", "bag_replay", ros_args(
+        replay = launch("impurity_bags", "bag_replay", ros_args(
             {"bag": str(bag), "as_fast_as_possible": True, "wait_for_subscribers": 1}))
         spin_until(ros_node, lambda: sum(map(len, received.values())) >= len(written), 30.0,
                    "every replayed message", [replay])
@@ -392,7 +392,7 @@ def test_replay_that_plays_fewer_messages_than_the_bag_holds_fails_unless_allowe
     bag = tmp_path / "gap"
     write_sample_bag(bag, cell_typestore(), count=30, split_duration_ns=100_000_000)
     unlist_split(bag, 1)
-    replay = launch("impurity_common", "bag_replay", ros_args(
+    replay = launch("impurity_bags", "bag_replay", ros_args(
         {"bag": str(bag), "as_fast_as_possible": True, "allow_partial": allow_partial}))
     code = replay.process.wait(timeout=30)
     output = replay.output()

@@ -1,6 +1,6 @@
 """Graph tests: cell_state_publisher and decision_markers (real processes) give RViz and Foxglove a 3-D
 view: /robot_description and /tf_static reach a viewer that joins late, /tf follows /joint_states with
-the UR5's kinematics, and /cell/markers shows the chosen primitive and the attended crop (issue 18)."""
+the UR5's kinematics, and /cell/markers shows the chosen primitive and the attended crop."""
 
 import math
 
@@ -14,11 +14,11 @@ from tf2_msgs.msg import TFMessage
 from visualization_msgs.msg import Marker, MarkerArray
 
 from impurity_common import cell, names
-from impurity_common import ur5_kinematics as kin
-from impurity_common import visualisation as vis
 from impurity_common.conversions import ns_to_time, numpy_to_image
 from impurity_interfaces.msg import AttentionResult, Primitive
+from impurity_viz import visualisation as vis
 from ros_harness import TopicRecorder, publish_until_answered, ros_args, spin_until
+from ur5_motion import ur5_kinematics as kin
 
 WAIT = 60.0  # s for any one thing to show up
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
@@ -41,7 +41,7 @@ def pose_of(transform) -> np.ndarray:
 
 @pytest.fixture
 def cell_state(ros_node, launch):
-    process = launch("impurity_common", "cell_state_publisher",
+    process = launch("impurity_viz", "cell_state_publisher",
                      ros_args({"camera_position": list(CAMERA_POSITION),
                                "camera_orientation": list(CAMERA_ORIENTATION), "log_throttle": 0.1}))
     ready(ros_node, process)
@@ -171,7 +171,7 @@ def active(array: MarkerArray) -> dict:
 
 
 def test_markers_show_the_chosen_primitive_and_the_attended_crop(ros_node, launch):
-    process = launch("impurity_common", "decision_markers")
+    process = launch("impurity_viz", "decision_markers")
     ready(ros_node, process)
     markers = TopicRecorder(ros_node, MarkerArray, names.MARKERS_TOPIC, LATCHED)
     primitives = ros_node.create_publisher(Primitive, names.PRIMITIVE_TOPIC, RELIABLE)

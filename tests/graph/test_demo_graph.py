@@ -1,4 +1,5 @@
-"""bringup/demo.py (`make demo`) on a ROS domain where a cell already runs: it says so and starts nothing.
+"""The demo (`make demo`, impurity_bringup.demo) on a ROS domain where a cell already runs: it says so and
+starts nothing.
 
 The other cell is an action server on /episode/run in this test process, on the session's isolated domain."""
 
@@ -12,7 +13,6 @@ from rclpy.executors import SingleThreadedExecutor
 
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
-from ros_harness import ROOT
 
 
 def test_the_demo_refuses_to_start_beside_another_cell_and_names_the_domain(ros_node, tmp_path):
@@ -21,7 +21,7 @@ def test_the_demo_refuses_to_start_beside_another_cell_and_names_the_domain(ros_
     executor = SingleThreadedExecutor()
     executor.add_node(other)
     try:
-        demo = subprocess.Popen([sys.executable, str(ROOT / "bringup" / "demo.py"), "--probe", "20",
+        demo = subprocess.Popen([sys.executable, "-m", "impurity_bringup.demo", "--probe", "20",
                                  "--out", str(tmp_path / "demo")],
                                 stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         deadline = time.monotonic() + 60.0  # the demo decides within its probe (20 s) once discovered

@@ -1,7 +1,8 @@
-"""bringup/episode_client.py as an operator uses it: Ctrl-C while an episode runs cancels the goal (the
-arm must stop), waits for the episode's "canceled" result, prints it and exits 130; bad options and
-requests are refused before anything is sent; against the real episode node, the palette is echoed, a
-busy rejection of the action says why, and --stop ends an episode started with --start-only.
+"""The episode client (impurity_bringup.episode_client) as an operator uses it: Ctrl-C while an episode
+runs cancels the goal (the arm must stop), waits for the episode's "canceled" result, prints it and exits
+130; bad options and requests are refused before anything is sent; against the real episode node, the
+palette is echoed, a busy rejection of the action says why, and --stop ends an episode started with
+--start-only.
 
 For Ctrl-C the episode node is scripted in this test process (an action server on /episode/run that
 accepts the goal, sends one step of feedback and runs until it is canceled), so the client is the only
@@ -22,12 +23,13 @@ from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
 
+from impurity_bringup.episode_client import format_result
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
 from impurity_policy.core.episode import TERMINATION_CANCELED
-from ros_harness import ROOT, ros_args
+from ros_harness import ros_args
 
-CLIENT = ROOT / "bringup" / "episode_client.py"
+CLIENT = [sys.executable, "-m", "impurity_bringup.episode_client"]
 
 
 class ScriptedEpisodeNode:
@@ -81,7 +83,7 @@ def scripted_episode_node(ros_node):
 
 def test_ctrl_c_on_the_client_cancels_the_running_episode(scripted_episode_node, tmp_path):
     log = open(tmp_path / "client.log", "w")
-    client = subprocess.Popen([sys.executable, str(CLIENT), "--timeout", "120"], stdout=log,
+    client = subprocess.Popen([*CLIENT, "--timeout", "120"], stdout=log,
                               stderr=subprocess.STDOUT, env={**os.environ, "PYTHONUNBUFFERED": "1"})
     try:
         assert scripted_episode_node.goal_started.wait(60.0), "the client's goal never reached the server"
@@ -98,9 +100,6 @@ def test_ctrl_c_on_the_client_cancels_the_running_episode(scripted_episode_node,
 
 
 def test_an_episode_refused_before_its_first_action_prints_its_reason_and_no_metrics():
-    sys.path.insert(0, str(ROOT / "bringup"))
-    from episode_client import format_result
-
     refused = RunEpisode.Result(episode_id="", termination_reason="error: scene reset failed: unknown "
                                 "palette 'teal'; known: blocks, coal_slate, ...", targets_total=-1)
     text = format_result(refused)
@@ -113,7 +112,7 @@ def test_an_episode_refused_before_its_first_action_prints_its_reason_and_no_met
 
 def run_client(*args: str) -> subprocess.CompletedProcess:
     """The client as a process, to its end (bounded): its exit code and output."""
-    return subprocess.run([sys.executable, str(CLIENT), *args], capture_output=True, text=True, timeout=120,
+    return subprocess.run([*CLIENT, *args], capture_output=True, text=True, timeout=120,
                           env={**os.environ, "PYTHONUNBUFFERED": "1"})
 
 

@@ -4,20 +4,15 @@ the names ROS and the calibration file give every node pass; `--help` prints the
 parameters and exits 0 before rclpy starts."""
 
 import importlib
-import pathlib
-import sys
 
 import pytest
 import rclpy
 from rclpy.parameter import Parameter
 
+from impurity_bringup.cell_nodes import CELLS, parameter_files, ros_arguments
 from impurity_common.node_main import parameters_of
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, UnknownParameter, declare_parameters
 from ros_harness import ros_args, spin_until
-
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT / "bringup"))
-from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
 
 # executable -> (module, Node class, the node's name: its section in a parameter file)
 NODES = {
@@ -27,9 +22,9 @@ NODES = {
     "attention_node": ("impurity_attention.attention_node", "AttentionNode", "attention"),
     "policy_node": ("impurity_policy.policy_node", "PolicyNode", "policy"),
     "episode_node": ("impurity_policy.episode_node", "EpisodeNode", "episode"),
-    "cell_state_publisher": ("impurity_common.cell_state_publisher", "CellStatePublisher",
+    "cell_state_publisher": ("impurity_viz.cell_state_publisher", "CellStatePublisher",
                              "cell_state_publisher"),
-    "decision_markers": ("impurity_common.decision_markers", "DecisionMarkers", "decision_markers"),
+    "decision_markers": ("impurity_viz.decision_markers", "DecisionMarkers", "decision_markers"),
 }
 
 
@@ -89,7 +84,7 @@ MISSPELLED = {
                "policy: unknown parameter push_end_margn:=0.1 (did you mean push_end_margin"),
     "nested": ("impurity_attention", "attention_node", "saliency.center_sigm", 2.0,
                "attention: unknown parameter saliency.center_sigm:=2.0 (did you mean saliency.center_sigma"),
-    "own-main": ("impurity_common", "bag_replay", "rat", 2.0,
+    "own-main": ("impurity_bags", "bag_replay", "rat", 2.0,
                  "bag_replay: unknown parameter rat:=2.0 (did you mean rate"),
 }
 
@@ -125,7 +120,7 @@ def test_help_on_the_bag_tools_starts_no_recording_or_replay(ros_node, launch, t
                                                              parameter):
     """Their main() does not go through spin_node: they ask exit_if_help themselves, first."""
     log_dir, target = tmp_path / "ros_log", tmp_path / "bag"
-    proc = launch("impurity_common", executable, ["--help", "--ros-args", "-p", f"{parameter}:={target}"],
+    proc = launch("impurity_bags", executable, ["--help", "--ros-args", "-p", f"{parameter}:={target}"],
                   env={"ROS_LOG_DIR": str(log_dir)})
     spin_until(ros_node, lambda: not proc.alive, 60.0, f"{executable} --help to exit")
     output = proc.output()

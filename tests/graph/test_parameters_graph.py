@@ -88,7 +88,7 @@ BAD_STARTS = {
     "unknown-scenario": ("ur5_driver_sim", "sim_cell", {"initial_scenario": "tidy"},
                          "sim_cell: parameter initial_scenario:='tidy' is not one of the choices; "
                          "expected one of: random, challenging, invisible, file, empty"),
-    "own-main": ("impurity_common", "bag_replay", {"rate": 0.0},
+    "own-main": ("impurity_bags", "bag_replay", {"rate": 0.0},
                  "bag_replay: parameter rate:=0.0 is out of range; expected a double in [0.001, 1000.0]"),
 }
 

@@ -10,10 +10,11 @@ from action_msgs.msg import GoalStatus
 from geometry_msgs.msg import Point
 from sensor_msgs.msg import JointState
 
-from impurity_common import motion, names, ur5_kinematics
+from impurity_common import names
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import Primitive
 from ros_harness import ActionHelper, TopicRecorder, ros_args, spin_until
+from ur5_motion import motion, ur5_kinematics
 
 MOTIONS = ("moveL", "moveJ", "moveJ_IK")
 

@@ -13,8 +13,9 @@ import yaml
 from rclpy.qos import qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
 
-from impurity_common import calibrate_camera, calibration, names
-from impurity_common.calibration import CameraIntrinsics, CharucoBoardSpec
+from impurity_calibration import calibrate_camera, calibration
+from impurity_calibration.calibration import CameraIntrinsics, CharucoBoardSpec
+from impurity_common import names
 from impurity_common.conversions import numpy_to_image
 from ros_harness import spin_until, wait_for_subscribers
 
@@ -172,7 +173,7 @@ def test_the_tool_calibrates_from_the_camera_topics(tmp_path, renders, ros_node,
     timer = ros_node.create_timer(0.2, lambda: (info_publisher.publish(info), image_publisher.publish(image)))
     output = tmp_path / "camera_calibration.yaml"
     try:
-        tool = launch("impurity_common", "calibrate_camera",
+        tool = launch("impurity_calibration", "calibrate_camera",
                       [*board_arguments(), "--frames", "3", "--timeout", "60", "--output", str(output)])
         wait_for_subscribers(ros_node, image_publisher, timeout=30.0, processes=[tool])
         spin_until(ros_node, lambda: not tool.alive, 90.0, "calibrate_camera to finish")
@@ -190,7 +191,7 @@ def test_the_tool_calibrates_from_the_camera_topics(tmp_path, renders, ros_node,
 def test_the_tool_without_a_camera_gives_up_in_time_naming_the_topics(launch, ros_node):
     """Renamed topics (remapping, as a cell with another camera name would) that nothing publishes."""
     color, info = "/no_camera/color/image_raw", "/no_camera/color/camera_info"
-    tool = launch("impurity_common", "calibrate_camera",
+    tool = launch("impurity_calibration", "calibrate_camera",
                   [*board_arguments(), "--timeout", "1", "--check", "--ros-args",
                    "-r", f"{names.COLOR_TOPIC}:={color}", "-r", f"{names.CAMERA_INFO_TOPIC}:={info}"])
     spin_until(ros_node, lambda: not tool.alive, 30.0, "calibrate_camera to give up")
@@ -201,7 +202,7 @@ def test_the_tool_without_a_camera_gives_up_in_time_naming_the_topics(launch, ro
 def test_the_tool_interrupted_while_waiting_writes_nothing_and_says_so(launch, ros_node, tmp_path):
     """Ctrl-C during the live wait: one line, the failure status, no traceback, no file."""
     output = tmp_path / "camera_calibration.yaml"
-    tool = launch("impurity_common", "calibrate_camera",
+    tool = launch("impurity_calibration", "calibrate_camera",
                   [*board_arguments(), "--timeout", "60", "--output", str(output), "--ros-args",
                    "-r", f"{names.COLOR_TOPIC}:=/no_camera/color/image_raw"])
     spin_until(ros_node, lambda: "waiting up to 60 s" in tool.output(), 30.0, "calibrate_camera to wait",

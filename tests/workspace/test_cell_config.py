@@ -1,9 +1,10 @@
 """The cells' parameter files as rcl reads them and as the launchers pass them.
 
-Every node reads bringup/config/cell.yaml, on the real cell then real_cell.yaml (only what differs), then
-the camera calibration (bringup/config/camera_calibration.yaml: the camera pose in a `/**` section, the
+Every node reads config/cell.yaml, on the real cell then real_cell.yaml (only what differs), then
+the camera calibration (config/camera_calibration.yaml: the camera pose in a `/**` section, the
 only place it lives), then `-p` overrides, which beat both files. rcl lets a node's own section beat
 `-p` overrides when a `/**` section comes before it in the same file, so neither cell file has one.
+The files read are the installed ones (share/impurity_bringup/config), as the launchers pass them.
 """
 
 import pathlib
@@ -15,17 +16,14 @@ import rclpy
 import yaml
 from parameter_files import as_declared, flatten
 
-from impurity_common.calibration import read_calibration_file
+from impurity_bringup.cell_nodes import CELLS, config_dir, parameter_files, ros_arguments, share_dir
+from impurity_bringup.launch_cell import main as launch_cell_main
+from impurity_calibration.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
 
-ROOT = pathlib.Path(__file__).resolve().parents[2]
-BRINGUP = ROOT / "bringup"
-SIM_CONFIG = BRINGUP / "config" / "cell.yaml"
-REAL_CONFIG = BRINGUP / "config" / "real_cell.yaml"
-CALIBRATION = BRINGUP / "config" / "camera_calibration.yaml"
-sys.path.insert(0, str(BRINGUP))
-from cell_nodes import CELLS, parameter_files, ros_arguments  # noqa: E402
-from launch_cell import main as launch_cell_main  # noqa: E402
+SIM_CONFIG = config_dir() / "cell.yaml"
+REAL_CONFIG = config_dir() / "real_cell.yaml"
+CALIBRATION = config_dir() / "camera_calibration.yaml"
 
 pytestmark = pytest.mark.usefixtures("rcl_context")  # parameter_as_read's nodes live in it
 
@@ -43,8 +41,8 @@ PARAMETER_CLASSES = {
     "attention": ("impurity_attention.attention_node", "AttentionNodeParameters"),
     "policy": ("impurity_policy.policy_node", "PolicyParameters"),
     "episode": ("impurity_policy.episode_node", "EpisodeParameters"),
-    "cell_state_publisher": ("impurity_common.cell_state_publisher", "CellStateParameters"),
-    "decision_markers": ("impurity_common.decision_markers", "DecisionMarkersParameters"),
+    "cell_state_publisher": ("impurity_viz.cell_state_publisher", "CellStateParameters"),
+    "decision_markers": ("impurity_viz.decision_markers", "DecisionMarkersParameters"),
 }
 
 
@@ -205,7 +203,7 @@ def test_the_launch_file_reads_the_same_files_in_the_same_order():
 
 
 def test_the_launcher_runs_from_the_command_line():
-    done = subprocess.run([sys.executable, str(BRINGUP / "launch_cell.py"), "--print", "--cell", "real"],
+    done = subprocess.run([sys.executable, "-m", "impurity_bringup.launch_cell", "--print", "--cell", "real"],
                           capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     assert pathlib.Path(done.stdout.split()[0]).name == "ur5_driver"
@@ -251,7 +249,8 @@ class FakeLaunch:
 
         for name, module in self.modules().items():
             monkeypatch.setitem(sys.modules, name, module)
-        spec = importlib.util.spec_from_file_location("cell_launch", BRINGUP / "launch" / "cell.launch.py")
+        launch_file = share_dir() / "launch" / "cell.launch.py"
+        spec = importlib.util.spec_from_file_location("cell_launch", launch_file)
         module = importlib.util.module_from_spec(spec)
         spec.loader.exec_module(module)
         _, (actions,), _ = module.generate_launch_description()

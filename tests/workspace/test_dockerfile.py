@@ -16,8 +16,11 @@ from source_scan import imported_top_levels
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 DOCKERFILE = ROOT / "Dockerfile"
 SRC = ROOT / "src"
-RUNTIME_PACKAGES = {"impurity_interfaces", "impurity_common", "impurity_attention", "impurity_policy",
-                    "ur5_driver_rtde"}
+RUNTIME_PACKAGES = {"impurity_interfaces", "impurity_common", "impurity_bags", "impurity_calibration",
+                    "impurity_viz", "ur5_motion", "impurity_attention", "impurity_policy", "ur5_driver_rtde"}
+BRINGUP = "impurity_bringup"  # the top-level bringup/ folder, copied to the image's src/impurity_bringup
+# impurity_bringup's modules a real cell runs (demo and eval_graph drive the simulated cell).
+BRINGUP_RUNTIME_MODULES = ("cell_nodes.py", "launch_cell.py", "episode_client.py", "checkout.py")
 NEVER_IN_THE_IMAGE = ("pybullet", "ur5_driver_sim", "impurity_learning", "matplotlib", "pytest")
 # Distribution that provides an imported module, where the names differ.
 DISTRIBUTION_OF_MODULE = {"cv2": "opencv-python-headless", "sklearn": "scikit-learn", "yaml": "PyYAML",
@@ -89,14 +92,19 @@ def requirement_pins() -> dict[str, str]:
 
 
 def copied_sources() -> set[str]:
-    """The src/ packages the image copies (each `COPY src/<package>/ ...`)."""
+    """The packages the image copies: each `COPY src/<package>/ ...`, and impurity_bringup for
+    `COPY bringup/ .../src/impurity_bringup/`."""
     sources = set()
     for keyword, arguments in instructions():
         if keyword == "COPY":
-            for source in arguments.split()[:-1]:
+            *copied, destination = arguments.split()
+            for source in copied:
                 assert source.rstrip("/") != "src", "COPY src/ would copy the simulator and training code"
                 if source.startswith("src/"):
                     sources.add(source.split("/")[1])
+                elif source.rstrip("/") == "bringup":
+                    assert destination.rstrip("/").endswith("/src/" + BRINGUP), destination
+                    sources.add(BRINGUP)
     return sources
 
 
@@ -110,9 +118,14 @@ def colcon_packages() -> set[str]:
 
 
 def third_party_imports(package: str) -> set[str]:
-    """Top-level modules the package's modules import that are neither stdlib nor a cell package."""
-    found = imported_top_levels(SRC / package / package)
-    cell_packages = {p.name for p in SRC.iterdir() if (p / "package.xml").is_file()}
+    """Top-level modules the package's modules import that are neither stdlib nor a cell package
+    (impurity_bringup: its modules a real cell runs)."""
+    if package == BRINGUP:
+        found = set().union(*(imported_top_levels(ROOT / "bringup" / BRINGUP / name)
+                              for name in BRINGUP_RUNTIME_MODULES))
+    else:
+        found = imported_top_levels(SRC / package / package)
+    cell_packages = {p.name for p in SRC.iterdir() if (p / "package.xml").is_file()} | {BRINGUP}
     return {m for m in found if m not in sys.stdlib_module_names and m not in cell_packages | {"__future__"}}
 
 
@@ -122,8 +135,8 @@ def test_the_image_starts_from_ros_jazzy():
 
 
 def test_the_image_copies_and_builds_the_runtime_packages_only():
-    assert copied_sources() == RUNTIME_PACKAGES
-    assert colcon_packages() == RUNTIME_PACKAGES
+    assert copied_sources() == RUNTIME_PACKAGES | {BRINGUP}
+    assert colcon_packages() == RUNTIME_PACKAGES | {BRINGUP}
 
 
 def test_nothing_of_the_simulator_or_of_training_is_installed_or_copied():
@@ -144,7 +157,7 @@ def test_pip_pins_equal_requirements_or_say_why_not():
 
 def test_every_module_the_runtime_imports_is_installed():
     pins, apt = pip_pins(), apt_packages()
-    for package in sorted(RUNTIME_PACKAGES - {"impurity_interfaces"}):
+    for package in sorted(RUNTIME_PACKAGES - {"impurity_interfaces"} | {BRINGUP}):
         for module in sorted(third_party_imports(package)):
             ros_apt = "ros-jazzy-" + module.replace("_", "-")
             installed = (canonical(DISTRIBUTION_OF_MODULE.get(module, module)) in pins or ros_apt in apt

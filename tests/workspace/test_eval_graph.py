@@ -1,13 +1,9 @@
-"""bringup/eval_graph.py finds the fast sim's records of the seeds it runs in make eval's results file:
+"""impurity_bringup.eval_graph finds the fast sim's records of the seeds it runs in make eval's results file:
 the row of the network and rules the graph runs (ours@cell), default palette only."""
 
 import json
-import pathlib
-import sys
 
-BRINGUP = pathlib.Path(__file__).resolve().parents[2] / "bringup"
-sys.path.insert(0, str(BRINGUP))
-from eval_graph import FAST_SIM_ROW, fast_sim_records  # noqa: E402
+from impurity_bringup.eval_graph import FAST_SIM_ROW, fast_sim_records
 
 
 def episode(row, scenario, seed, group="default", picked=2):
@@ -27,7 +23,3 @@ def test_the_graph_is_compared_with_the_fast_sims_row_of_its_rules_on_the_defaul
     assert list(records) == [("random", 7)] and records[("random", 7)]["targets_picked"] == 2
     assert fast_sim_records(tmp_path / "missing.json") == {}
 
-
-def test_the_shipped_results_file_holds_the_row_the_graph_is_compared_with():
-    results = json.loads((BRINGUP.parent / "docs" / "results.json").read_text())
-    assert FAST_SIM_ROW in results and fast_sim_records(BRINGUP.parent / "docs" / "results.json")

@@ -1,5 +1,6 @@
 """What a real cell deploys imports neither the simulator nor learning code, and every package's
-package.xml names exactly the cell packages its modules import.
+package.xml names exactly the cell packages its modules import (impurity_bringup: and those whose nodes
+it launches).
 
 Runtime executables are imported in a fresh interpreter each (as `ros2 run` starts them), and the
 modules they pulled in are checked; the package dependencies are read from the source with `ast`.
@@ -16,6 +17,7 @@ from source_scan import imported_top_levels
 
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 SRC = ROOT / "src"
+BRINGUP = ROOT / "bringup"  # impurity_bringup's package directory
 # (package, module) of every executable a real cell runs: perception, policy, episodes, bag tools, the
 # arm driver, the camera calibration tool and what RViz / Foxglove show.
 RUNTIME_EXECUTABLES = [
@@ -23,26 +25,32 @@ RUNTIME_EXECUTABLES = [
     ("impurity_attention", "impurity_attention.attention_node"),
     ("impurity_policy", "impurity_policy.policy_node"),
     ("impurity_policy", "impurity_policy.episode_node"),
-    ("impurity_common", "impurity_common.bag_recorder_node"),
-    ("impurity_common", "impurity_common.bag_replay_node"),
+    ("impurity_bags", "impurity_bags.bag_recorder_node"),
+    ("impurity_bags", "impurity_bags.bag_replay_node"),
     ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node"),
-    ("impurity_common", "impurity_common.calibrate_camera"),
-    ("impurity_common", "impurity_common.cell_state_publisher"),
-    ("impurity_common", "impurity_common.decision_markers"),
+    ("impurity_calibration", "impurity_calibration.calibrate_camera"),
+    ("impurity_viz", "impurity_viz.cell_state_publisher"),
+    ("impurity_viz", "impurity_viz.decision_markers"),
+    ("impurity_bringup", "impurity_bringup.launch_cell"),
+    ("impurity_bringup", "impurity_bringup.episode_client"),
 ]
 # Executables that never run the network, so never load torch.
-NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_common.bag_recorder_node",
-                          "impurity_common.bag_replay_node", "impurity_attention.heightmap_node",
+NO_NETWORK_EXECUTABLES = ("impurity_policy.episode_node", "impurity_bags.bag_recorder_node",
+                          "impurity_bags.bag_replay_node", "impurity_attention.heightmap_node",
                           "impurity_attention.attention_node", "ur5_driver_rtde.ur5_driver_node",
-                          "impurity_common.calibrate_camera", "impurity_common.cell_state_publisher",
-                          "impurity_common.decision_markers")
+                          "impurity_calibration.calibrate_camera", "impurity_viz.cell_state_publisher",
+                          "impurity_viz.decision_markers", "impurity_bringup.launch_cell",
+                          "impurity_bringup.episode_client")
 # Never on a real cell: the simulator, its physics engine, training and evaluation, and the cluster
-# runtime they may run on (ray, issue 20).
+# runtime they may run on (ray).
 FORBIDDEN = ("pybullet", "ur5_driver_sim", "impurity_learning", "ray")
 CELL_PACKAGES = sorted(p.name for p in SRC.iterdir() if (p / "package.xml").is_file())
-RUNTIME_PACKAGES = ("impurity_common", "impurity_attention", "impurity_policy", "ur5_driver_rtde")
+RUNTIME_PACKAGES = ("impurity_common", "impurity_bags", "impurity_calibration", "impurity_viz", "ur5_motion",
+                    "impurity_attention", "impurity_policy", "ur5_driver_rtde")
 # Dependencies on a package's installed files rather than its modules.
-DATA_DEPENDENCIES = {"impurity_common": {"impurity_interfaces"}}  # bags.py reads its .msg files
+DATA_DEPENDENCIES = {"impurity_bags": {"impurity_interfaces"}}  # bags.py reads its .msg files
+# package.xml's condition on impurity_bringup's dependencies that only the simulated cell needs.
+SIMULATED_CELL_ONLY = "$IMPURITY_CELL != real"
 
 
 def imported_modules(module: str) -> list[str]:
@@ -82,3 +90,30 @@ def test_package_xml_names_the_cell_packages_its_modules_import(package):
 @pytest.mark.parametrize("package", RUNTIME_PACKAGES)
 def test_runtime_packages_depend_on_no_simulator_or_learning_package(package):
     assert not declared_dependencies(package) & set(FORBIDDEN), f"{package}/package.xml"
+
+
+# ------------------------------------------------------------------------------------ impurity_bringup
+def bringup_dependencies() -> dict[str, str | None]:
+    """Cell package -> its `condition` attribute (None: unconditional) of impurity_bringup's package.xml."""
+    root = ElementTree.parse(BRINGUP / "package.xml").getroot()
+    return {element.text.strip(): element.get("condition") for tag in ("depend", "exec_depend")
+            for element in root.iter(tag) if element.text.strip() in CELL_PACKAGES}
+
+
+def test_impurity_bringup_depends_on_what_it_imports_and_the_packages_whose_nodes_it_launches():
+    from impurity_bringup.cell_nodes import CELLS
+
+    launched = {package for nodes in CELLS.values() for package, _ in nodes}
+    imported = imported_top_levels(BRINGUP / "impurity_bringup") & set(CELL_PACKAGES)
+    assert set(bringup_dependencies()) == imported | launched
+
+
+def test_impurity_bringup_on_a_real_cell_depends_on_no_simulator_or_learning_package():
+    on_a_real_cell = {package for package, condition in bringup_dependencies().items()
+                      if condition != SIMULATED_CELL_ONLY}
+    assert not on_a_real_cell & set(FORBIDDEN)
+    assert {p for p, c in bringup_dependencies().items() if c == SIMULATED_CELL_ONLY} <= set(FORBIDDEN)
+
+
+def test_the_launch_file_imports_no_simulator_or_learning_code():
+    assert not imported_top_levels(BRINGUP / "launch") & set(FORBIDDEN)

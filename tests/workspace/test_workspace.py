@@ -5,7 +5,8 @@ import subprocess
 
 from ros_harness import INSTALL, ROOT
 
-PYTHON_PACKAGES = ["impurity_common", "impurity_attention", "impurity_policy", "ur5_driver_sim"]
+PYTHON_PACKAGES = ["impurity_common", "impurity_bags", "impurity_calibration", "impurity_viz", "ur5_motion",
+                   "impurity_attention", "impurity_policy", "ur5_driver_sim"]
 
 
 def test_interfaces_are_generated_with_documented_constants():

@@ -1,1 +1,2 @@
-"""Shared pieces of the impurity-picking cell: geometry constants, message conversions, node main."""
+"""Shared pieces of the impurity-picking cell: cell geometry, heightmap grid, names, enums, message
+conversions, the node main idiom, parameters, colour, race-free action clients, weights files."""

@@ -46,12 +46,12 @@ PALM_HALF_EXTENTS = (0.07, 0.02, 0.02)  # m: along the closing axis, across it, 
 FLANGE_TO_TCP = 0.20  # m, UR flange (tool0) to the gripper TCP along the tool axis (coupling + RG2 length)
 GRIP_FORCE = 20.0  # N, total closing force (10 N per finger: 30 N squeezes light cylinders out in sim)
 
-# Motion primitives (impurity_common.motion turns a primitive into waypoints with these; the simulated
+# Motion primitives (ur5_motion.motion turns a primitive into waypoints with these; the simulated
 # arm and the real driver execute the same plan). Heights are TCP heights (fingertips) in base_link.
 APPROACH_HEIGHT = 0.10  # m above the primitive's z where grasps and pushes start and end
 SLOW_ZONE = 0.04  # m above z where descents slow down to CONTACT_SPEED
 LIFT_HEIGHT = 0.12  # m: grasps lift this far above z; success needs >= GRASP_LIFT_SUCCESS
-GRASP_LIFT_SUCCESS = 0.10  # m, issue 3
+GRASP_LIFT_SUCCESS = 0.10  # m a grasped object must rise for the grasp to count as a success
 MIN_TIP_HEIGHT = 0.005  # m: fingertips never go below table + this (z is clamped up)
 MAX_TIP_HEIGHT = 0.15  # m above the table: blocks are < 0.1 m; a higher z is clamped to this
 SAFE_TRAVEL_HEIGHT = 0.25  # m: the TCP travels between poses over the table only above this height

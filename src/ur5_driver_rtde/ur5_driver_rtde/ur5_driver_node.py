@@ -1,7 +1,7 @@
 """ur5_driver: the ExecutePrimitive action on a real UR5 through ur-rtde, with a Robotiq 2F-85.
 
     action  /ur5/execute_primitive  (impurity_interfaces/ExecutePrimitive)  the motion plan of
-            impurity_common.motion, the same the simulated arm executes (core/executor.py)
+            ur5_motion.motion, the same the simulated arm executes (core/executor.py)
     topic   /joint_states           (sensor_msgs/JointState, UR joint names, measured)
 
 dry_run (the default): no robot is contacted; a recording stand-in for ur-rtde and the gripper logs every
@@ -21,7 +21,7 @@ from rclpy.executors import MultiThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 
-from impurity_common import cell, motion, names, ur5_kinematics
+from impurity_common import cell, names
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import ParameterError, declare_parameters, param
@@ -30,6 +30,7 @@ from ur5_driver_rtde.core.arm import DriverLost, UrArm
 from ur5_driver_rtde.core.executor import BIN_POSITION, PlanExecutor
 from ur5_driver_rtde.core.gripper import URCAP_PORT, GripperError, Robotiq2F85
 from ur5_driver_rtde.core.recording import CommandLog, DryRunGripper, DryRunRobot
+from ur5_motion import motion, ur5_kinematics
 
 GRIPPERS = ("robotiq_2f85", "dry_run")
 

@@ -28,7 +28,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image, JointState
 from std_msgs.msg import Header
 
-from impurity_common import cell, motion, names
+from impurity_common import cell, names
 from impurity_common.conversions import numpy_to_image
 from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
@@ -39,13 +39,14 @@ from impurity_common.parameters import (
     declare_parameters,
     param,
 )
-from impurity_common.ur5_kinematics import JOINT_NAMES
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
 from ur5_driver_sim.core.camera import CameraModel
 from ur5_driver_sim.core.config import TIME_STEP
 from ur5_driver_sim.core.scenes import MAX_BLOCKS
 from ur5_driver_sim.core.world import MODES, CellWorld
+from ur5_motion import motion
+from ur5_motion.ur5_kinematics import JOINT_NAMES
 
 DEPTH_ENCODINGS = ("16UC1", "32FC1")
 MAX_CAMERA_RATE = 30.0

@@ -1,4 +1,4 @@
-"""Image <-> numpy conversions: colour encodings real cameras publish (issue 19 item 9), layout checks."""
+"""Image <-> numpy conversions: colour encodings real cameras publish, layout checks."""
 
 import numpy as np
 import pytest

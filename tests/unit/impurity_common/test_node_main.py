@@ -115,8 +115,8 @@ SPIN_NODE_NODES = {
     "impurity_attention.attention_node": ("AttentionNode", "AttentionNodeParameters"),
     "impurity_policy.policy_node": ("PolicyNode", "PolicyParameters"),
     "impurity_policy.episode_node": ("EpisodeNode", "EpisodeParameters"),
-    "impurity_common.cell_state_publisher": ("CellStatePublisher", "CellStateParameters"),
-    "impurity_common.decision_markers": ("DecisionMarkers", "DecisionMarkersParameters"),
+    "impurity_viz.cell_state_publisher": ("CellStatePublisher", "CellStateParameters"),
+    "impurity_viz.decision_markers": ("DecisionMarkers", "DecisionMarkersParameters"),
 }
 
 

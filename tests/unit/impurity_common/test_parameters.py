@@ -335,8 +335,8 @@ def test_a_long_description_is_wrapped_under_its_parameter():
 def node_parameter_classes():
     from impurity_attention.attention_node import AttentionNodeParameters
     from impurity_attention.heightmap_node import HeightmapParameters
-    from impurity_common.bag_recorder_node import BagRecorderParameters
-    from impurity_common.bag_replay_node import BagReplayParameters
+    from impurity_bags.bag_recorder_node import BagRecorderParameters
+    from impurity_bags.bag_replay_node import BagReplayParameters
     from ur5_driver_sim.sim_cell import SimCellParameters
 
     return {"heightmap": HeightmapParameters, "attention": AttentionNodeParameters,

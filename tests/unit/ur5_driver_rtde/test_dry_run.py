@@ -8,12 +8,13 @@ import math
 
 import pytest
 
-from impurity_common import cell, motion, ur5_kinematics
-from impurity_common.motion import StepKind
+from impurity_common import cell
 from ur5_driver_rtde.core.arm import UrArm
 from ur5_driver_rtde.core.executor import BIN_POSITION, PlanExecutor
 from ur5_driver_rtde.core.poses import tcp_from_ur_pose
 from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunRobot
+from ur5_motion import motion, ur5_kinematics
+from ur5_motion.motion import StepKind
 
 GRASP = ("grasp", 0.50, 0.10, 0.02, 0.3)  # on the empty table: the descent runs its full length
 PUSH = ("push", 0.45, -0.10, 0.02, math.pi / 4)

@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from impurity_common import cell, ur5_kinematics
+from impurity_common import cell
 from ur5_driver_rtde.core.poses import rotation_matrix, tcp_from_ur_pose, ur_tool0_pose
+from ur5_motion import ur5_kinematics
 
 TCP_POSES = [((0.5, 0.0, 0.05), 0.0), ((0.3, -0.2, 0.12), math.pi / 3), ((0.7, 0.2, 0.02), -2.5),
              ((0.45, 0.1, 0.25), math.pi / 2)]

@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 from test_sim_world import oracle_grasp, write_single_block
 
-from impurity_common import ur5_kinematics as ur5_model
 from ur5_driver_sim.core.world import CellWorld, yaw_of_quaternion
+from ur5_motion import ur5_kinematics as ur5_model
 
 AGREEMENT_SEEDS = 30
 

@@ -1,4 +1,4 @@
-"""Runs an impurity_common.motion plan on the real arm and gripper (or their dry-run stand-ins).
+"""Runs an ur5_motion.motion plan on the real arm and gripper (or their dry-run stand-ins).
 
 The plan is the one the simulated UR5 executes; motion.run_plan does the stepping (phases, the end of a
 descent after a guarded stop), and this module says what each step kind means on a UR5:
@@ -26,8 +26,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from impurity_common import cell, motion, ur5_kinematics
-from impurity_common.motion import StepKind
+from impurity_common import cell
+from ur5_motion import motion, ur5_kinematics
+from ur5_motion.motion import StepKind
 
 from .arm import DriverLost, MotionCancelled, MotionFailed, UrArm
 from .gripper import Gripper, GripperError

@@ -2,7 +2,7 @@
 
 ur-rtde poses are [x, y, z, rx, ry, rz]: metres and an axis-angle rotation vector (rad) of the active TCP
 in the controller's `base` frame. The driver sets the controller's TCP offset to zero (setTcp), so every
-pose it commands is tool0's. Frames (impurity_common.ur5_kinematics): `base` is base_link turned by pi
+pose it commands is tool0's. Frames (ur5_motion.ur5_kinematics): `base` is base_link turned by pi
 about z; tool0 is cell.FLANGE_TO_TCP above the gripper TCP with its z axis pointing down, so for a TCP
 at p with yaw psi (gripper frame Rz(psi), z up):
 

@@ -25,7 +25,8 @@ from collections.abc import Callable
 
 import numpy as np
 
-from impurity_common import cell, ur5_kinematics
+from impurity_common import cell
+from ur5_motion import ur5_kinematics
 
 from .poses import tcp_from_ur_pose, ur_tool0_pose
 

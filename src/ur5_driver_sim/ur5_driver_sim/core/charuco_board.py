@@ -1,13 +1,13 @@
 """A printed ChArUco board lying in the simulated cell, and colour renders to calibrate the camera on.
 
     world = CellWorld(mode="floating")
-    spec = CharucoBoardSpec()                                   # impurity_common.calibration
+    spec = CharucoBoardSpec()                                   # impurity_calibration.calibration
     board = place_board(world.pb, spec, board_pose_on_table((0.32, -0.14, 0.001)))
     camera = CameraModel(position=..., orientation=look_at((0.9, 0.2, 0.7), (0.5, 0.0, 0.0)))
     color = render_color(world.pb, camera)                     # (480, 640, 3) uint8 RGB
 
 The board is a thin textured quad (no collision shape: blocks and the gripper pass through it), its
-texture the core's `board_image`, mapped so the board frame of impurity_common.calibration (origin at
+texture the core's `board_image`, mapped so the board frame of impurity_calibration.calibration (origin at
 the squares' lower-left outer corner, x right, y up the page, z out of the face) is the quad's body
 frame. `CellWorld.reset_scene` rebuilds the physics world and removes it: place the board after.
 
@@ -28,7 +28,7 @@ import cv2
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from impurity_common.calibration import CharucoBoardSpec, board_image
+from impurity_calibration.calibration import CharucoBoardSpec, board_image
 
 from .camera import CameraModel
 

@@ -4,7 +4,8 @@ Cell-wide geometry (workspace, camera, push length, gripper stroke) comes from i
 what only the simulator needs lives here.
 """
 
-from impurity_common import cell, ur5_kinematics
+from impurity_common import cell
+from ur5_motion import ur5_kinematics
 
 # Physics. 1/240 s steps: 1/120 s halves grasp success (DESIGN.md, measured).
 TIME_STEP = 1.0 / 240.0
@@ -52,7 +53,7 @@ FLANGE_TO_TCP = cell.FLANGE_TO_TCP  # m, UR flange to TCP along the tool axis (c
 CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between the fingers
 
 # Primitive motion: the plan's constants live in impurity_common.cell (the real driver runs the same
-# plan, impurity_common.motion); what only the simulator needs stays here.
+# plan, ur5_motion.motion); what only the simulator needs stays here.
 APPROACH_HEIGHT = cell.APPROACH_HEIGHT  # m above the primitive's z where grasps and pushes start and end
 SLOW_ZONE = cell.SLOW_ZONE  # m above z where descents slow down to CONTACT_SPEED
 LIFT_HEIGHT = cell.LIFT_HEIGHT  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS

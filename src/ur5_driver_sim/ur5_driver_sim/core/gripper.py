@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import math
 
-from impurity_common import ur5_kinematics as ur5_model
+from ur5_motion import ur5_kinematics as ur5_model
 
 from . import config
 
@@ -57,7 +57,7 @@ class Carrier:
     def __init__(self, pb, step_fn):
         self.pb = pb
         self._step = step_fn  # world.step(): one physics step plus hooks and the cancel check
-        self.executed_steps = []  # impurity_common.motion Steps of the last plan, in the order they ran
+        self.executed_steps = []  # ur5_motion.motion Steps of the last plan, in the order they ran
         self.pending_retreat = None  # the last plan's RETREAT step, recorded when go_home runs it
 
     # --- fingers -------------------------------------------------------------------------------------

@@ -1,5 +1,5 @@
 """The paper's two motion primitives (section 3) in the simulator: the plan comes from
-impurity_common.motion (the one the real driver executes too), and its steps run on a Carrier
+ur5_motion.motion (the one the real driver executes too), and its steps run on a Carrier
 (gripper.py: the floating gripper or the simulated UR5).
 
 grasp(x, y, z, yaw): start above, open to cell.GRASP_OPENING, descend (guarded), close across yaw,
@@ -14,8 +14,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from impurity_common import motion
-from impurity_common.motion import (  # noqa: F401  (re-exported: the world and tests import them here)
+from ur5_motion import motion
+from ur5_motion.motion import (  # noqa: F401  (re-exported: the world and tests import them here)
     GRASP,
     KINDS,
     PUSH,

@@ -11,7 +11,7 @@ import tempfile
 import numpy as np
 
 from impurity_common import cell
-from impurity_common import ur5_kinematics as ur5_model
+from ur5_motion import ur5_kinematics as ur5_model
 
 from . import config
 from .gripper import Carrier

@@ -20,7 +20,7 @@ import pybullet
 from pybullet_utils import bullet_client
 
 from impurity_common import cell
-from impurity_common.ur5_kinematics import IKError
+from ur5_motion.ur5_kinematics import IKError
 
 from . import appearance, config, scenes
 from .camera import CameraFrame, CameraModel

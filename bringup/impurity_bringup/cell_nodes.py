@@ -1,0 +1,135 @@
+"""The cell's node graph and the parameter files its nodes read, listed once for both launchers (the ROS
+launch file share/impurity_bringup/launch/cell.launch.py and the pip launcher impurity_bringup.launch_cell).
+
+Two cells share every node but the hardware's:
+  sim   ur5_driver_sim/sim_cell: PyBullet world, simulated camera, UR5 and gripper (config/cell.yaml)
+  real  ur5_driver_rtde/ur5_driver: a UR5 through ur-rtde and a Robotiq 2F-85 (config/real_cell.yaml,
+        read over cell.yaml); the camera driver (realsense2_camera) is started apart (README, "Running on a
+        real cell")
+Every node reads cell.yaml, on the real cell then real_cell.yaml (only what differs: the arm driver, the
+episode without simulator truth), then the camera calibration (config/camera_calibration.yaml, the
+camera pose in a `/**` section), then any `-p` override.
+
+The files are the installed ones, share/impurity_bringup/config/ (bringup/config/ in the source tree;
+colcon --symlink-install links them, so an edit there is read at once).
+"""
+
+import pathlib
+
+PACKAGE = "impurity_bringup"
+BASE_CONFIG_NAME = "cell.yaml"  # every node's settings; the simulated cell's whole file
+CONFIG_NAMES = {"sim": BASE_CONFIG_NAME, "real": "real_cell.yaml"}  # each cell's own file
+CALIBRATION_NAME = "camera_calibration.yaml"
+
+
+class NotInstalledError(RuntimeError):
+    """impurity_bringup's share directory cannot be found: the package is not built or not sourced."""
+
+
+def share_dir() -> pathlib.Path:
+    """share/impurity_bringup of the install (ament index); NotInstalledError says how to install it."""
+    from ament_index_python.packages import PackageNotFoundError, get_package_share_directory
+
+    try:
+        return pathlib.Path(get_package_share_directory(PACKAGE))
+    except (PackageNotFoundError, OSError) as error:  # OSError: AMENT_PREFIX_PATH unset
+        raise NotInstalledError(
+            f"{PACKAGE} is not installed ({error}): run `make setup` (bash scripts/setup.sh) and "
+            "`source scripts/env.sh`; on a ROS install, colcon build the workspace and source "
+            "install/setup.bash") from None
+
+
+def config_dir() -> pathlib.Path:
+    """The installed parameter files: share/impurity_bringup/config."""
+    return share_dir() / "config"
+
+
+def config_file(cell: str) -> pathlib.Path:
+    """The installed own parameter file of `cell` (ValueError for an unknown cell)."""
+    nodes_of(cell)
+    return config_dir() / CONFIG_NAMES[cell]
+
+
+def base_config() -> pathlib.Path:
+    """The installed cell.yaml: every node's settings, read first on either cell."""
+    return config_dir() / BASE_CONFIG_NAME
+
+
+def calibration_file() -> pathlib.Path:
+    """The installed camera calibration (the camera pose), read after the cell's files."""
+    return config_dir() / CALIBRATION_NAME
+
+
+# (package, executable): each runs as its own process. Perception, decisions, episodes and the 3-D view
+# (TF, /robot_description, markers) run on either cell.
+COMMON_NODES = (
+    ("impurity_attention", "heightmap_node"),
+    ("impurity_attention", "attention_node"),
+    ("impurity_policy", "policy_node"),
+    ("impurity_policy", "episode_node"),
+    ("impurity_viz", "cell_state_publisher"),
+    ("impurity_viz", "decision_markers"),
+)
+CELLS = {
+    "sim": (("ur5_driver_sim", "sim_cell"), *COMMON_NODES),
+    "real": (("ur5_driver_rtde", "ur5_driver"), *COMMON_NODES),
+}
+CELL_NODES = list(CELLS["sim"])  # the simulated cell's nodes (make demo, the graph tests)
+
+
+def nodes_of(cell: str) -> tuple[tuple[str, str], ...]:
+    """The (package, executable) pairs of `cell` ("sim" or "real"); ValueError names the cells."""
+    if cell not in CELLS:
+        raise ValueError(f"unknown cell {cell!r}: choose one of {', '.join(CELLS)}")
+    return CELLS[cell]
+
+
+class _Installed:
+    """parameter_files' default calibration: the installed camera_calibration.yaml."""
+
+    def __repr__(self) -> str:
+        return "INSTALLED"
+
+
+INSTALLED = _Installed()
+
+
+def parameter_files(cell: str, config: str | pathlib.Path | None = None,
+                    calibration: str | pathlib.Path | _Installed | None = INSTALLED) -> list[pathlib.Path]:
+    """The parameter files every node of `cell` reads, in order (a later file wins): the cell's own file
+    (`config`, default config_file(cell)), on the real cell read over base_config() (its own file holds
+    only what differs), then `calibration` (INSTALLED: calibration_file(); None or "": none, the nodes'
+    built-in camera pose). ValueError for an unknown cell; NotInstalledError when a default file is
+    needed and impurity_bringup is not installed."""
+    nodes_of(cell)
+    own = pathlib.Path(config) if config else config_file(cell)
+    files = [own] if cell == "sim" else [base_config(), own]
+    if calibration is INSTALLED:
+        calibration = calibration_file()
+    if calibration:
+        files.append(pathlib.Path(calibration))
+    return files
+
+
+def format_value(value) -> str:
+    """A parameter value as `-p name:=value` spells it (YAML: true/false, [a,b,c])."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (list, tuple)):
+        return "[" + ",".join(format_value(v) for v in value) + "]"
+    return str(value)
+
+
+def ros_arguments(files: list[pathlib.Path], overrides: dict | None = None) -> list[str]:
+    """`--ros-args` of one node: the parameter files (parameter_files: the cell's, then the calibration),
+    then the `-p` overrides ({name: value}).
+
+    The order is rcl's: of two parameter files the later one wins, and a `-p` wins over the files only
+    when it comes after them (tests/workspace/test_cell_config.py).
+    """
+    args = ["--ros-args"]
+    for path in files:
+        args += ["--params-file", str(path)]
+    for name, value in (overrides or {}).items():
+        args += ["-p", f"{name}:={format_value(value)}"]
+    return args

@@ -1,0 +1,1 @@
+"""Episode bags: the bag core (bags), the recorder and replay nodes."""

@@ -1,0 +1,22 @@
+from setuptools import find_packages, setup
+
+package_name = "impurity_calibration"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="Impurity cell team",
+    maintainer_email="robotics@impurity-cell.dev",
+    description="Camera calibration: ChArUco hand-eye core and the calibrate_camera tool.",
+    license="Apache-2.0",
+    entry_points={"console_scripts": [
+        "calibrate_camera = impurity_calibration.calibrate_camera:main",
+    ]},
+)

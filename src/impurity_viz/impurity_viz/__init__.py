@@ -1,0 +1,1 @@
+"""What RViz / Foxglove show: message builders (visualisation), cell_state_publisher, decision_markers."""

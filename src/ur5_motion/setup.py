@@ -1,0 +1,19 @@
+from setuptools import find_packages, setup
+
+package_name = "ur5_motion"
+
+setup(
+    name=package_name,
+    version="0.1.0",
+    packages=find_packages(exclude=["test"]),
+    data_files=[
+        ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
+        ("share/" + package_name, ["package.xml"]),
+    ],
+    install_requires=["setuptools"],
+    zip_safe=True,
+    maintainer="Impurity cell team",
+    maintainer_email="robotics@impurity-cell.dev",
+    description="UR5 kinematics and primitive motion plans.",
+    license="Apache-2.0",
+)

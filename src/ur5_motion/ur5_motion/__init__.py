@@ -1,0 +1,1 @@
+"""UR5 kinematics (ur5_kinematics) and the motion plans of push and grasp primitives (motion)."""
