@@ -25,20 +25,19 @@ import importlib.util
 import pathlib
 import sys
 
-# executable -> (package, "module:ParametersClass", extra modules whose ROS interfaces the node owns).
+# executable -> (package, node module, extra modules whose ROS interfaces the node owns). The parameters
+# class is the one the node module passes to declare_parameters (parameters_class).
 NODES = {
-    "sim_cell": ("ur5_driver_sim", "ur5_driver_sim.sim_cell:SimCellParameters", ()),
-    "ur5_driver": ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node:Ur5DriverParameters", ()),
-    "heightmap_node": ("impurity_attention", "impurity_attention.heightmap_node:HeightmapParameters", ()),
-    "attention_node": ("impurity_attention", "impurity_attention.attention_node:AttentionNodeParameters", ()),
-    "policy_node": ("impurity_policy", "impurity_policy.policy_node:PolicyParameters", ()),
-    "episode_node": ("impurity_policy", "impurity_policy.episode_node:EpisodeParameters",
-                     ("impurity_policy.ros_cell",)),
-    "cell_state_publisher": ("impurity_common", "impurity_common.cell_state_publisher:CellStateParameters",
-                             ()),
-    "decision_markers": ("impurity_common", "impurity_common.decision_markers:DecisionMarkersParameters", ()),
-    "bag_recorder": ("impurity_common", "impurity_common.bag_recorder_node:BagRecorderParameters", ()),
-    "bag_replay": ("impurity_common", "impurity_common.bag_replay_node:BagReplayParameters", ()),
+    "sim_cell": ("ur5_driver_sim", "ur5_driver_sim.sim_cell", ()),
+    "ur5_driver": ("ur5_driver_rtde", "ur5_driver_rtde.ur5_driver_node", ()),
+    "heightmap_node": ("impurity_attention", "impurity_attention.heightmap_node", ()),
+    "attention_node": ("impurity_attention", "impurity_attention.attention_node", ()),
+    "policy_node": ("impurity_policy", "impurity_policy.policy_node", ()),
+    "episode_node": ("impurity_policy", "impurity_policy.episode_node", ("impurity_policy.ros_cell",)),
+    "cell_state_publisher": ("impurity_viz", "impurity_viz.cell_state_publisher", ()),
+    "decision_markers": ("impurity_viz", "impurity_viz.decision_markers", ()),
+    "bag_recorder": ("impurity_bags", "impurity_bags.bag_recorder_node", ()),
+    "bag_replay": ("impurity_bags", "impurity_bags.bag_replay_node", ()),
 }
 
 BEGIN = "<!-- BEGIN node reference (scripts/node_reference.py) -->"
@@ -82,10 +81,18 @@ def interfaces(module_name: str) -> dict:
     return found
 
 
-def parameters_class(target: str):
-    """The class named by "module:Class"."""
-    module, _, name = target.partition(":")
-    return getattr(importlib.import_module(module), name)
+def parameters_class(module_name: str):
+    """The dataclass the node module passes to `declare_parameters(node, <class>)`, read from its source
+    and looked up in the imported module; LookupError when the module declares none."""
+    source = pathlib.Path(importlib.util.find_spec(module_name).origin).read_text()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Call) and len(node.args) >= 2 and \
+                getattr(node.func, "id", getattr(node.func, "attr", None)) == "declare_parameters":
+            value = importlib.import_module(module_name)
+            for part in ast.unparse(node.args[1]).split("."):
+                value = getattr(value, part)
+            return value
+    raise LookupError(f"{module_name} calls no declare_parameters(node, <class>)")
 
 
 def _cell(text) -> str:
@@ -105,7 +112,7 @@ def node_section(executable: str) -> list:
     package, target, extra = NODES[executable]
     lines = [f"#### `{executable}` ({package})"]
     roles: dict = {}
-    for module in (target.partition(":")[0], *extra):
+    for module in (target, *extra):
         for role, found in interfaces(module).items():
             roles.setdefault(role, [])
             roles[role] += [name for name in found if name not in roles[role]]
