@@ -62,7 +62,8 @@ class Ur5DriverParameters:
     joint_speed: float = param(1.05, "Joint speed of the move home (rad/s)", low=0.1, high=3.0)
     force_threshold_check: bool = param(False, "Guarded descents also stop when the measured TCP force along "
                                         "+z exceeds the plan's threshold (besides the controller's contact "
-                                        "detection); the UR5's force estimate is noisy without an F/T sensor")
+                                        "detection, which needs PolyScope 5.4+: the only contact sensing on "
+                                        "a CB3); the UR5's force estimate is noisy without an F/T sensor")
     bin_position: tuple[float, ...] = param(BIN_POSITION, "TCP position in base_link (m) where a held object "
                                             "is released after a grasp; within the UR5's reach",
                                             length=3, low=-2.0, high=2.0, check=motion.reach_problem)

@@ -114,6 +114,14 @@ def test_a_force_over_the_threshold_is_stopped_by_the_driver():
     assert control.calls[-2:] == ["stopL", "stopContactDetection"]
 
 
+def test_once_the_controller_reports_a_contact_the_force_check_sends_no_stop():
+    robot = DryRunRobot(CommandLog())
+    robot.control = control = RecordingControl(robot, running_polls=4, contact_at=1)
+    robot.receive = PressedReceive(robot.state, force_z=8.0)  # pressing on the object it touched
+    assert descend(arm_with(robot, force_threshold_check=True), force_threshold=5.0) is False
+    assert "stopL" not in control.calls
+
+
 def test_a_protective_stop_during_a_move_ends_the_step_with_its_reason():
     log = CommandLog()
     robot = DryRunRobot(log)

@@ -183,8 +183,8 @@ class UrArm:
                 raise MotionCancelled(f"{what} cancelled")
             if contact is not None and not touched:
                 touched = bool(self._call("readContactDetection", contact))
-            if force_contact is not None and force_contact():
-                self.stop()
+            if force_contact is not None and not touched and force_contact():
+                self.stop()  # never once ur-rtde retracts: a stopL would cut its retract short
                 return False
             progress = self._call("getAsyncOperationProgress", self.control.getAsyncOperationProgress)
             if progress < 0 and progress != before:
