@@ -194,3 +194,13 @@ def test_an_unreachable_urcap_is_a_clear_error():
         port = unused.getsockname()[1]
     with pytest.raises(GripperError, match="cannot reach the Robotiq URCap"):
         Robotiq2F85("127.0.0.1", port, timeout=0.5)
+
+
+def test_a_gripper_that_cannot_be_read_is_a_clear_error(framing):
+    fake = FakeUrcap(end=framing)
+    fake.values["STA"] = "?"  # what the URCap answers in an emergency stop
+    try:
+        with pytest.raises(GripperError, match="'GET STA' answered 'STA \\?': the gripper cannot be read"):
+            connect(fake).activate()
+    finally:
+        fake.close()
