@@ -58,7 +58,7 @@ def test_dry_run_driver_serves_grasps_and_refuses_bad_goals(ros_node, launch, tm
     plan = motion.plan_primitive("grasp", 0.5, 0.1, 0.02, 0.3)
     assert sorted({r["step"] for r in records if r["phase"] != "bin"}) == list(range(len(plan.steps)))
     assert [r["command"] for r in records if r["step_kind"] == "guarded"] == [
-        "startContactDetection", "moveL", "stopContactDetection"] * 2
+        "moveL", "startContactDetection", "stopContactDetection"] * 2
     assert records[-1]["command"] == "moveJ"  # home
     action.destroy()
     joints.destroy()

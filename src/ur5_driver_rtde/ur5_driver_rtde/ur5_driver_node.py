@@ -6,9 +6,12 @@
 
 dry_run (the default): no robot is contacted; a recording stand-in for ur-rtde and the gripper logs every
 command the driver would send (to the ROS log and, with dry_run_log, a JSONL file) and simulates success.
-A goal outside the workspace or the arm's reach, in another frame, or arriving while another runs or
-while the controller is unreachable is rejected (the reason is logged) and nothing moves. A connection
-lost mid-motion aborts the goal with a message starting "driver_lost:" after telling the arm to stop.
+A goal outside the workspace or the arm's reach, in another frame, or arriving while another runs, while
+the controller is unreachable or while it is not in normal operation (a protective or emergency stop,
+the robot not running: core/arm.py, UrArm.unavailable, naming the safety and robot modes) is rejected
+(the reason is logged) and nothing moves. A connection lost mid-motion aborts the goal with a message
+starting "driver_lost:" after telling the arm to stop; a protective stop mid-motion aborts it with
+"motion failed: protective stop during <move> (safety mode 3 PROTECTIVE_STOP, ...)".
 """
 
 from __future__ import annotations
@@ -60,7 +63,8 @@ class Ur5DriverParameters:
     joint_speed: float = param(1.05, "Joint speed of the move home (rad/s)", low=0.1, high=3.0)
     force_threshold_check: bool = param(False, "Guarded descents also stop when the measured TCP force along "
                                         "+z exceeds the plan's threshold (besides the controller's contact "
-                                        "detection); the UR5's force estimate is noisy without an F/T sensor")
+                                        "detection, which needs PolyScope 5.4+: the only contact sensing on "
+                                        "a CB3); the UR5's force estimate is noisy without an F/T sensor")
     bin_position: tuple[float, ...] = param(BIN_POSITION, "TCP position in base_link (m) where a held object "
                                             "is released after a grasp; within the UR5's reach",
                                             length=3, low=-2.0, high=2.0, check=motion.reach_problem)
@@ -161,12 +165,8 @@ class Ur5DriverNode(Node):
         """Accept one valid primitive at a time; reject anything else with its reason in the log."""
         primitive = goal.primitive
         p = primitive.position
-
-        def unavailable() -> str | None:
-            return None if self._arm.connected() else "driver_lost: the UR controller does not answer"
-
         reason = self._claim.refuse_or_claim(primitive.kind, p.x, p.y, p.z, primitive.yaw,
-                                             primitive.header.frame_id, unavailable)
+                                             primitive.header.frame_id, self._arm.unavailable)
         if reason is not None:
             self.get_logger().warning(f"goal rejected: {reason}")
             return GoalResponse.REJECT

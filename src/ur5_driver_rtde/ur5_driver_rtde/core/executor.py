@@ -7,7 +7,8 @@ descent after a guarded stop), and this module says what each step kind means on
               lower; moveJ_IK (joint space) across to above the target at that height; moveL down to
               the approach pose (the simulated arm's go_to_start: linear up, joint move, linear down)
     GRIPPER   gripper.open(width, force) or gripper.close(force) (0 width), waiting if the step says so
-    GUARDED   moveL with contact detection; a contact stops the arm (stopL) and ends the descent
+    GUARDED   moveL, then the controller's contact detection; on a contact ur-rtde stops the arm and
+              retracts to the first contact (core/arm.py), and the descent ends
     LINEAR    moveL;  LIFT: moveL straight up from the measured TCP;  STROKE: moveL at the measured height
     RETREAT   straight up to SAFE_TRAVEL_HEIGHT when lower, then moveJ to ur5_kinematics.HOME_JOINTS
 
@@ -17,8 +18,9 @@ simulator removes it instead; these commands carry phase "bin"). Speeds are the 
 
 Errors end the primitive with a result, never an exception: a lost connection -> message
 "driver_lost: ..." after one attempt to stop the arm; a cancel -> the arm stops, the gripper opens, the
-TCP leaves upwards and the arm goes home (no further cancel checks); a refused or stuck move or a gripper
-fault -> "motion failed: ..." with the arm stopped.
+TCP leaves upwards and the arm goes home (no further cancel checks); a refused or stuck move, a gripper
+fault, or the controller leaving normal operation -> "motion failed: ..." with the arm stopped (e.g.
+"motion failed: protective stop during moveL (safety mode 3 PROTECTIVE_STOP, robot mode 7 RUNNING)").
 """
 
 from __future__ import annotations

@@ -6,8 +6,10 @@ rtde_control.RTDEControlInterface, `receive` like rtde_receive.RTDEReceiveInterf
 is exactly the sequence of ur-rtde calls (name and arguments) a real cell would receive. The simulated
 robot arrives at every commanded pose at once and keeps its connection until told otherwise
 (`drop_after`: lose the connection at the n-th motion command, to test recovery); a guarded move meets
-an object only when `contact_height` says where (TCP height in base_link, m): it then stops there and the
-controller's contact detection reports it.
+an object only when `contact_height` says where (TCP height in base_link, m): the contact detection started
+after the moveL finds the arm there and reports it (as ur-rtde's control script, which stops the move and
+retracts to the first contact, leaves the arm at the object). The controller stays in safety mode NORMAL
+(1) and robot mode RUNNING (7) unless a test sets the state's `safety_mode` / `robot_mode`.
 
 Each record (one JSON object per line of the log file):
     {"seq": 3, "interface": "rtde_control", "command": "moveL",
@@ -93,6 +95,8 @@ class _DryRunState:
         self.flange_to_tcp = flange_to_tcp  # m, the driver's TCP along tool0 z (for contact_height)
         self.detecting = False  # between startContactDetection and stopContactDetection
         self.touched = False
+        self.last_linear = False  # the last motion command was moveL (what contact detection watches)
+        self.safety_mode, self.robot_mode = 1, 7  # NORMAL, RUNNING (core/arm.py: SAFETY_MODES, ROBOT_MODES)
         self.q = np.array(ur5_kinematics.HOME_JOINTS, dtype=float)
         self.pose = self._pose_of(self.q)
         self.connected = True
@@ -106,28 +110,40 @@ class _DryRunState:
         tcp = ur5_kinematics.tcp_pose(q)
         return ur_tool0_pose(tcp[:3, 3], math.atan2(tcp[1, 0], tcp[0, 0]), cell.FLANGE_TO_TCP)
 
-    def motion(self, pose=None, q=None) -> None:
+    def motion(self, pose=None, q=None, linear: bool = False) -> None:
         """A motion command arrives: lose the connection if scripted, else be there at once."""
         self.check()
         self.motions += 1
         if self.drop_after is not None and self.motions > self.drop_after:
             self.connected = False
             raise ConnectionDropped("dry run: connection to the controller dropped (scripted)")
+        self.last_linear = linear
         if q is not None:
             self.q = np.asarray(q, dtype=float)
             self.pose = self._pose_of(self.q)
         else:
-            tcp, yaw = tcp_from_ur_pose(pose, self.flange_to_tcp)
-            if self.detecting and self.contact_height is not None and tcp[2] < self.contact_height:
-                pose = ur_tool0_pose((tcp[0], tcp[1], self.contact_height), yaw, self.flange_to_tcp)
-                self.touched = True  # stopped on the object
-            position, yaw = tcp_from_ur_pose(pose, cell.FLANGE_TO_TCP)  # the model's TCP, for its IK
-            try:
-                self.q = ur5_kinematics.ik(position, yaw, self.q)
-            except ur5_kinematics.IKError:
-                pass  # joint states keep the last solution; the pose is what was commanded
-            self.pose = list(pose)
+            self._arrive(pose)
         self.progress = -2 if self.progress == -1 else -1
+
+    def _arrive(self, pose) -> None:
+        position, yaw = tcp_from_ur_pose(pose, cell.FLANGE_TO_TCP)  # the model's TCP, for its IK
+        try:
+            self.q = ur5_kinematics.ik(position, yaw, self.q)
+        except ur5_kinematics.IKError:
+            pass  # joint states keep the last solution; the pose is what was commanded
+        self.pose = list(pose)
+
+    def start_contact_detection(self) -> None:
+        """Contact detection starts while the last moveL runs: it stops at contact_height when its
+        target lies below."""
+        self.check()
+        self.detecting, self.touched = True, False
+        if not self.last_linear or self.contact_height is None:
+            return
+        tcp, yaw = tcp_from_ur_pose(self.pose, self.flange_to_tcp)
+        if tcp[2] < self.contact_height:
+            self._arrive(ur_tool0_pose((tcp[0], tcp[1], self.contact_height), yaw, self.flange_to_tcp))
+            self.touched = True  # stopped on the object
 
     def check(self) -> None:
         if not self.connected:
@@ -151,7 +167,7 @@ class DryRunControl:
     def moveL(self, pose, speed=0.25, acceleration=1.2, asynchronous=False):  # noqa: N802
         self._log.record("rtde_control", "moveL", pose=list(pose), speed=speed, acceleration=acceleration,
                          asynchronous=asynchronous)
-        self._state.motion(pose=pose)
+        self._state.motion(pose=pose, linear=True)
         return True
 
     def moveJ(self, q, speed=1.05, acceleration=1.4, asynchronous=False):  # noqa: N802
@@ -174,7 +190,7 @@ class DryRunControl:
         self._log.record("rtde_control", "stopJ", a=a, asynchronous=asynchronous)
 
     def startContactDetection(self, direction):  # noqa: N802
-        self._state.detecting, self._state.touched = True, False
+        self._state.start_contact_detection()
         return self._send("startContactDetection", direction=list(direction))
 
     def stopContactDetection(self):  # noqa: N802
@@ -216,6 +232,14 @@ class DryRunReceive:
     def getActualTCPForce(self):  # noqa: N802
         self._state.check()
         return [0.0] * 6
+
+    def getSafetyMode(self):  # noqa: N802
+        self._state.check()
+        return self._state.safety_mode
+
+    def getRobotMode(self):  # noqa: N802
+        self._state.check()
+        return self._state.robot_mode
 
     def isConnected(self):  # noqa: N802
         return self._state.connected
