@@ -12,9 +12,9 @@ so the simulator renders the same layouts under many appearances:
   addressed by name as `random-<seed>`. `palette_named(name)` refuses an unknown name with the list of
   known ones.
 - `BlockColours`: the per-scene colour draw. Product blocks take their jitter from the layout's random
-  generator exactly as before palettes existed (so the default palette renders the scenes of earlier
-  releases bit for bit); the choice of shade and impurity colour comes from a second generator seeded
-  by the scene seed, so one seed gives the same layout under every palette.
+  generator (three uniforms in +- LAYOUT_JITTER per block, scaled to the palette's product_jitter); the
+  choice of shade and impurity colour comes from a second generator seeded by the scene seed, so one seed
+  gives the same layout under every palette.
 
 Colours are RGB in [0, 1] (PyBullet's rgbaColor); `delta_e` is the CIE76 distance in CIE Lab (OpenCV's
 float Lab, L in [0, 100]), the usual measure of "how different do two colours look".
@@ -33,7 +33,7 @@ import yaml
 
 from . import config
 
-LEGACY_JITTER = config.PRODUCT_SHADE_JITTER  # the layout rng draws uniform(-this, this) per channel
+LAYOUT_JITTER = config.PRODUCT_SHADE_JITTER  # the layout rng draws uniform(-this, this) per channel
 RANDOM_PREFIX = "random-"
 DEFAULT_PALETTE = "blocks"
 DEFAULT_LIGHT_DIRECTION = (0.3, 0.2, 1.0)
@@ -64,7 +64,7 @@ class Palette:
     name: str
     product_shades: tuple  # ((r, g, b), ...) in [0, 1]: each product block takes one of these
     impurity_colors: tuple  # ((r, g, b), ...) in [0, 1]: each impurity takes one of these
-    product_jitter: float = LEGACY_JITTER  # +- per channel and block
+    product_jitter: float = LAYOUT_JITTER  # +- per channel and block
     impurity_jitter: float = 0.02  # +- per channel and block
     light_direction: tuple = DEFAULT_LIGHT_DIRECTION  # towards the light, base_link, any length > 0
     ambient: float = DEFAULT_AMBIENT  # TinyRenderer ambient coefficient
@@ -129,11 +129,11 @@ class BlockColours:
         self.rng = np.random.default_rng(int(scene_seed) ^ COLOUR_SEED_SALT)
 
     def product(self, layout_rng: np.random.Generator) -> tuple:
-        """A product block's colour; draws 3 uniforms from `layout_rng` (as the legacy jitter did)."""
-        noise = [layout_rng.uniform(-LEGACY_JITTER, LEGACY_JITTER) for _ in range(3)]
+        """A product block's colour; draws 3 uniforms in +- LAYOUT_JITTER from `layout_rng`."""
+        noise = [layout_rng.uniform(-LAYOUT_JITTER, LAYOUT_JITTER) for _ in range(3)]
         shades = self.palette.product_shades
         base = shades[self.rng.integers(len(shades))] if len(shades) > 1 else shades[0]
-        scale = self.palette.product_jitter / LEGACY_JITTER
+        scale = self.palette.product_jitter / LAYOUT_JITTER
         return tuple(float(np.clip(c + n * scale, 0.0, 1.0))
                      for c, n in zip(base, noise, strict=True))
 
