@@ -60,6 +60,7 @@ from .evaluate import EVAL_SEED_BASE, run_episode
 from .train_cli import BASELINE_CHECKPOINT_DIR
 
 MARKDOWN = "docs/results.md"  # make eval's table; outputs not given go beside it (generalisation_outputs)
+README = "README.md"  # the repository's README, whose results block a run with the default MARKDOWN replaces
 SCENARIOS = ("random", "challenging", "invisible")
 LABELS = {"ours": "Ours", "vpg": "VPG", "s_vpg": "S-VPG", "s_rgm": "S-RGM (heuristic)", "no_tsd": "No-TSD",
           "no_oi": "No-OI", "no_t": "No-T"}
@@ -413,7 +414,7 @@ def generalisation_outputs(args):
     that a run sent elsewhere overwrites neither the committed tables and episodes nor the README's results
     block."""
     where = pathlib.Path(args.markdown).parent
-    readme = pathlib.Path("README.md") if args.markdown == MARKDOWN else where / "README.md"
+    readme = pathlib.Path(README) if args.markdown == MARKDOWN else where / README
     defaults = {"json": where / "results.json", "chart": where / "images" / "results.png", "readme": readme,
                 "generalisation": where / "generalisation.md",
                 "generalisation_chart": where / "images" / "generalisation.png",

@@ -1,7 +1,7 @@
 """Training of the impurity network (impurity_attention.core.impurity_net), self-supervised from rendered
 views: the simulator knows which cells show an impurity (a record's visible_target_cells), so no view is
-labelled by hand. Screened as H4 in the thirty-fourth session (docs/experiments.md); the shipped weights are
-written by `python scripts/calibrate_attention.py network-fit`, on tuning palettes and tuning seeds only.
+labelled by hand. `python -m impurity_learning.calibrate network` trains it on tuning palettes and tuning
+seeds only.
 
 Recipe (train_impurity_net): per view, the pooled scene planes (impurity_net.scene_planes, pooled) of the view
 with its RGB scaled by an exposure drawn log-uniformly in `exposure` (clipped at 255, a saturating camera;

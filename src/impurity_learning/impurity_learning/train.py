@@ -20,8 +20,8 @@ prioritised replay, the log, checkpoints). TrainingRun drives one Rollout in its
 learner's network, exactly as one loop; ray_train.ActorLearnerRun drives N of them as Ray actors. Random
 draws: palettes and exploration from the run seed's generator (actor 0's; actor a's from (seed, a)),
 replay sampling from a generator of its own, so that one actor in lockstep with the learner makes the
-same decisions as this process. (Before that split one generator served both: a run resumed from an
-older checkpoint keeps its decisions' generator and starts a fresh one for the replay.)
+same decisions as this process. (A checkpoint holding one generator and no replay generator resumes with
+that one for the decisions and a fresh one for the replay.)
 
 Files in run_dir: checkpoint.pt (trainer + loop state, every `checkpoint_every` iterations and at the
 end), replay.pkl (the replay buffer; never committed), log.csv (one row per action, with the actor that
@@ -410,7 +410,7 @@ class TrainingRun:
             raise RuntimeError(f"{self.checkpoint_path} is from another training setup (method, format) = "
                                f"{setup}; use a new --run-dir")
         self.iteration = int(extra["iteration"])
-        # checkpoints from before the actor-learner split: one generator (now actor 0's), one scene count
+        # a checkpoint without `rollouts` holds one generator and one scene count: actor 0's
         self.rollout_states = extra.get("rollouts") or [{"scene_index": int(extra["scene_index"]),
                                                          "rng_state": extra["rng_state"]}]
         if extra.get("replay_rng_state") is not None:

@@ -226,9 +226,10 @@ def test_eval_episodes_are_the_same_in_one_process_and_in_a_pool(tmp_path):
 
 
 def test_the_generalisation_outputs_follow_the_markdown_unless_given():
+    beside_default = pathlib.Path(eval_cli.MARKDOWN).parent
     default = eval_cli.parse_args([])
-    assert default.generalisation == str(pathlib.Path("docs/generalisation.md"))
-    assert default.generalisation_chart == str(pathlib.Path("docs/images/generalisation.png"))
+    assert default.generalisation == str(beside_default / "generalisation.md")
+    assert default.generalisation_chart == str(beside_default / "images" / "generalisation.png")
     elsewhere = eval_cli.parse_args(["--markdown", "runs/check/results.md"])
     assert elsewhere.generalisation == str(pathlib.Path("runs/check/generalisation.md"))
     assert elsewhere.generalisation_scenes == str(pathlib.Path("runs/check/images/generalisation_scenes.png"))
@@ -237,17 +238,19 @@ def test_the_generalisation_outputs_follow_the_markdown_unless_given():
 
 
 def test_a_run_sent_elsewhere_leaves_the_readme_and_the_committed_chart_alone():
-    # make eval (every output at its default) updates the README's results block and docs/images/results.png
+    # every output at its default: the repository's README block and the chart beside the default table
+    beside_default = pathlib.Path(eval_cli.MARKDOWN).parent
     default = eval_cli.parse_args([])
-    assert default.readme == "README.md" and default.chart == str(pathlib.Path("docs/images/results.png"))
+    assert default.readme == eval_cli.README
+    assert default.chart == str(beside_default / "images" / "results.png")
+    assert default.json == str(beside_default / "results.json")
     # a run with its table elsewhere writes its chart and README block there (the README only if one is there)
     elsewhere = eval_cli.parse_args(["--markdown", "runs/check/results.md"])
-    assert elsewhere.readme == str(pathlib.Path("runs/check/README.md"))
+    assert elsewhere.readme == str(pathlib.Path("runs/check") / eval_cli.README)
     assert elsewhere.chart == str(pathlib.Path("runs/check/images/results.png"))
-    assert default.json == str(pathlib.Path("docs/results.json"))
     assert elsewhere.json == str(pathlib.Path("runs/check/results.json"))
-    given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--readme", "README.md"])
-    assert given.readme == "README.md"
+    given = eval_cli.parse_args(["--markdown", "runs/check/results.md", "--readme", "mine.md"])
+    assert given.readme == "mine.md"
 
 
 def test_sigterm_stops_the_run_with_its_pool_workers_and_keeps_finished_episodes(tmp_path):

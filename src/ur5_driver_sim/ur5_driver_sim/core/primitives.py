@@ -29,7 +29,6 @@ from . import config
 from .gripper import Carrier, MotionCancelled
 
 GRIPPER_COMMAND_STEPS = 2  # physics steps after a gripper command that does not wait (width already set)
-MAX_Z = motion.cell.MAX_TIP_HEIGHT  # m above the table (older name)
 
 
 @dataclass

@@ -1,7 +1,7 @@
 """Scenario layouts (paper 6.1): where blocks start before physics settles them.
 
 Each generator is pure: (rng, counts, colours) -> list of BlockSpec, where `colours` is the scene's
-appearance.BlockColours (product blocks draw their jitter from `rng`, as before palettes existed).
+appearance.BlockColours (product blocks draw their jitter from `rng`).
 The world spawns them, lets them settle and checks the scenario's invariants (all in the workspace;
 invisible: no target pixel).
 """

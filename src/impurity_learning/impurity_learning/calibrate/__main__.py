@@ -1,0 +1,239 @@
+"""python -m impurity_learning.calibrate {network,verifier,thresholds,verdict,episode-end} --out DIR
+
+Fits the cell's learned parts and thresholds to a product and camera, on the tuning split only; see the
+package docstring and each subcommand's --help. Exit status 0 on success, 2 when the data is refused or
+does not allow a fit (the message says why).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import pathlib
+import sys
+
+from . import attention_fit, episodes, scenes
+from .scenes import CalibrationRefused
+
+TUNING_ONLY = ("Fits on the tuning split only (impurity_learning.splits): the default and tuning palettes\n"
+               "(palettes.yaml's split field; random palettes of the tuning seed ranges) on tuning scene\n"
+               "seeds 0 ... 99 999. Refuses held-out palettes and evaluation seeds.")
+
+
+def _write_json(path: pathlib.Path, data: dict) -> None:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(data, indent=1) + "\n")
+    print(f"wrote {path}")
+
+
+def _network_option(value: str | None, out: pathlib.Path):
+    """--network: a weights file, "shipped", "none", or by default OUT/impurity_net.pt if there, else the
+    shipped network."""
+    from impurity_attention.core.impurity_net import read_network
+
+    if value == "none":
+        return None
+    if value == "shipped":
+        return read_network(None)
+    if value is not None:
+        return read_network(value)
+    written = out / attention_fit.NETWORK_FILE
+    return read_network(written if written.exists() else None)
+
+
+def run_network(args) -> int:
+    from impurity_attention.core.impurity_net import write_network
+
+    records = scenes.scenes_of(args)
+    net, losses, provenance = attention_fit.fit_network(records, args.epochs, args.positive_weight,
+                                                        progress=not args.no_progress)
+    path = args.out / attention_fit.NETWORK_FILE
+    write_network(net, path, provenance)
+    print(f"wrote {path}: {provenance}")
+    return 0
+
+
+def run_verifier(args) -> int:
+    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES
+
+    network = _network_option(args.network, args.out)
+    records = scenes.scenes_of(args)
+    rows = attention_fit.verifier_rows(records, network=network, progress=not args.no_progress)
+    names = ALL_FEATURES if network is not None else FEATURES
+    provenance = (f"python -m impurity_learning.calibrate verifier: {len(rows[4])} tuning scenes, "
+                  f"{len(set(rows[3].tolist()))} palettes")
+    verifier, figures = attention_fit.fit_verifier(*rows, feature_names=names, provenance=provenance)
+    for name in ("out_of_fold", "fitted"):
+        if name in figures:
+            print(f"{name.replace('_', ' ')}: {100 * figures[name]['found']:.1f} % found, "
+                  f"{100 * figures[name]['false_target']:.1f} % false TARGET (threshold at "
+                  f"{100 * attention_fit.CAPS['verifier_threshold']:.0f} % of the clean scenes)")
+    attention_fit.write_verifier(verifier, args.out / attention_fit.VERIFIER_FILE)
+    print(f"wrote {args.out / attention_fit.VERIFIER_FILE}: threshold {verifier.threshold}")
+    return 0
+
+
+def run_thresholds(args) -> int:
+    network = _network_option(args.network, args.out)
+    path = args.verifier or args.out / attention_fit.VERIFIER_FILE
+    if path.exists():
+        verifier = attention_fit.read_verifier(path)
+    else:
+        from impurity_attention.core.verifier import default_verifier
+        print(f"{path} not found: the shipped verifier")
+        verifier = default_verifier()
+    if verifier.reads_network and network is None:
+        raise CalibrationRefused("the verifier reads the impurity network: give --network (not none)")
+    best, visible = attention_fit.best_probabilities(scenes.scenes_of(args), verifier, network=network,
+                                                     progress=not args.no_progress)
+    if visible.all():
+        raise CalibrationRefused("no scene without a visible impurity: the thresholds need some")
+    chosen = attention_fit.choose_thresholds(best, visible)
+    for field, entry in chosen.items():
+        print(f"{field} = {entry['value']}: lets {entry['clean_through']} of {entry['clean_scenes']} scenes "
+              f"without a visible impurity through (at most {100 * entry['cap']:.2f} %)")
+    _write_json(args.out / attention_fit.THRESHOLDS_FILE, chosen)
+    return 0
+
+
+def _episode_files(args, name: str) -> list:
+    return list(args.episodes) if args.episodes else [args.out / name]
+
+
+def run_verdict(args) -> int:
+    if not args.episodes:
+        palettes = args.palettes or episodes.default_palettes(args.random_palettes)
+        jobs = episodes.verdict_jobs(palettes, args.seeds)
+        params = attention_fit.attention_params(args.out)
+        episodes.collect_verdict_episodes(jobs, args.out / "verdict_episodes.jsonl", args.checkpoint, params,
+                                          progress=not args.no_progress)
+    rows = episodes.read_episodes(_episode_files(args, "verdict_episodes.jsonl"))
+    episodes.check_episodes(rows)
+    chosen = episodes.choose_verdict(rows)
+    print(f"{len(rows)} tuning episodes, {chosen['grasps']} grasps: min_target_score "
+          f"{chosen['min_target_score']}, min_color_contrast {chosen['min_color_contrast']} (least spread "
+          f"{chosen['min_color_spread']:.0f}, shading {chosen['color_shading']:.1f}): agreement "
+          f"{100 * chosen['agreement']:.1f} %, count match {100 * chosen['count_match']:.1f} %")
+    _write_json(args.out / "verdict.json", {**chosen, "episodes": len(rows)})
+    return 0
+
+
+def run_episode_end(args) -> int:
+    if not args.episodes:
+        palettes = args.palettes or episodes.default_palettes(args.random_palettes)
+        jobs = episodes.episode_end_jobs(args.heights, palettes, args.seeds)
+        params = attention_fit.attention_params(args.out)
+        episodes.collect_end_episodes(jobs, args.out / "episode_end_episodes.jsonl", args.checkpoint, params,
+                                      progress=not args.no_progress)
+    rows = episodes.read_episodes(_episode_files(args, "episode_end_episodes.jsonl"))
+    episodes.check_episodes(rows)
+    height, table = episodes.choose_height(rows)
+    print("min_cluster_height  episodes  clean_end  ended_by_NONE  left_behind  completion  actions")
+    for h, f in table.items():
+        mark = "  <- chosen" if h == height else ""
+        print(f"{h:18.3f}  {f['episodes']:8d}  {f['clean_end']:9.1%}  {f['ended_by_none']:13.1%}  "
+              f"{f['left_behind']:11d}  {f['completion']:10.1%}  {f['actions']:7.1f}{mark}")
+    _write_json(args.out / "episode_end.json",
+                {"min_cluster_height": height, "figures": {f"{h:.3f}": f for h, f in table.items()}})
+    return 0
+
+
+def _episode_options(parser, seeds: int, what: str) -> None:
+    from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
+
+    parser.add_argument("--palettes", nargs="+", default=None, metavar="NAME",
+                        help="default and tuning palettes, cycled over the episodes (default: the default "
+                             "palette, the named tuning palettes and --random-palettes random ones)")
+    parser.add_argument("--random-palettes", type=int, default=4, help="random tuning palettes (default 4)")
+    parser.add_argument("--seeds", type=int, default=seeds, help=f"episodes per {what} (default {seeds})")
+    parser.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT), help="the policy network")
+    parser.add_argument("--episodes", type=pathlib.Path, nargs="+", default=None, metavar="JSONL",
+                        help="choose from these recorded episode files instead of running episodes")
+    parser.add_argument("--no-progress", action="store_true", help="no progress bars")
+
+
+def parse_args(argv=None):
+    parser = argparse.ArgumentParser(
+        prog="python -m impurity_learning.calibrate",
+        description="Fit the cell to a product and camera, on the tuning split only. Run the subcommands in "
+                    "this order with the same --out: network, verifier, thresholds, verdict, episode-end; "
+                    "each reads what the earlier ones wrote there.")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
+    fmt = argparse.RawDescriptionHelpFormatter
+
+    def add(name, summary, description):
+        p = sub.add_parser(name, help=summary, description=f"{summary}\n\n{description}\n\n{TUNING_ONLY}",
+                           formatter_class=fmt)
+        p.add_argument("--out", type=pathlib.Path, required=True, help="the calibration directory")
+        return p
+
+    p = add("network", "fit the impurity network (per-cell impurity probability)",
+            "Trains impurity_attention's impurity network on rendered tuning scenes (or --views), the\n"
+            "simulator's truth the label, the exposure drawn in 0.5 ... 2.\n"
+            "Writes OUT/impurity_net.pt (read by verifier, thresholds, verdict, episode-end).")
+    scenes.add_options(p)
+    p.add_argument("--epochs", type=int, default=attention_fit.NETWORK_EPOCHS,
+                   help=f"training epochs (default {attention_fit.NETWORK_EPOCHS})")
+    p.add_argument("--positive-weight", type=float, default=None,
+                   help="an impurity cell's weight in the loss (default "
+                        "impurity_net_training.POSITIVE_WEIGHT)")
+    p.set_defaults(run=run_network)
+
+    p = add("verifier", "fit the region verifier (is this salient region an impurity?)",
+            "Logistic regression over the features attention computes for the best salient regions of\n"
+            "rendered tuning scenes (or --views), with the impurity network's features when a network is\n"
+            "given; threshold: at most 1 % of the scenes without a visible impurity let through.\n"
+            "Prints palette-grouped cross-validation (with 5 palettes or more).\n"
+            "Writes OUT/verifier.json: feature names, weights (coef) and bias (intercept) over the\n"
+            "standardised features (mean, scale, clipped to low ... high), threshold.")
+    scenes.add_options(p)
+    p.add_argument("--network", default=None,
+                   help="the impurity network: a weights file, 'shipped' or 'none' (default: "
+                        "OUT/impurity_net.pt if there, else the shipped one)")
+    p.set_defaults(run=run_verifier)
+
+    p = add("thresholds", "choose attention's verifier threshold, last look and stall look",
+            "Reads the verifier's best-region probability on rendered tuning scenes (or --views) and takes\n"
+            "for each threshold the least probability letting through at most a fixed share of the scenes\n"
+            "without a visible impurity: verifier_threshold 1 %, verifier_last_look 4.33 %,\n"
+            "stall_look_threshold 11.35 % (the shares the shipped values let through).\n"
+            "Writes OUT/attention_thresholds.json (AttentionParams field -> value and its figures).")
+    scenes.add_options(p)
+    p.add_argument("--verifier", type=pathlib.Path, default=None,
+                   help="the verifier JSON (default OUT/verifier.json, else the shipped verifier)")
+    p.add_argument("--network", default=None, help="as for verifier")
+    p.set_defaults(run=run_thresholds)
+
+    p = add("verdict", "choose the grasp verdict's thresholds (was an impurity picked?)",
+            "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) without\n"
+            "the verdict's thresholds, then chooses min_target_score, min_color_contrast and the product\n"
+            "reference's least spread and shading by the agreement of the verdict with the simulator's\n"
+            "truth.\n"
+            "Writes OUT/verdict_episodes.jsonl (resumable) and OUT/verdict.json.")
+    _episode_options(p, 12, "scenario and scene size")
+    p.set_defaults(run=run_verdict)
+
+    p = add("episode-end", "choose the height below which a dense cluster hides nothing",
+            "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) for each\n"
+            "min_cluster_height, and chooses the one whose episodes most often end by attention's NONE with\n"
+            "no impurity left (ties: the lowest), on the scenes every height ran.\n"
+            "Writes OUT/episode_end_episodes.jsonl (resumable) and OUT/episode_end.json.")
+    _episode_options(p, 8, "scene size")
+    p.add_argument("--heights", type=float, nargs="+", default=list(episodes.HEIGHTS),
+                   help="min_cluster_height values tried, m (default "
+                        f"{' '.join(f'{h:g}' for h in episodes.HEIGHTS)})")
+    p.set_defaults(run=run_episode_end)
+    return parser.parse_args(argv)
+
+
+def main(argv=None) -> int:
+    args = parse_args(argv)
+    try:
+        return args.run(args)
+    except (CalibrationRefused, ValueError) as error:
+        print(f"calibrate {args.command}: {error}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
