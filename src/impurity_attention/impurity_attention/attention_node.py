@@ -18,15 +18,12 @@ from sensor_msgs.msg import Image
 from std_srvs.srv import SetBool
 
 from impurity_attention.core.attention import (
-    BACKGROUNDS,
-    CONTRASTS,
-    DECISIONS,
     AttentionParams,
     attend,
     debug_image,
     shipped_network,
 )
-from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
+from impurity_attention.core.density import DensityParams
 from impurity_attention.core.product_memory import known_product
 from impurity_attention.core.saliency import SaliencyParams
 from impurity_attention.core.verifier import default_verifier
@@ -69,8 +66,6 @@ class DensityParameters:
     eps: float = param(DEFAULTS.density.eps, "DBSCAN neighbourhood radius (m)", low=0.001, high=0.5)
     min_samples: int = param(DEFAULTS.density.min_samples, "DBSCAN points within eps that make a core point",
                              low=1, high=10000)
-    height_weight: float = param(DEFAULTS.density.height_weight,
-                                 "Height as a DBSCAN coordinate: m per m (0 = off)", low=0.0, high=100.0)
     min_cluster_height: float = param(DEFAULTS.density.min_cluster_height,
                                       "Lower clusters cannot hide a target (m): the tallest single "
                                       "product piece plus a margin", low=0.0, high=1.0)
@@ -78,8 +73,6 @@ class DensityParameters:
                                     "Smaller clusters cannot hide a target (m^2)", low=0.0, high=1.0)
     height_percentile: float = param(DEFAULTS.density.height_percentile,
                                      "Cluster height = this percentile (%)", low=0.0, high=100.0)
-    score: str = param(DEFAULTS.density.score, "What makes a cluster the largest: area or volume",
-                       choices=CLUSTER_SCORES)
 
 
 @dataclass(frozen=True)
@@ -88,65 +81,20 @@ class AttentionNodeParameters:
 
     saliency: SaliencyParameters = SaliencyParameters()
     density: DensityParameters = DensityParameters()
-    background: str = param(DEFAULTS.background, "objects: paint table cells with the objects' median colour "
-                            "before saliency; table: the plain heightmap (paper)", choices=BACKGROUNDS)
     region_fraction: float = param(DEFAULTS.region_fraction,
                                    "Salient region: object cells >= this x peak saliency",
                                    low=0.01, high=0.99)
     min_region_area: int = param(DEFAULTS.min_region_area, "Smallest salient region (cells)",
                                  low=1, high=cell.HEIGHTMAP_SIZE ** 2)
-    contrast: str = param(DEFAULTS.contrast, "relative: judge the best region against the scene's own "
-                          "product contrast (any palette, any exposure); absolute: opponent-colour units "
-                          "(calibrated for red among blue only)", choices=CONTRASTS)
     lightness_weight: float = param(DEFAULTS.lightness_weight, "relative: weight of the lightness map "
                                     "against the chromatic ones (shading makes product heaps salient in "
                                     "lightness)", low=0.01, high=1.0)
     min_relative_contrast: float = param(DEFAULTS.min_relative_contrast, "relative: mean relative saliency "
                                          "of the best region below this: no visible target", low=0.0)
-    min_color_contrast: float = param(DEFAULTS.min_color_contrast, "relative: the best region's mean colour "
-                                      "must lie at least this far (Mahalanobis) from the other objects' "
-                                      "colours to be a target; 0: no colour test", low=0.0)
-    color_min_spread: float = param(DEFAULTS.color_min_spread, "relative: least colour spread (RGB) granted "
-                                    "to the other objects in the colour test", low=0.1, high=255.0)
-    color_shading: float = param(DEFAULTS.color_shading, "relative: colour test's spread granted along the "
-                                 "other objects' mean colour (shaded faces), as a share of its length; "
-                                 "0: none",
-                                 low=0.0, high=2.0)
-    color_saturation: float = param(DEFAULTS.color_saturation, "relative: colour test leaves out channels in "
-                                    "which half the other objects reach this level (8-bit RGB: clipped by "
-                                    "the camera); 0: compare every channel", low=0.0, high=255.0)
-    distinct_color_contrast: float = param(DEFAULTS.distinct_color_contrast, "relative: a best region at "
-                                           "least this far in colour from the other objects is a target "
-                                           "from min_relative_contrast_distinct on; 0: that path off",
-                                           low=0.0)
-    min_relative_contrast_distinct: float = param(DEFAULTS.min_relative_contrast_distinct, "relative: mean "
-                                                  "relative saliency a region distinct in colour needs",
-                                                  low=0.0)
-    last_look_contrast: float = param(DEFAULTS.last_look_contrast, "relative: with no target and no heap "
-                                      "left, a best region of at least this relative saliency (and "
-                                      "last_look_color_contrast) is grasped before the scene is called "
-                                      "clean; 0: no last look", low=0.0)
-    last_look_color_contrast: float = param(DEFAULTS.last_look_color_contrast, "relative: the colour "
-                                            "contrast the last look needs", low=0.0)
-    decision: str = param(DEFAULTS.decision, "relative: rule: the thresholds above on the best region; "
-                          "verifier: the learned region verifier (core/verifier.py) on the best three",
-                          choices=DECISIONS)
-    verifier_threshold: float = param(DEFAULTS.verifier_threshold, "verifier: least impurity probability of "
-                                      "a target; 0: the shipped model's own (core/verifier_model.py)",
-                                      low=0.0, high=0.999)
     verifier_last_look: float = param(DEFAULTS.verifier_last_look, "verifier: with no target and no heap "
                                       "left, the likeliest region is grasped from this impurity probability "
                                       "on before the scene is called clean; 0: no last look",
                                       low=0.0, high=0.999)
-    verifier_clipped_threshold: float = param(DEFAULTS.verifier_clipped_threshold, "verifier: least "
-                                              "impurity probability of a target on a view whose objects are "
-                                              "clipped (half their cells at 250+ in one channel); 0, or a "
-                                              "value at or below the threshold used elsewhere: no change. "
-                                              "The last look is not affected", low=0.0, high=0.999)
-    verifier_heap_threshold: float = param(DEFAULTS.verifier_heap_threshold, "verifier: least impurity "
-                                           "probability of a target while a heap that could hide one is "
-                                           "left; 0, or a value at or below the threshold used elsewhere: no "
-                                           "change. With no heap left nothing changes", low=0.0, high=0.999)
     stall_look_threshold: float = param(DEFAULTS.stall_look_threshold, "verifier: least impurity probability "
                                         "of a target on a stall look (/attention/look_closer, asked for by "
                                         "the episode node after pushes that found nothing); 0: off",
@@ -158,12 +106,6 @@ class AttentionNodeParameters:
     known_product_max_share: float = param(DEFAULTS.known_product_max_share, "verifier, with a known product "
                                            "and a heap left: a region whose colour is that of more than this "
                                            "share of the known product is passed over", low=0.0, high=0.999)
-    known_product_near_miss: bool = param(DEFAULTS.known_product_near_miss, "verifier: the known product "
-                                          "leaves out the region attention would take in that view at the "
-                                          "last look's threshold (a near miss that may be a missed impurity)")
-    min_target_contrast: float = param(DEFAULTS.min_target_contrast,
-                                       "absolute: mean saliency of the best region below this: no visible "
-                                       "target", low=0.0)
     mask_chroma_tolerance: float = param(DEFAULTS.mask_chroma_tolerance, "Target mask: object cells within "
                                          "this chroma distance of m_t (0 = m_t only)", low=0.0)
     crop_size: int = param(DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)",
@@ -175,24 +117,11 @@ class AttentionNodeParameters:
         """The core's parameters."""
         return AttentionParams(
             saliency=SaliencyParams(**asdict(self.saliency)), density=DensityParams(**asdict(self.density)),
-            background=self.background, region_fraction=self.region_fraction,
-            min_region_area=self.min_region_area, contrast=self.contrast,
-            min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
-            lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
-            color_min_spread=self.color_min_spread, color_shading=self.color_shading,
-            color_saturation=self.color_saturation,
-            distinct_color_contrast=self.distinct_color_contrast,
-            min_relative_contrast_distinct=self.min_relative_contrast_distinct,
-            last_look_contrast=self.last_look_contrast,
-            last_look_color_contrast=self.last_look_color_contrast,
-            decision=self.decision, verifier_threshold=self.verifier_threshold,
-            verifier_last_look=self.verifier_last_look,
-            verifier_clipped_threshold=self.verifier_clipped_threshold,
-            verifier_heap_threshold=self.verifier_heap_threshold,
-            stall_look_threshold=self.stall_look_threshold,
+            region_fraction=self.region_fraction, min_region_area=self.min_region_area,
+            min_relative_contrast=self.min_relative_contrast, lightness_weight=self.lightness_weight,
+            verifier_last_look=self.verifier_last_look, stall_look_threshold=self.stall_look_threshold,
             known_product_delta_e=self.known_product_delta_e,
             known_product_max_share=self.known_product_max_share,
-            known_product_near_miss=self.known_product_near_miss,
             mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
@@ -218,16 +147,14 @@ class AttentionNode(Node):
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
         p = self._params
         model = p.verifier or default_verifier()
-        threshold = p.verifier_threshold or model.threshold
-        decided = (f"verifier, threshold {threshold:.2f}, last look {p.verifier_last_look:.2f}"
-                   if p.decision == "verifier" else f"{p.decision} thresholds")
-        if p.uses_verifier and model.reads_network:
+        decided = (f"verifier threshold {model.threshold:.2f}, last look {p.verifier_last_look:.2f}, "
+                   f"stall look {p.stall_look_threshold:.2f}")
+        if model.reads_network:
             # read now, not at the first heightmap: a missing or wrong weights file stops the node, saying why
             network = shipped_network()
             decided += f", impurity network ({network.provenance or 'no provenance'})"
-        self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; contrast "
-                               f"{p.contrast}, decision {decided} (every setting: ros2 param dump "
-                               f"/{self.get_name()})")
+        self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; {decided} (every "
+                               f"setting: ros2 param dump /{self.get_name()})")
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"heightmap dropped: {reason}",
@@ -248,24 +175,14 @@ class AttentionNode(Node):
             self.get_logger().warning(f"known product dropped, none is used: {error}")
             return
         self._known_product = product
-        p = self._params
-        near_miss = " (the view's near miss left out)" if p.known_product_near_miss else ""
-        unread = ("" if p.uses_verifier else
-                  f" (not with decision {p.decision}, contrast {p.contrast}: only the verifier reads it)")
         self.get_logger().info(
-            f"known product: {0 if product is None else len(product.colors)} object colours{near_miss} from "
-            f"the view stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like "
-            f"more than {100 * p.known_product_max_share:.1f} % of them are passed over while a heap is "
-            f"left{unread}")
+            f"known product: {0 if product is None else len(product.colors)} object colours (the view's near "
+            f"miss left out) from the view stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; "
+            f"regions coloured like more than {100 * self._params.known_product_max_share:.1f} % of them are "
+            "passed over while a heap is left")
 
     def _on_look_closer(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
         p = self._params
-        if request.data and not p.stall_look_applies:
-            response.success = False
-            response.message = (f"no stall look: it needs decision verifier, contrast relative and "
-                                f"stall_look_threshold > 0 (decision {p.decision}, contrast {p.contrast}, "
-                                f"stall_look_threshold {p.stall_look_threshold})")
-            return response
         if request.data != self._closer:
             threshold = f": verifier threshold {p.stall_look_threshold:.2f}" if request.data else ""
             self.get_logger().info(f"stall look {'on' if request.data else 'off'}{threshold}")

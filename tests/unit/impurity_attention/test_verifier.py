@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 from impurity_attention.core import attention as att
-from impurity_attention.core import saliency
 from impurity_attention.core import verifier as ver
 from impurity_attention.core.attention import shipped_network
 
@@ -271,18 +270,9 @@ def test_a_malformed_model_is_refused_by_name(field, value, named):
         dataclasses.replace(ver.default_verifier(), **{field: value})
 
 
-@pytest.mark.parametrize("changes, named", [
-    ({"decision": "oracle"}, "decision"),
-    ({"verifier_threshold": 1.5}, "verifier_threshold"),
-])
-def test_bad_decision_settings_are_refused_by_name(changes, named):
-    with pytest.raises(ValueError, match=named):
-        att.AttentionParams(**changes)
-
-
 def test_attention_takes_the_likeliest_region_and_says_why():
     color, height, _, impurity, _ = two_colour_view()
-    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    output = att.attend(color, height, att.AttentionParams())
     assert output.mode == att.AttentionMode.TARGET, output.reason
     assert "impurity probability" in output.reason
     assert np.count_nonzero(output.target_mask & impurity) > 0.5 * np.count_nonzero(output.target_mask)
@@ -290,31 +280,25 @@ def test_attention_takes_the_likeliest_region_and_says_why():
 
 def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability():
     color, height, *_ = two_colour_view(impurity=(40, 120, 200))
-    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    output = att.attend(color, height, att.AttentionParams())
     assert output.mode != att.AttentionMode.TARGET
     assert "no salient region is an impurity: the likeliest, region" in output.reason
 
 
-def test_a_threshold_set_on_the_node_overrides_the_models():
+def test_the_models_threshold_decides():
     # a model that rates every region 0.5, with its own threshold 0.6
     n = len(ver.FEATURES)
     coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
                               threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
     color, height, *_ = two_colour_view()
-    own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
-                                                        verifier_last_look=0.0))  # no last look at 0.5
+    own = att.attend(color, height, att.AttentionParams(verifier=coin,
+                                                        verifier_last_look=0.99))  # no last look at 0.5
     assert own.mode != att.AttentionMode.TARGET and "0.50 < 0.60" in own.reason
-    lowered = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
-                                                            verifier_threshold=0.4, verifier_last_look=0.0))
+    lowered = att.attend(color, height, att.AttentionParams(verifier=dataclasses.replace(coin, threshold=0.4),
+                                                            verifier_last_look=0.99))
     assert lowered.mode == att.AttentionMode.TARGET and "0.50 >= 0.40" in lowered.reason
 
 
-def test_the_absolute_contrast_keeps_its_own_threshold_whatever_the_decision():
-    color, height, *_ = two_colour_view()
-    absolute = att.AttentionParams(contrast="absolute", saliency=saliency.ABSOLUTE_SALIENCY)
-    output = att.attend(color, height, absolute)
-    assert "impurity probability" not in output.reason
-    assert output.mode == att.attend(color, height, dataclasses.replace(absolute, decision="rule")).mode
 
 
 def test_a_model_survives_its_json():

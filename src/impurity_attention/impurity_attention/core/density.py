@@ -35,7 +35,6 @@ from sklearn.cluster import DBSCAN
 
 from impurity_common import cell
 
-CLUSTER_SCORES = ("area", "volume")
 OCCUPIED_HEIGHT = cell.OCCUPIED_HEIGHT  # m: what counts as an object, for DBSCAN and for saliency alike
 
 
@@ -45,17 +44,13 @@ class DensityParams:
     stride: int = 3  # sub-grid step (cells) of the DBSCAN points
     eps: float = 0.015  # m, DBSCAN neighbourhood radius
     min_samples: int = 12  # points within eps (itself included) that make a core point
-    height_weight: float = 0.0  # metres of xy distance per metre of height (0: cluster in the plane)
     min_cluster_height: float = 0.04  # m; lower clusters cannot hide anything (module docstring)
     min_cluster_area: float = 0.0025  # m^2 (50 mm x 50 mm); smaller clusters cannot hide anything
     height_percentile: float = 90.0  # cluster height = this percentile of its cells' heights
-    score: str = "volume"  # "area" or "volume": what makes a cluster the "largest" (see module doc)
 
     def __post_init__(self):
         if self.stride < 1 or self.eps <= 0 or self.min_samples < 1:
             raise ValueError(f"need stride >= 1, eps > 0, min_samples >= 1, got {self}")
-        if self.score not in CLUSTER_SCORES:
-            raise ValueError(f"cluster score '{self.score}' not one of {CLUSTER_SCORES}")
 
 
 @dataclass
@@ -85,8 +80,6 @@ def find_clusters(height: np.ndarray, resolution: float, params: DensityParams =
     sub_rows, sub_cols = np.nonzero(occupied)
     spacing = stride * resolution
     points = np.column_stack([sub_rows * spacing, sub_cols * spacing])
-    if params.height_weight > 0:
-        points = np.column_stack([points, sub[sub_rows, sub_cols] * params.height_weight])
     # ball_tree: the fastest of sklearn's neighbour searches on these few thousand grid points
     labels = DBSCAN(eps=params.eps, min_samples=params.min_samples, algorithm="ball_tree").fit_predict(points)
 
@@ -118,7 +111,7 @@ def find_clusters(height: np.ndarray, resolution: float, params: DensityParams =
         clusters.append(Cluster(
             label=int(cell_labels[start]), label_map=label_full, area=area, height=cluster_height,
             volume=volume, centroid=(float(rows.mean()), float(cols.mean())),
-            score=area if params.score == "area" else volume,
+            score=volume,
             passes=cluster_height >= params.min_cluster_height and area >= params.min_cluster_area))
     clusters.sort(key=lambda c: (c.passes, c.score), reverse=True)
     return clusters

@@ -31,17 +31,18 @@ from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 
 from .attention import AttentionParams, attend
+from .verifier import MIN_SPREAD, default_verifier
 
 
 def near_miss(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
               grid: HeightmapGrid = HeightmapGrid()) -> np.ndarray | None:
     """The grown mask (H, W) bool of the region attention would take in this view at the last look's
     threshold (the verifier's likeliest region, when its probability reaches params.verifier_last_look),
-    or None: no such region, or a decision other than the verifier, or the last look off."""
-    if params.decision != "verifier" or params.contrast != "relative" or params.verifier_last_look <= 0:
-        return None
-    looked = attend(color, height, dataclasses.replace(params, verifier_threshold=params.verifier_last_look),
-                    grid)
+    or None: no such region."""
+    model = params.verifier or default_verifier()
+    at_last_look = dataclasses.replace(model, threshold=params.verifier_last_look)
+    looking = dataclasses.replace(params, verifier=at_last_look)
+    looked = attend(color, height, looking, grid)
     return looked.target_mask if looked.mode == AttentionMode.TARGET else None
 
 
@@ -49,15 +50,11 @@ def known_product(color: np.ndarray, height: np.ndarray, params: AttentionParams
                   grid: HeightmapGrid = HeightmapGrid()) -> ProductReference | None:
     """The known product from a colour heightmap (H, W, 3) uint8 and its height map (H, W) float m: the
     colours of its object cells (height > params.density.occupied_height; NaN is no object), at most
-    colour.REFERENCE_CELLS of them; with params.known_product_near_miss, without the cells of near_miss
-    (grid: the heightmap's, for that look). None when the view has no object cell; ValueError when the
-    shapes differ."""
+    colour.REFERENCE_CELLS of them, without the cells of near_miss (grid: the heightmap's, for that look).
+    None when the view has no object cell; ValueError when the shapes differ."""
     height = np.nan_to_num(np.asarray(height, dtype=np.float64))
-    whole = ProductReference.from_view(color, height, None, params.color_min_spread,
-                                       params.density.occupied_height)
-    looks = whole is not None and params.known_product_near_miss
-    left_out = near_miss(color, height, params, grid) if looks else None
+    whole = ProductReference.from_view(color, height, None, MIN_SPREAD, params.density.occupied_height)
+    left_out = near_miss(color, height, params, grid) if whole is not None else None
     if left_out is None:
         return whole
-    return ProductReference.from_view(color, height, left_out, params.color_min_spread,
-                                      params.density.occupied_height)
+    return ProductReference.from_view(color, height, left_out, MIN_SPREAD, params.density.occupied_height)

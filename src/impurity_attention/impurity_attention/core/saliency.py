@@ -60,7 +60,6 @@ VOCUS2_CLUTTER = SaliencyParams(center_sigma=2.0, surround_sigma=6.0)  # the aut
 # octaves) 96.8 %, (2, 8) 96.1 %, (2, 6) 95.5 %, (1.5, 6) 95.5 %. (Red among blue only, with the absolute
 # decision, (2, 6) had separated best: ABSOLUTE_SALIENCY.)
 CELL_SALIENCY = VOCUS2_DEFAULTS
-ABSOLUTE_SALIENCY = VOCUS2_CLUTTER  # what attention's min_target_contrast was calibrated with
 
 
 @dataclass
