@@ -6,7 +6,6 @@
     python scripts/calibrate_attention.py evaluate --split acceptance # the acceptance table (new seeds)
     python scripts/calibrate_attention.py gallery                     # docs/images/attention_*.png
     python scripts/calibrate_attention.py lab-reference               # colour-adaptation reference
-    python scripts/calibrate_attention.py rule-sweep                  # the whole decision rule (tuning)
     python scripts/calibrate_attention.py palette-evaluate            # held-out palettes + exposure x0.5, x2
     python scripts/calibrate_attention.py palette-gallery             # docs/images/palettes.png
     python scripts/calibrate_attention.py network-fit                 # the impurity network (tuning)
@@ -34,14 +33,10 @@ import numpy as np
 
 from impurity_attention.core import evaluation
 from impurity_attention.core.attention import (
-    DECISIONS,
     AttentionParams,
     attend,
-    is_target,
-    region_color_contrast,
     saliency_input,
     salient_regions,
-    scene_saliency,
 )
 from impurity_attention.core.density import DensityParams, find_clusters, select_occluded_region
 from impurity_attention.core.saliency import VOCUS2_CLUTTER, VOCUS2_DEFAULTS, SaliencyParams, vocus2
@@ -171,7 +166,7 @@ def best_region_scores(records, params: AttentionParams) -> list:
     rows = []
     for record in records:
         objects = record.height > params.density.occupied_height
-        image = saliency_input(record.color, objects, params.background)
+        image = saliency_input(record.color, objects)
         regions = salient_regions(vocus2(image, params.saliency).saliency, objects, params)
         best = regions[0] if regions else None
         on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
@@ -184,8 +179,8 @@ def sweep(records) -> None:
     settings = (("VOCUS2 defaults (3, 13)", VOCUS2_DEFAULTS), ("VOCUS2 clutter (2, 6)", VOCUS2_CLUTTER),
                 ("(2, 10, stop 3)", SaliencyParams(2.0, 10.0, 2, 0, 3)))
     for name, saliency in settings:
-        for background in ("objects", "table"):
-            params = AttentionParams(saliency=saliency, background=background)
+        for _ in (0,):
+            params = AttentionParams(saliency=saliency)
             rows = best_region_scores(records, params)
             visible = np.array([(s, t) for c, s, t in rows if c == "visible"])
             clean = np.array([s for c, s, _ in rows if c == "no_impurity"])
@@ -196,7 +191,7 @@ def sweep(records) -> None:
                 rate = float(np.mean(on_target & (visible[:, 0] >= threshold)))
                 if false_alarms <= 0.0 and rate > best_rate:
                     best_threshold, best_rate = threshold, rate
-            print(f"{name:24s} background={background:7s}: best region on a target in "
+            print(f"{name:24s}: best region on a target in "
                   f"{on_target.mean() * 100:5.1f} % of {len(visible)} visible scenes; contrast on target "
                   f"min {visible[on_target, 0].min():.4f} "
                   f"p10 {np.percentile(visible[on_target, 0], 10):.4f}; "
@@ -204,11 +199,11 @@ def sweep(records) -> None:
                   f"with no false alarm {best_threshold:.3f} -> found {best_rate * 100:.1f} %")
     print("== DBSCAN on invisible scenes (and no-impurity heaps): chosen cluster holds a hidden target")
     hidden = [r for r in records if r.category() == "invisible"]
-    for score in ("area", "volume"):
+    for score in ("volume",):
         # (stride, eps, min_samples): min_samples must stay below the grid points within eps
         for stride, eps, min_samples in ((2, 0.012, 18), (3, 0.015, 12), (2, 0.016, 30), (4, 0.016, 8)):
             for min_height in (0.03, 0.045):
-                density = DensityParams(score=score, stride=stride, eps=eps, min_samples=min_samples,
+                density = DensityParams(stride=stride, eps=eps, min_samples=min_samples,
                                         min_cluster_height=min_height)
                 hits = 0
                 for record in hidden:
@@ -527,56 +522,6 @@ def print_palette_rates(rates: dict, per_palette: bool = True) -> dict:
             "clean_scenes": len(totals["no_impurity"])}
 
 
-SHADINGS = (0.0, 0.1, 0.15, 0.2, 0.3)  # colour-test shading allowances rule-sweep tries
-SATURATIONS = (0.0, 250.0)  # colour-test saturation levels rule-sweep tries (0: every channel compared)
-COLOUR_TESTS = [(shading, level) for level in SATURATIONS for shading in SHADINGS]
-
-
-def rule_rows(records, params: AttentionParams, tests=COLOUR_TESTS) -> tuple:
-    """Per scene: (score, on target, colour contrast per (shading, saturation) of `tests`) of the best
-    salient region, split into scenes with a visible impurity and scenes without one (clean and
-    invisible). The thresholds do not change regions: computed once."""
-    visible, clean = [], []
-    for record in records:
-        objects = record.height > params.density.occupied_height
-        regions = salient_regions(scene_saliency(record.color, objects, params), objects, params)
-        best = regions[0] if regions else None
-        on_target = best is not None and bool(np.any(best.mask & record.visible_target_cells))
-        colours = [region_color_contrast(record.color, objects, best,
-                                         dataclasses.replace(params, color_shading=shading,
-                                                             color_saturation=level))
-                   if best is not None else 0.0 for shading, level in tests]
-        row = (best.score if best else 0.0, on_target, *colours)
-        category = record.category()
-        if category == "visible":
-            visible.append(row)
-        elif category in ("no_impurity", "invisible"):
-            clean.append(row)
-    return np.array(visible, dtype=float), np.array(clean, dtype=float)
-
-
-def sweep_grid(visible: np.ndarray, clean: np.ndarray, params: AttentionParams) -> np.ndarray:
-    """rule-sweep's grid: one row (shading, s1, c1, c2, s2, found, false TARGET, saturation) per colour test
-    of COLOUR_TESTS x min_relative_contrast (s1) x min_color_contrast (c1) x distinct_color_contrast (c2)
-    x min_relative_contrast_distinct (s2), each decided by attention's own is_target. visible / clean:
-    rule_rows' arrays; found: share of visible scenes whose best region is on the impurity and a target;
-    false TARGET: share of clean scenes whose best region is a target."""
-    on_target = visible[:, 1].astype(bool)
-    grid = []
-    for k, (shading, level) in enumerate(COLOUR_TESTS):
-        for s1 in np.round(np.arange(3.0, 6.01, 0.2), 2):
-            for c1 in (0.0, 0.5, 1.0, 1.5, 2.0, 2.5, 3.0):
-                for c2 in np.round(np.arange(2.0, 8.01, 0.25), 2):
-                    for s2 in np.round(np.arange(2.0, s1 + 1e-9, 0.1), 2):
-                        tried = dataclasses.replace(params, min_relative_contrast=float(s1),
-                                                    min_color_contrast=c1, distinct_color_contrast=float(c2),
-                                                    min_relative_contrast_distinct=float(s2))
-                        found = float(np.mean(on_target & is_target(visible[:, 0], visible[:, 2 + k], tried)))
-                        false = float(np.mean(is_target(clean[:, 0], clean[:, 2 + k], tried)))
-                        grid.append((shading, float(s1), c1, float(c2), float(s2), found, false, level))
-    return np.array(grid)
-
-
 def rule_sweep_records(exposed: bool = True) -> tuple:
     """rule-sweep's scenes: (records, the default palette's records at exposure x1). The tuning palettes'
     scenes and the default palette's own tuning scenes (seeds 0-99: the first calibration's; the palette
@@ -591,74 +536,8 @@ def rule_sweep_records(exposed: bool = True) -> tuple:
     return records, default
 
 
-def rule_sweep(params: AttentionParams) -> AttentionParams:
-    """The whole decision rule at once (is_target), on tuning palettes and the default palette's tuning
-    scenes (also at exposure x0.5 and x2) only: (color_shading, color_saturation) x
-    min_relative_contrast (s1) x min_color_contrast (c1) x distinct_color_contrast (c2) x
-    min_relative_contrast_distinct (s2), at params.color_min_spread.
-    Chosen: among the settings that meet both aims (found >= TARGET_FOUND_AIM,
-    false TARGET <= FALSE_TARGET_AIM, on scenes without a visible impurity), the fewest false TARGETs,
-    then the most found; ties: saturated channels left out, the least shading, the highest colour
-    thresholds (c1, then c2: the widest colour margins, which late-episode product blocks need), then the
-    middle of the tied s1 and s2.
-    Returns the chosen parameters, checked through attend() on the same scenes."""
-    records, default = rule_sweep_records()
-    print(f"{len(records)} tuning scenes ({len(palette_names('tuning'))} palettes, the default palette's "
-          f"{len(default)} tuning scenes also at x0.5 and x2)")
-    visible, clean = rule_rows(records, params)
-    print(f"{len(visible)} with a visible impurity, {len(clean)} without; the best region lies on the "
-          f"impurity in {100 * np.mean(visible[:, 1]):.1f} % (the ceiling)")
-    grid = sweep_grid(visible, clean, params)
-    print("the most found within a false-TARGET cap, per colour test (shading allowance, saturation level):")
-    for shading, level in COLOUR_TESTS:
-        of = grid[(grid[:, 0] == shading) & (grid[:, 7] == level)]
-        cells = []
-        for cap in (0.01, 0.02, 0.05):
-            within = of[of[:, 6] <= cap + 1e-12]
-            best = within[np.lexsort((within[:, 6], -within[:, 5]))[0]]
-            cells.append(f"<= {100 * cap:.0f} %: {100 * best[5]:5.1f} % ({100 * best[6]:.1f} %)")
-        print(f"  color_shading {shading:4.2f}, color_saturation {level:3.0f}: " + "   ".join(cells))
-    meeting = grid[(grid[:, 6] <= FALSE_TARGET_AIM + 1e-12) & (grid[:, 5] >= TARGET_FOUND_AIM - 1e-12)]
-    if len(meeting):
-        print(f"{len(meeting)} settings meet both aims")
-        pool = meeting
-    else:
-        print("no setting meets both aims: the most found within the false-TARGET aim")
-        pool = grid[grid[:, 6] <= FALSE_TARGET_AIM + 1e-12]
-        pool = pool[pool[:, 5] == pool[:, 5].max()]
-    pool = pool[pool[:, 6] == pool[:, 6].min()]
-    pool = pool[pool[:, 5] == pool[:, 5].max()]
-    pool = pool[pool[:, 7] == pool[:, 7].max()]  # ties: clipped channels left out (a sensor's fact)
-    pool = pool[pool[:, 0] == pool[:, 0].min()]
-    pool = pool[pool[:, 2] == pool[:, 2].max()]
-    pool = pool[pool[:, 3] == pool[:, 3].max()]
-    s1_values = np.unique(pool[:, 1])
-    s1 = s1_values[len(s1_values) // 2]
-    pool = pool[pool[:, 1] == s1]
-    s2_values = np.unique(pool[:, 4])
-    s2 = s2_values[len(s2_values) // 2]
-    shading, _, c1, c2 = pool[0, :4]
-    level = pool[0, 7]
-    print(f"tied: min_relative_contrast {s1_values.min():.1f} ... {s1_values.max():.1f}, "
-          f"min_relative_contrast_distinct {s2_values.min():.1f} ... {s2_values.max():.1f} (the middles)")
-    chosen = dataclasses.replace(params, color_shading=float(shading), color_saturation=float(level),
-                                 min_relative_contrast=float(s1),
-                                 min_color_contrast=float(c1), distinct_color_contrast=float(c2),
-                                 min_relative_contrast_distinct=float(s2))
-    print(f"chosen color_shading = {shading:.2f}, color_saturation = {level:.0f}, min_relative_contrast = "
-          f"{s1:.1f}, min_color_contrast = {c1:.2f}, distinct_color_contrast = {c2:.2f}, "
-          f"min_relative_contrast_distinct = {s2:.1f}: found {100 * pool[0, 5]:.1f} %, false TARGET "
-          f"{100 * pool[0, 6]:.1f} %")
-    print("checked through attend() on the same scenes (shipped, then chosen):")
-    for name, tried in (("shipped", params), ("chosen", chosen)):
-        print(f" {name}:")
-        print_palette_rates(palette_rates(records, tried), per_palette=False)
-    return chosen
-
-
 VERIFIER_FOLDS = 5  # verifier-fit: palette-grouped cross-validation folds
 VERIFIER_FALSE_TARGET = 0.01  # verifier-fit: the threshold allows this share of false TARGETs (tuning scenes)
-VERIFIER_MODEL = ROOT / "src" / "impurity_attention" / "impurity_attention" / "core" / "verifier_model.py"
 
 
 def verifier_rows(records, params: AttentionParams, network=None) -> tuple:
@@ -714,26 +593,6 @@ def threshold_letting_through(best, visible, allowed: int) -> float:
     return float(np.nextafter(clean[allowed], 1.0)) if allowed < len(clean) else 0.0
 
 
-def model_source(verifier) -> str:
-    """verifier_model.py's text for a RegionVerifier: its fields, tuples wrapped to the line length."""
-    import textwrap
-
-    lines = []
-    for name in ("mean", "scale", "coef", "low", "high"):
-        values = ", ".join(repr(v) for v in getattr(verifier, name))
-        lines += [f"    {name}=("] + [f"        {chunk}" for chunk in textwrap.wrap(values, 96)] + ["    ),"]
-    lines += [f"    intercept={verifier.intercept!r},", f"    threshold={verifier.threshold!r},"]
-    chunks = textwrap.wrap(verifier.provenance, 90, drop_whitespace=False)
-    lines += ["    provenance=("] + [f"        {chunk!r}" for chunk in chunks] + ["    ),"]
-    names = ", ".join(repr(name) for name in verifier.features)
-    lines += ["    features=("] + [f"        {chunk}" for chunk in textwrap.wrap(names, 100)] + ["    ),"]
-    return ('"""The shipped region verifier (verifier.py), written by\n'
-            '`python scripts/calibrate_attention.py verifier-fit --write-model`\n'
-            '(tuning palettes and seeds only). Features named in `features`, in that order. Do not edit by '
-            'hand: refit."""\n\nfrom .verifier import RegionVerifier\n\n'
-            "MODEL = RegionVerifier(\n" + "\n".join(lines) + "\n)\n")
-
-
 def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False, check: bool = True,
                  exposure_scenes: bool = False, loop_views: tuple = (),
                  model_json: pathlib.Path | None = None, threshold_on: str = "all",
@@ -744,7 +603,7 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     (VERIFIER_FOLDS folds; each fold's palettes unseen by its model, as held-out palettes are), with the
     threshold taken (a) on the out-of-fold probabilities and (b) on the training folds' own (nested: what an
     unseen palette gets). Then fitted on all the scenes, its threshold the least that lets through
-    VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to verifier_model.py with
+    VERIFIER_FALSE_TARGET of the scenes without a visible impurity; written to checkpoints/verifier.json with
     --write-model, and checked through attend(). own_layouts: the tuning palettes' own-layout scenes
     (collect_palettes(own_layouts=True)) join rule-sweep's, and the check is printed for each half (check:
     whether to run it). exposure_scenes: the default palette's exposure scenes (collect_exposure_scenes) at
@@ -760,7 +619,16 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
     from sklearn.model_selection import GroupKFold
     from sklearn.preprocessing import StandardScaler
 
-    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES, RegionVerifier
+    from impurity_attention.core.verifier import (
+        ALL_FEATURES,
+        FEATURES,
+        SOURCE_VERIFIER,
+        RegionVerifier,
+        default_verifier,
+        write_verifier,
+    )
+
+    shipped = default_verifier()
     unknown = sorted(set(feature_names or ()) - set(ALL_FEATURES))
     if unknown:
         raise SystemExit(f"verifier-fit: unknown features {', '.join(unknown)}; known: "
@@ -843,6 +711,7 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
                               scale=tuple(round(float(v), 6) for v in scaler.scale_),
                               coef=tuple(round(float(v), 6) for v in model.coef_[0]),
                               intercept=round(float(model.intercept_[0]), 6), threshold=round(least, 6),
+                              last_look=shipped.last_look, stall_look=shipped.stall_look,
                               low=tuple(round(float(v), 6) for v in np.nanmin(features, axis=0)),
                               high=tuple(round(float(v), 6) for v in np.nanmax(features, axis=0)),
                               features=feature_names)
@@ -867,14 +736,13 @@ def verifier_fit(params: AttentionParams, write: bool, own_layouts: bool = False
         model_json.write_text(json.dumps(dataclasses.asdict(verifier), indent=1))
         print(f"wrote {model_json}")
     if write:
-        VERIFIER_MODEL.write_text(model_source(verifier))
-        print(f"wrote {VERIFIER_MODEL}")
+        write_verifier(verifier, SOURCE_VERIFIER)
+        print(f"wrote {SOURCE_VERIFIER} (last_look and stall_look: the shipped model's, to be matched anew)")
     if not check:
         return verifier
-    print("checked through attend() on the same scenes (shipped rule, then the verifier):")
-    for name, tried in (("rule", dataclasses.replace(params, decision="rule")),
-                        ("verifier", dataclasses.replace(params, decision="verifier", verifier=verifier,
-                                                        impurity_net=network))):
+    print("checked through attend() on the same scenes (the shipped verifier, then the fitted one):")
+    for name, tried in (("shipped", params),
+                        ("fitted", dataclasses.replace(params, verifier=verifier, impurity_net=network))):
         for half, scenes in halves.items():
             print(f" {name}, {half}:")
             print_palette_rates(palette_rates(scenes, tried), per_palette=False)
@@ -946,7 +814,7 @@ def read_network_option(value: pathlib.Path | None):
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("action", choices=("collect", "sweep", "evaluate", "gallery", "lab-reference",
-                                           "rule-sweep", "palette-evaluate",
+                                           "palette-evaluate",
                                            "palette-gallery", "network-fit", "verifier-fit"))
     parser.add_argument("--split", choices=tuple(SEED_BASE), default="tuning")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes of the split")
@@ -954,9 +822,6 @@ def main() -> None:
     parser.add_argument("--verbose", action="store_true", help="list every miss")
     parser.add_argument("--depth-noise", type=float, default=0.0,
                         help="Gaussian depth noise of the sim camera (m), e.g. 0.002 for a RealSense")
-    parser.add_argument("--decision", choices=DECISIONS, default=None,
-                        help="attention's decision for evaluate / palette-evaluate / the galleries (default: "
-                             "the shipped AttentionParams')")
     parser.add_argument("--own-layouts", action="store_true",
                         help="verifier-fit: also the tuning palettes' own-layout scenes (collect_palettes)")
     parser.add_argument("--loop-views", type=pathlib.Path, nargs="*", default=(),
@@ -973,8 +838,8 @@ def main() -> None:
     parser.add_argument("--no-check", action="store_true",
                         help="verifier-fit: skip the check through attend() after the fit")
     parser.add_argument("--write-model", action="store_true",
-                        help="verifier-fit: write the fitted model to impurity_attention/core/"
-                             "verifier_model.py")
+                        help="verifier-fit: write the fitted model to impurity_attention/checkpoints/"
+                             "verifier.json")
     parser.add_argument("--epochs", type=int, default=NETWORK_EPOCHS, help="network-fit: training epochs")
     parser.add_argument("--write-network", action="store_true",
                         help="network-fit: write the network to "
@@ -996,8 +861,6 @@ def main() -> None:
                         help="work around the sim's inward-wound prism mesh (see patch_prism_winding)")
     args = parser.parse_args()
     params = AttentionParams()
-    if args.decision is not None:
-        params = dataclasses.replace(params, decision=args.decision)
     suffix = ""
     if args.patch_prism_winding:
         patched = patch_prism_winding()
@@ -1006,9 +869,6 @@ def main() -> None:
 
     if args.action == "gallery":
         gallery(params)
-        return
-    if args.action == "rule-sweep":
-        rule_sweep(params)
         return
     if args.action == "palette-evaluate":
         palette_evaluate(params, args.json)

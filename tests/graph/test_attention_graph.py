@@ -11,6 +11,7 @@ from std_srvs.srv import SetBool
 
 from impurity_attention.core.attention import AttentionParams
 from impurity_attention.core.synthetic import Box, random_boxes, render_boxes
+from impurity_attention.core.verifier import default_verifier
 from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_common.enums import AttentionMode
@@ -287,9 +288,8 @@ def simulated_view(scenario: str, seed: int, palette: str):
 
 def test_a_stall_look_asked_for_on_look_closer_attends_the_next_frames_at_its_threshold(ros_node, launch):
     # an invisible scene on the default palette whose likeliest region reads 0.27 against the shipped
-    # verifier's 0.74 (0.68 against 0.81 with the fifteen-feature verifier before the thirty-seventh
-    # session): a heap is pushed at; on a stall look (the episode node's, after pushes that found nothing)
-    # the threshold is stall_look_threshold (0.134 by default), and the region is a target
+    # verifier's 0.74: a heap is pushed at; on a stall look (the episode node's, after pushes that found
+    # nothing) the threshold is the shipped model's stall_look (0.134), and the region is a target
     maps = simulated_view("invisible", 5, "blocks")
     attention = launch("impurity_attention", "attention_node")
     publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
@@ -302,7 +302,7 @@ def test_a_stall_look_asked_for_on_look_closer_attends_the_next_frames_at_its_th
         assert first.mode == AttentionMode.OCCLUDED_REGION
         on = call_service(ros_node, SetBool, names.LOOK_CLOSER_SERVICE, SetBool.Request(data=True),
                           processes=processes, resend_after=5.0)
-        assert on.success and f"{AttentionParams().stall_look_threshold:.2f}" in on.message
+        assert on.success and f"{default_verifier().stall_look:.2f}" in on.message
         publisher.publish(heightmap_message(2_000_000_000, maps.color, maps.height))
         closer = results.wait_for(1, 30.0, with_stamp(2_000_000_000), processes)[0]
         assert closer.mode == AttentionMode.TARGET

@@ -1,6 +1,5 @@
 """Attention decides relative to the scene (issue 17): an impurity of any appearance is found, the clean
-version of the same scene stays quiet, and the decision does not move with the image's brightness - by the
-thresholds rule and by the learned region verifier alike.
+version of the same scene stays quiet, and the decision does not move with the image's brightness.
 
 Synthetic scenes (no simulator): product boxes of several shades of one palette, jittered per box,
 and one impurity box of the palette's impurity colour; the clean version recolours the impurity as a
@@ -107,23 +106,24 @@ def test_relative_saliency_is_dimensionless():
 def test_with_no_heap_left_the_verifiers_last_look_grasps_its_likeliest_region(palette):
     color, height, impurity = scene(palette, 0)
     # a model as sure of the order as the shipped one, far less of the probabilities: the impurity falls short
-    # of the threshold, the way late views of an episode did on tuning palettes (docs/experiments.md, tenth)
+    # of the threshold, as in late views of an episode on tuning palettes
     unsure = unsure_verifier()
-    strict = att.AttentionParams(verifier=dataclasses.replace(unsure, threshold=0.99),
-                                 verifier_last_look=0.99)
+    strict = att.AttentionParams(verifier=dataclasses.replace(unsure, threshold=0.99, last_look=0.99))
     missed = att.attend(color, height, strict)
     assert missed.mode == att.AttentionMode.NONE  # no heap of these single boxes could hide one
-    looked = att.attend(color, height, dataclasses.replace(strict, verifier_last_look=0.35))
+    looking = dataclasses.replace(unsure, threshold=0.99, last_look=0.35)
+    looked = att.attend(color, height, att.AttentionParams(verifier=looking))
     assert looked.mode == att.AttentionMode.TARGET and looked.reason.startswith("last look")
     assert np.any(looked.target_mask & impurity)
 
 
 def test_the_verifiers_last_look_leaves_a_clean_scene_clean_and_is_a_probability():
     color, height, _ = scene("blue_red", 0, with_impurity=False)
-    looked = att.attend(color, height, att.AttentionParams(verifier_last_look=0.35))
+    looked = att.attend(color, height, att.AttentionParams(verifier=dataclasses.replace(default_verifier(),
+                                                                                         last_look=0.35)))
     assert looked.mode == att.AttentionMode.NONE  # no product region is that likely an impurity
     for bad in (0.0, 1.0):
-        with pytest.raises(ValueError, match="verifier_last_look"):
-            att.AttentionParams(verifier_last_look=bad)
+        with pytest.raises(ValueError, match="last_look"):
+            dataclasses.replace(default_verifier(), last_look=bad)
 
 

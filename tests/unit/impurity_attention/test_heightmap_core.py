@@ -175,9 +175,9 @@ def test_a_clipped_table_alone_is_not_an_exposure_problem():
 
 
 def test_exposure_is_judged_on_the_same_objects_as_attention():
-    from impurity_attention.core.density import OCCUPIED_HEIGHT
+    from impurity_attention.core.density import DensityParams
 
-    assert hm.exposure_problem.__defaults__[0] == OCCUPIED_HEIGHT
+    assert hm.exposure_problem.__defaults__[0] == DensityParams().occupied_height
 
 
 def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_share():

@@ -1,44 +1,27 @@
-"""The attention module (paper Algorithm 1) on one colour + height map pair.
+"""The attention module (paper Algorithm 1) on one colour + height map pair, as a pipeline of stages:
 
-    salient regions m_0..m_k <- VOCUS2 saliency of the colour heightmap
-    if the best region m_t is contrasted enough:  TARGET, 112 x 112 crops centred on the target, mask =
-                                                  m_t grown to the whole target object
-    elif DBSCAN finds a cluster c_t that can hide something:  OCCLUDED_REGION, crops centred on c_t,
-                                                              all-one mask
-    else:  NONE (no visible impurity and nowhere one could hide)
+    regions   find_regions: VOCUS2 saliency of the colour heightmap, relative to the product's own
+              contrast; salient regions m_0..m_k of object cells, best first
+    verifier  verify: a learned region verifier (verifier.py) scores the best TOP_REGIONS regions; the
+              likeliest is the target when it reaches the model's threshold (decision_threshold: the
+              stall look's, on attend's closer=True)
+    product   pass_over_known_product: with a known product and a heap left, a region coloured like the
+              memory   product is passed over and the next likeliest judged
+    heaps     Heaps: DBSCAN clusters of the height map; the largest that could hide an impurity is the
+              OCCLUDED_REGION
+    looks     with no target and no heap, the likeliest region is still a TARGET from the model's last
+              look on (last_look); else NONE
 
-Saliency runs on the orthographic colour heightmap (224 x 224), not on the camera image: the crops
-are cut from the heightmaps anyway, the map is 6x smaller, and 1 px = 2 mm everywhere.
+A TARGET's crops (112 x 112) are centred on the target and its mask is m_t grown to the whole object
+(grow_target_mask); an OCCLUDED_REGION's are centred on the cluster with an all-one mask.
 
-Cell-specific choices on top of the paper, all parameters (see AttentionParams):
-- `background`: before saliency, cells that are table (lower than `density.occupied_height`) or
-  unseen are painted with the median colour of the objects. The saliency of an object then measures
-  its contrast against the other objects - the product - and not against the table, so an isolated
-  product block is not mistaken for an impurity ("table" keeps the plain heightmap, as the paper;
-  on the tuning scenes it halves the margin between targets and clean scenes).
-- salient regions are restricted to object cells, and a region must cover `min_region_area`.
-- the target mask is m_t grown to the whole object (`mask_chroma_tolerance`): m_t alone is often
-  only the most contrasted part of the target, and the policy uses the mask as "where the target is".
-- the decision is relative to the scene (`contrast = "relative"`, issue 17): saliency runs on lightness
-  and shading-free chromaticity (I, RG / I, BY / I: a lit and a shaded face of one block have the same
-  chromaticity, so block shading does not read as colour contrast), and each conspicuity map is
-  divided by its own mean over the object cells - the product's typical contrast in
-  that channel - and the relative saliency is their maximum. A region is an impurity when its mean
-  relative saliency reaches `min_relative_contrast`: "this much more contrasted than the product usually
-  is", whatever the product's colour and the exposure (a brighter or darker image scales every
-  conspicuity map alike; the ratio is unchanged). Taking the maximum over channels keeps an impurity
-  that differs from the product in one channel only (lightness: slate in coal; hue: a green flake among
-  blue ones) from being averaged away by the shading contrast every product block has in I.
-  `contrast = "absolute"` is the earlier rule (mean saliency >= `min_target_contrast`, opponent-colour
-  units, calibrated for red among blue only).
-- `decision = "verifier"` (the default since the eighth session): instead of those thresholds on the best
-  region, a learned region verifier (verifier.py, a logistic model of fifteen scene-relative features,
-  fitted on tuning palettes only) scores the best three regions and the most probable one is the target
-  when it reaches the model's threshold; `decision = "rule"` keeps the thresholds.
-The thresholds and the verifier are calibrated on rendered tuning scenes by scripts/calibrate_attention.py.
-
-DBSCAN only runs when no target is visible: Algorithm 1 uses its result only then, and it is the
-more expensive half.
+Saliency runs on the orthographic colour heightmap (224 x 224, 1 px = 2 mm), not on the camera image: the
+crops are cut from the heightmaps anyway and the map is 6x smaller. Before saliency, cells that are table
+or unseen take the objects' median colour (saliency_input), so that an object's saliency is its contrast
+against the other objects - the product - and not against the table. Saliency is relative to the scene
+(relative_saliency): VOCUS2 runs on lightness and shading-free chromaticity (I, RG / I, BY / I), each
+conspicuity map is divided by its mean over the object cells and the maximum over channels is taken, so
+neither the product's colour nor the exposure sets the scale.
 """
 
 from __future__ import annotations
@@ -54,6 +37,7 @@ from impurity_common.cell import crop_centered  # noqa: F401 (part of this modul
 from impurity_common.colour import ProductReference, mask_colour
 from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
 from impurity_common.grid import HeightmapGrid
+from impurity_common.parameters import InvalidParameter, param
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
 from .saliency import (
@@ -78,61 +62,55 @@ MEDIAN_SAMPLES = 2000  # object cells sampled for the objects' median colour
 
 @dataclass(frozen=True)
 class AttentionParams:
+    """Every setting of attend; the ROS parameters of the attention node (bringup/config/cell.yaml, section
+    attention), but for the model objects (ros=False)."""
+
     saliency: SaliencyParams = CELL_SALIENCY
     density: DensityParams = DensityParams()
-    crop_size: int = cell.CROP_SIZE
-    region_fraction: float = 0.5  # a salient region: connected object cells >= this x the peak saliency
-    min_region_area: int = 30  # px (2 mm cells): smaller regions are specks, not objects
-    # the lightness map's weight against the two chromatic ones (relative_saliency). Every product block has
-    # shading contrast in I and none in RG / I, BY / I, so a heap of product reads as salient in I.
-    # scripts/calibrate_attention.py, tuning palettes: at 5 % false TARGET, weight 1.0 finds 88.4 % of the
-    # impurities, 0.7 93.9 %.
-    lightness_weight: float = 0.7
-    # a lone salient region with no other object cell in view (nothing for the verifier to compare it with)
-    # is a target from this mean relative saliency on. Chosen by scripts/calibrate_attention.py on tuning
-    # palettes: 93.5 % found at 3.2 % false TARGET.
-    min_relative_contrast: float = 4.4
-    # The target mask: object cells connected to m_t whose shading-free chroma (RG, BY divided by
-    # intensity) lies within this distance of m_t's.
-    mask_chroma_tolerance: float = 0.5
-    # the verifier's last look before NONE: with no heap that could hide an impurity left, the likeliest
-    # region is attended as a TARGET from this probability on (the grasp verdict judges what was lifted).
-    verifier_last_look: float = 0.391
-    # the verifier's threshold on a stall look (attend's closer=True, asked for by the picking loop after
-    # pushes that found nothing).
-    stall_look_threshold: float = 0.134
-    verifier: RegionVerifier | None = None  # None: the shipped model (verifier_model.py)
-    # the impurity network (impurity_net.ImpurityNet) a model that reads NETWORK_FEATURES runs on the view;
-    # None: the shipped weights (impurity_net.SHIPPED_NETWORK), read once.
-    impurity_net: object = None
-    # with a known_product (product_memory.known_product) handed to attend, while a heap that could hide a
-    # target is left: a region whose grown mask's median colour lies within known_product_delta_e (CIE76) of
-    # more than known_product_max_share of the remembered product colours is product, whatever its
-    # probability; the next likeliest region is judged instead.
-    known_product_delta_e: float = 4.0
-    known_product_max_share: float = 0.01
+    crop_size: int = param(cell.CROP_SIZE, "Side of the target- and cluster-centric crops (cells)",
+                           low=2, high=2 * cell.HEIGHTMAP_SIZE, step=2)
+    region_fraction: float = param(0.5, "A salient region: connected object cells at >= this x the peak "
+                                   "saliency", low=0.01, high=0.99)
+    min_region_area: int = param(30, "Smallest salient region (cells of 2 mm): smaller ones are specks",
+                                 low=1, high=cell.HEIGHTMAP_SIZE ** 2)
+    # scripts/calibrate_attention.py on tuning palettes: at 5 % false TARGET, 1.0 finds 88.4 %, 0.7 93.9 %
+    lightness_weight: float = param(0.7, "Weight of the lightness conspicuity map against the chromatic ones "
+                                    "(product shading is salient in lightness only)", low=0.01, high=1.0)
+    # scripts/calibrate_attention.py on tuning palettes: 93.5 % found at 3.2 % false TARGET
+    min_relative_contrast: float = param(4.4, "A lone salient region with no other object in view (nothing "
+                                         "for the verifier to compare it with) is a target from this mean "
+                                         "relative saliency on", low=0.0)
+    mask_chroma_tolerance: float = param(0.5, "Target mask: object cells connected to the salient region "
+                                         "whose chroma (RG / I, BY / I) lies within this of the region's",
+                                         low=0.001)
+    known_product_delta_e: float = param(4.0, "With a known product and a heap left: CIE76 distance within "
+                                         "which a product colour counts as a region's colour", low=0.1,
+                                         high=100.0)
+    # delta_e 4, share 1 %: on invisible tuning episodes, 98 % of the TARGET grasps on a target kept and 90 %
+    # of those on product caught
+    known_product_max_share: float = param(0.01, "With a known product and a heap left: a region coloured "
+                                           "like more than this share of it is passed over", low=0.0,
+                                           high=0.999)
+    verifier: RegionVerifier | None = param(None, "The region verifier; None: the shipped model "
+                                            "(verifier.default_verifier)", ros=False)
+    impurity_net: object = param(None, "The impurity network (impurity_net.ImpurityNet) a model reading "
+                                 "NETWORK_FEATURES runs; None: the shipped weights", ros=False)
 
     def __post_init__(self):
         if self.crop_size < 2 or self.crop_size % 2:
-            raise ValueError(f"crop_size must be even and >= 2, got {self.crop_size}")
-        if not 0.0 < self.verifier_last_look < 1.0:
-            raise ValueError(f"verifier_last_look must be a probability in (0, 1), got "
-                             f"{self.verifier_last_look}")
-        if not 0.0 < self.stall_look_threshold < 1.0:
-            raise ValueError(f"stall_look_threshold must be a probability in (0, 1), got "
-                             f"{self.stall_look_threshold}")
-        if not self.known_product_delta_e > 0.0:
-            raise ValueError(f"known_product_delta_e must be > 0 (CIE76 dE), got "
-                             f"{self.known_product_delta_e}")
+            raise InvalidParameter("crop_size", f"must be even and >= 2, got {self.crop_size}")
+        if not 0.0 < self.known_product_delta_e:
+            raise InvalidParameter("known_product_delta_e", f"must be > 0 (CIE76 dE), got "
+                                   f"{self.known_product_delta_e}")
         if not 0.0 <= self.known_product_max_share < 1.0:
-            raise ValueError(f"known_product_max_share must be a share in [0, 1), got "
-                             f"{self.known_product_max_share}")
+            raise InvalidParameter("known_product_max_share", f"must be a share in [0, 1), got "
+                                   f"{self.known_product_max_share}")
         if not 0.0 < self.lightness_weight <= 1.0:
-            raise ValueError(f"lightness_weight must be in (0, 1], got {self.lightness_weight}")
+            raise InvalidParameter("lightness_weight", f"must be in (0, 1], got {self.lightness_weight}")
         if not 0.0 < self.region_fraction < 1.0:
-            raise ValueError(f"region_fraction must be in (0, 1), got {self.region_fraction}")
+            raise InvalidParameter("region_fraction", f"must be in (0, 1), got {self.region_fraction}")
         if not self.mask_chroma_tolerance > 0.0:
-            raise ValueError(f"mask_chroma_tolerance must be > 0, got {self.mask_chroma_tolerance}")
+            raise InvalidParameter("mask_chroma_tolerance", f"must be > 0, got {self.mask_chroma_tolerance}")
 
 
 @dataclass
@@ -291,100 +269,169 @@ def grow_target_mask(color: np.ndarray, objects: np.ndarray, region: SalientRegi
     return grown if grown.any() else region.mask
 
 
-def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
-           grid: HeightmapGrid = HeightmapGrid(),
-           known_product: ProductReference | None = None, closer: bool = False) -> AttentionOutput:
-    """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m. known_product: the
-    colours of an earlier view that showed product only (product_memory); with a heap left, a region coloured
-    like them is not a target (AttentionParams.known_product_max_share). closer: a stall look (the picking
-    loop's, after pushes that found nothing): the verifier's threshold is AttentionParams.stall_look_threshold
-    and the reason says "(stall look)"."""
+# ------------------------------------------------------------------------------------------ the stages
+@dataclass
+class Scene:
+    """A view as the stages read it (find_regions): color (H, W, 3) uint8, height (H, W) float32 m (NaN and
+    negative heights 0), objects (H, W) bool, saliency (H, W) float32 relative saliency, conspicuity
+    VOCUS2's chromaticity-space maps by channel name, regions SalientRegion best first."""
+
+    color: np.ndarray
+    height: np.ndarray
+    objects: np.ndarray
+    saliency: np.ndarray
+    conspicuity: dict
+    regions: list
+
+
+def find_regions(color: np.ndarray, height: np.ndarray, params: AttentionParams) -> Scene:
+    """The regions stage: a checked view (sanitize; ValueError for bad shapes or types), its object cells
+    (higher than params.density.occupied_height), relative saliency and salient regions."""
     color, height = sanitize(color, height)
     objects = height > params.density.occupied_height
     saliency, conspicuity = scene_maps(color, objects, params)
-    regions = salient_regions(saliency, objects, params)
-    best = regions[0] if regions else None
+    return Scene(color, height, objects, saliency, conspicuity, salient_regions(saliency, objects, params))
 
-    @functools.cache
-    def dense_clusters() -> list:
-        """The height map's dense clusters (density.find_clusters), computed once."""
-        return find_clusters(height, grid.resolution, params.density)
 
+@dataclass
+class Verdict:
+    """The verifier's reading of a view's best regions (verify): candidates, up to verifier.TOP_REGIONS
+    SalientRegions best first; probability (len(candidates),) float64 that each is an impurity; order, the
+    candidates' indices from the likeliest (stable on ties)."""
+
+    candidates: tuple
+    probability: np.ndarray
+    order: list
+
+
+def verify(scene: Scene, params: AttentionParams, model: RegionVerifier) -> Verdict:
+    """The verifier stage on a scene with at least one region. A lone region with every object cell in it
+    has nothing to compare with: it is an impurity (probability 1) when its mean relative saliency reaches
+    params.min_relative_contrast, else 0."""
+    network = (params.impurity_net or shipped_network()) if model.reads_network else None
+    rows = candidate_features(scene.color, scene.height, scene.objects, scene.conspicuity, scene.regions,
+                              oriented=model.reads_oriented, network=network)
+    candidates, features = zip(*rows, strict=True)
+    if features[0] is None:
+        probability = np.array([1.0 if scene.regions[0].score >= params.min_relative_contrast else 0.0])
+    else:
+        probability = model.probability(np.array(features))
+    return Verdict(candidates, probability, [int(i) for i in np.argsort(-probability, kind="stable")])
+
+
+def decision_threshold(model: RegionVerifier, closer: bool) -> tuple:
+    """(least probability of a target, what the reason adds): the model's threshold, or on a stall look
+    (closer) the model's stall_look and " (stall look)"."""
+    return (model.stall_look, " (stall look)") if closer else (model.threshold, "")
+
+
+def last_look(probability: float, model: RegionVerifier) -> bool:
+    """Whether the likeliest region, no target, is taken all the same when no heap could hide an impurity:
+    from the model's last_look on (one grasp at the most suspicious object before the scene is called
+    clean; the grasp verdict judges what was lifted)."""
+    return probability >= model.last_look
+
+
+def pass_over_known_product(verdict: Verdict, known_product: ProductReference, colour_of,
+                            params: AttentionParams) -> tuple:
+    """The product-memory stage: (order, probability, note). From the likeliest on, a candidate whose colour
+    (colour_of(index) -> (3,) L*a*b*: its grown mask's median colour, colour.mask_colour) lies within
+    params.known_product_delta_e of more than params.known_product_max_share of the known product's colours
+    is left out of the order, and the first one that is not stops the pass (the others' masks are not
+    read). With every candidate left out, the order is [0] at probability 0. note: the reason's account of
+    the regions passed over ("" for none)."""
+    order, note = list(verdict.order), ""
+    for i in list(order):
+        share = known_product.share_near(colour_of(i), params.known_product_delta_e)
+        if share > params.known_product_max_share:
+            order.remove(i)
+            note += (f"; region {i + 1} ({verdict.probability[i]:.2f}) coloured like {100 * share:.1f} % of "
+                     f"the known product > {100 * params.known_product_max_share:.1f} %")
+        else:
+            break
+    if not order:
+        return [0], np.zeros(len(verdict.candidates)), note
+    return order, verdict.probability, note
+
+
+class Heaps:
+    """The heaps stage: the height map's DBSCAN clusters (density.find_clusters), computed once, when first
+    read; occluded_region is the best cluster that could hide an impurity, or None."""
+
+    def __init__(self, height: np.ndarray, resolution: float, params: DensityParams):
+        self._height, self._resolution, self._params = height, resolution, params
+
+    @functools.cached_property
+    def clusters(self) -> list:
+        return find_clusters(self._height, self._resolution, self._params)
+
+    @property
+    def occluded_region(self) -> Cluster | None:
+        return select_occluded_region(self.clusters)
+
+
+def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
+           grid: HeightmapGrid = HeightmapGrid(),
+           known_product: ProductReference | None = None, closer: bool = False) -> AttentionOutput:
+    """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m (module docstring).
+    known_product: the colours of an earlier view that showed product only (product_memory); closer: a stall
+    look (the picking loop's, after pushes that found nothing), judged at the model's stall_look threshold.
+    ValueError for bad shapes or types."""
+    scene = find_regions(color, height, params)
+    heaps = Heaps(scene.height, grid.resolution, params.density)
     masks: dict = {}
 
     def grown(region: SalientRegion) -> np.ndarray:
         """`region`'s mask grown to the whole object (grow_target_mask), computed once per region."""
         if id(region) not in masks:
-            masks[id(region)] = grow_target_mask(color, objects, region, params.mask_chroma_tolerance,
-                                                 reach=params.crop_size // 2)
+            masks[id(region)] = grow_target_mask(scene.color, scene.objects, region,
+                                                 params.mask_chroma_tolerance, reach=params.crop_size // 2)
         return masks[id(region)]
 
     def target(region: SalientRegion, reason: str, clusters=(), looked: bool = False) -> AttentionOutput:
-        """TARGET on `region`, its mask grown to the whole object; looked: given as a last look."""
         target_cells = grown(region)
         rows, cols = np.nonzero(target_cells)
-        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), color, height,
-                       saliency, params, grid, regions=regions, clusters=clusters, target_region=region,
-                       mask_cells=target_cells, reason=reason, last_look=looked)
+        return _output(AttentionMode.TARGET, region.score, (rows.mean(), cols.mean()), scene, params, grid,
+                       clusters=clusters, target_region=region, mask_cells=target_cells, reason=reason,
+                       last_look=looked)
 
-    last_look_region = None  # (the likeliest region, why), when a last look may take it
+    looked_at = None  # (the likeliest region, why) when a last look may take it
     no_target = "no salient region"
-    if regions:
+    if scene.regions:
         model = params.verifier or default_verifier()
-        least, view = model.threshold, ""
-        if closer:
-            least, view = params.stall_look_threshold, " (stall look)"
-        network = (params.impurity_net or shipped_network()) if model.reads_network else None
-        candidates, features = zip(*candidate_features(color, height, objects, conspicuity, regions,
-                                                       oriented=model.reads_oriented, network=network),
-                                   strict=True)
-        if features[0] is None:  # one region, every object in view: nothing to compare with, so
-            # saliency decides alone
-            probability = np.array([1.0 if best.score >= params.min_relative_contrast else 0.0])
-        else:
-            probability = model.probability(np.array(features))
-        known = ""  # regions passed over as the known product's colour
-        order = [int(i) for i in np.argsort(-probability, kind="stable")]
-        if known_product is not None and select_occluded_region(dense_clusters()) is not None:
-            for i in list(order):
-                share = known_product.share_near(mask_colour(color, grown(candidates[i])),
-                                                 params.known_product_delta_e)
-                if share > params.known_product_max_share:
-                    order.remove(i)
-                    known += (f"; region {i + 1} ({probability[i]:.2f}) coloured like "
-                              f"{100 * share:.1f} % of the known product > "
-                              f"{100 * params.known_product_max_share:.1f} %")
-                else:
-                    break  # the likeliest region left decides: the others' masks need not be grown
-        if not order:
-            order, probability = [0], np.zeros(len(candidates))
+        verdict = verify(scene, params, model)
+        least, view = decision_threshold(model, closer)
+        order, probability, known = verdict.order, verdict.probability, ""
+        if known_product is not None and heaps.occluded_region is not None:
+            def colour_of(i: int) -> np.ndarray:
+                return mask_colour(scene.color, grown(verdict.candidates[i]))
+
+            order, probability, known = pass_over_known_product(verdict, known_product, colour_of, params)
         k = order[0]
+        region, of = verdict.candidates[k], f"{k + 1} of {len(scene.regions)}"
         if probability[k] >= least:
-            return target(candidates[k], f"salient region {k + 1} of {len(regions)} "
-                                         f"({candidates[k].area} px): impurity probability "
-                                         f"{probability[k]:.2f} >= {least:.2f}{view}{known}")
-        no_target = (f"no salient region is an impurity: the likeliest, region {k + 1} of "
-                     f"{len(regions)}, {probability[k]:.2f} < {least:.2f}{view}{known}")
-        if params.verifier_last_look <= probability[k]:
-            last_look_region = (candidates[k], f"last look (no heap could hide an impurity): salient "
-                                               f"region {k + 1} of {len(regions)} ({candidates[k].area} "
-                                               f"px): impurity probability {probability[k]:.2f} >= "
-                                               f"{params.verifier_last_look:.2f}")
-    clusters = dense_clusters()
-    chosen = select_occluded_region(clusters)
-    if chosen is None and last_look_region is not None:
-        return target(*last_look_region, clusters, looked=True)
+            return target(region, f"salient region {of} ({region.area} px): impurity probability "
+                                  f"{probability[k]:.2f} >= {least:.2f}{view}{known}")
+        no_target = (f"no salient region is an impurity: the likeliest, region {of}, {probability[k]:.2f} < "
+                     f"{least:.2f}{view}{known}")
+        if last_look(probability[k], model):
+            looked_at = (region, f"last look (no heap could hide an impurity): salient region {of} "
+                                 f"({region.area} px): impurity probability {probability[k]:.2f} >= "
+                                 f"{model.last_look:.2f}")
+    clusters, chosen = heaps.clusters, heaps.occluded_region
+    if chosen is None and looked_at is not None:
+        return target(*looked_at, clusters, looked=True)
     if chosen is not None:
-        return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, color, height,
-                       saliency, params, grid, regions=regions, clusters=clusters, cluster=chosen,
+        return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, scene, params, grid,
+                       clusters=clusters, cluster=chosen,
                        reason=f"{no_target}; cluster of {chosen.area * 1e4:.1f} cm^2, "
                               f"{chosen.height * 100:.1f} cm high")
     why_not = ("no dense cluster" if not clusters else
                f"largest cluster {clusters[0].area * 1e4:.1f} cm^2, {clusters[0].height * 100:.1f} cm high "
                f"is too small or too low to hide a target")
-    centre = ((height.shape[0] - 1) / 2.0, (height.shape[1] - 1) / 2.0)
-    return _output(AttentionMode.NONE, 0.0, centre, color, height, saliency, params, grid,
-                   regions=regions, clusters=clusters, reason=f"{no_target}; {why_not}")
+    centre = ((scene.height.shape[0] - 1) / 2.0, (scene.height.shape[1] - 1) / 2.0)
+    return _output(AttentionMode.NONE, 0.0, centre, scene, params, grid, clusters=clusters,
+                   reason=f"{no_target}; {why_not}")
 
 
 @functools.cache
@@ -395,8 +442,9 @@ def shipped_network():
     return read_network()
 
 
-def _output(mode, score, centroid, color, height, saliency, params, grid, regions=(), clusters=(),
-            target_region=None, cluster=None, mask_cells=None, reason="", last_look=False) -> AttentionOutput:
+def _output(mode, score, centroid, scene: Scene, params, grid, clusters=(), target_region=None, cluster=None,
+            mask_cells=None, reason="", last_look=False) -> AttentionOutput:
+    color, height, saliency, regions = scene.color, scene.height, scene.saliency, scene.regions
     size = params.crop_size
     center_row, center_col = int(round(centroid[0])), int(round(centroid[1]))
     color_crop, origin = crop_centered(color, center_row, center_col, size)

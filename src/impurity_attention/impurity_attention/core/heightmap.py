@@ -186,10 +186,9 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
 # exposure_problem: an 8-bit channel at CLIPPED_LEVEL or more reads the same whatever the light (the
 # camera's ceiling); objects at DARK_LEVEL or less in every channel are nearly black. A colour heightmap is
 # badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark. Half:
-# colour.SATURATED_SHARE's notion of a clipped product. On the tuning palettes' first views (101 palettes;
-# docs/experiments_s7/exposure_flags.py) it flags most scenes of 10 palettes; they include 2 of the 4 where
-# attention finds fewer than half of the impurities (random-33, -40: 1 of 10 each), and 5 where it finds
-# them all: a warning worth reading, not a verdict.
+# colour.SATURATED_SHARE's notion of a clipped product. On the first views of 101 tuning palettes it flags
+# most scenes of 10 palettes, 2 of the 4 where attention finds fewer than half of the impurities and 5 where
+# it finds them all: a warning worth reading, not a verdict.
 CLIPPED_LEVEL = 250
 DARK_LEVEL = 5
 EXPOSURE_SHARE = 0.5
