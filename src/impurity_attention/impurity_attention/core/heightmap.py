@@ -209,16 +209,6 @@ def clipped_channel(colours: np.ndarray) -> tuple:
     return channel, float(shares[channel])
 
 
-def clipped_view(color: np.ndarray, objects: np.ndarray) -> bool:
-    """Whether a colour heightmap (H, W, 3) uint8 is clipped on its object cells (H, W) bool: at least
-    EXPOSURE_SHARE of them at CLIPPED_LEVEL or more in one channel (exposure_problem's first test).
-    ValueError when color is not (H, W, 3) uint8."""
-    color = np.asarray(color)
-    if color.ndim != 3:
-        raise ValueError(f"colour heightmap must be (H, W, 3) uint8, got {color.shape} {color.dtype}")
-    return clipped_channel(color[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
-
-
 def exposure_problem(color: np.ndarray, height: np.ndarray,
                      min_object_height: float = cell.OCCUPIED_HEIGHT) -> str | None:
     """None when the objects of a colour heightmap (H, W, 3) uint8 RGB, height (H, W) m (cells above

@@ -1,7 +1,7 @@
 """A small fully convolutional network that marks the cells of a colour heightmap that look like an impurity
-among the product around them. The region verifier (verifier.py) reads it as two more features of each salient region
-(NETWORK_FEATURES there): where the hand-made features compare one region's colours with the rest of the
-view, the network sees whole objects, their faces and their neighbours.
+among the product around them. The region verifier (verifier.py) reads it as two more features of each
+salient region (NETWORK_FEATURES there): where the hand-made features compare one region's colours with the
+rest of the view, the network sees whole objects, their faces and their neighbours.
 
 Input (scene_planes): four planes relative to the scene, so that neither the product's colour nor the
 exposure sets them. CIE L*a*b* (OpenCV's, of sRGB in [0, 1]) of each cell minus the median over the view's

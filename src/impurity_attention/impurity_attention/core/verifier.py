@@ -181,7 +181,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     (H, W) float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity:
     VOCUS2's chromaticity-space maps by channel name ("I", "RG", "BY"), each (H, W) float32. None when no
     other object cell is in view: there is no product to compare with (attention then lets saliency
-    decide alone, as the rule does). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
+    decide alone). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
     model that does not read them: they are the costliest). planes: the view's ViewPlanes when
     several regions of one view are read (computed here when None; the features are the same)."""
     region = np.asarray(region, dtype=bool)
