@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.colour import SATURATED_SHARE
 from impurity_common.grid import HeightmapGrid
 
 # Depth encodings the camera driver may publish: integer depth in `depth_scale` m per unit (realsense-ros
@@ -185,13 +186,13 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
 
 # exposure_problem: an 8-bit channel at CLIPPED_LEVEL or more reads the same whatever the light (the
 # camera's ceiling); objects at DARK_LEVEL or less in every channel are nearly black. A colour heightmap is
-# badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark. Half:
+# badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark: half,
 # colour.SATURATED_SHARE's notion of a clipped product. On the first views of 101 tuning palettes it flags
 # most scenes of 10 palettes, 2 of the 4 where attention finds fewer than half of the impurities and 5 where
 # it finds them all: a warning worth reading, not a verdict.
 CLIPPED_LEVEL = 250
 DARK_LEVEL = 5
-EXPOSURE_SHARE = 0.5
+EXPOSURE_SHARE = SATURATED_SHARE
 CHANNEL_NAMES = "RGB"
 
 

@@ -75,6 +75,7 @@ import numpy as np
 from impurity_common.colour import off_colours, region_contrast
 
 from .checkpoints import SOURCE_CHECKPOINTS, shipped_path
+from .heightmap import CLIPPED_LEVEL
 from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromaticity
 
 TOP_REGIONS = 3  # salient regions scored, best first
@@ -89,7 +90,8 @@ ALL_FEATURES = FEATURES + NETWORK_FEATURES  # a row with the network
 # (product_memory) shares its least spread
 MIN_SPREAD = 4.0  # RGB, least spread of the product's colours
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
-SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
+SATURATION = float(CLIPPED_LEVEL)  # colour_contrast: channels clipped (at the camera's ceiling, as the
+# heightmap node's exposure warning reads it) on half of the product left out;
 # lightness_offset, dark_share: cells with a channel at this level are not read
 COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no other object" as well)
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
