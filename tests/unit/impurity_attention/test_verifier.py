@@ -336,3 +336,10 @@ def test_a_model_file_that_is_not_a_model_is_refused_naming_the_file_and_field(t
     with pytest.raises(ValueError, match=named) as refused:
         ver.read_verifier(path)
     assert str(path) in str(refused.value)
+
+
+def test_the_installed_model_is_the_source_trees():
+    from impurity_attention.core.checkpoints import shipped_path
+
+    path = shipped_path(ver.SHIPPED_VERIFIER)
+    assert path.is_file() and path.read_text() == ver.SOURCE_VERIFIER.read_text()
