@@ -1,30 +1,25 @@
 #!/usr/bin/env python3
 """Choose the height below which a dense cluster cannot hide anything (attention's
-DensityParams.min_cluster_height) and attention's colour floor (AttentionParams.min_color_contrast) by how
-episodes counted as a real cell counts end (issue 18).
+DensityParams.min_cluster_height) by how episodes counted as a real cell counts end (issue 18).
 
 A cell without target counts ends an episode when attention answers NONE: no visible impurity and no
 cluster that could hide one (paper Fig. 5). A threshold too low keeps a flattened heap "open" forever
 (one layer of upright bars and pillars, 3.2-3.6 cm, hides nothing), and the episode runs into its action
 limit or into repeated failed grasps; one too high calls a heap that still covers an impurity empty,
-and the episode ends with the impurity left. Likewise without a colour floor the few products left late
-in an episode can outshine each other in saliency, and the cell grasps at a product until its failure
-limit. So both are judged by the episodes' ends:
+and the episode ends with the impurity left. So it is judged by the episodes' ends:
 
   clean end       attention's NONE ended the episode and the simulator's truth has no impurity left
   ended by NONE   the end a real cell needs (any other end is a limit of the loop)
   left behind     ended by NONE with an impurity still in the workspace (the truth's count)
 
 `collect` runs fast-sim episodes (evaluate.PerceptionSimCell: no count, attention's NONE ends them, the
-shipped network with the `cell` rules decides) for every setting on the same scenes; `report` prints the
-figures per setting, palette group and scene, and chooses on the TUNING episodes the setting with the
-most clean ends on the scenes every setting ran (ties: the lowest colour floor, then the lowest
-height). Evaluation seeds and held-out palettes are only ever measured (`--split evaluation`).
+shipped network with the `cell` rules decides) for every height on the same scenes; `report` prints the
+figures per height, palette group and scene, and chooses on the TUNING episodes the height with the most
+clean ends on the scenes every height ran (ties: the lowest). Evaluation seeds and held-out palettes are
+only ever measured (`--split evaluation`).
 
     python scripts/calibrate_episode_end.py collect --split tuning --out runs/episode_end/tuning.jsonl
     python scripts/calibrate_episode_end.py report runs/episode_end/tuning.jsonl
-
-The episodes behind docs/episode_end/*.txt are kept gzipped beside them; `report` reads them as they are.
 """
 
 from __future__ import annotations
@@ -40,7 +35,7 @@ import sys
 import numpy as np
 from tqdm import tqdm
 
-from impurity_attention.core.attention import DECISIONS, AttentionParams
+from impurity_attention.core.attention import AttentionParams
 from impurity_learning import splits
 from impurity_learning.agents import make_agent
 from impurity_learning.evaluate import PerceptionSimCell, _reraise
@@ -49,24 +44,6 @@ from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, EpisodeRequest
 
 HEIGHTS = (0.030, 0.035, 0.040, 0.045)  # m, the thresholds `collect` tries by default
-# attention's min_color_contrast (the best region's colour distance from the other object cells; 0 = no
-# colour test) tried with them: late in an episode the few products left can outshine each other in
-# saliency (a lone slab, a small block at the edge) while having the product's colour.
-COLOUR_FLOORS = (0.0,)
-# attention's distinct_color_contrast (a best region this distinct in colour is a target from
-# min_relative_contrast_distinct on; 0 = that path off), tried with every height and floor: does finding
-# more impurities in first views (palette-sweep) cost clean ends late in episodes?
-DISTINCT = (0.0,)
-# A setting: its fields in order, as rows name them, each with what rows from before it was recorded ran with
-# (None: always recorded). The first three are tried as axes (--heights, --colour-floors, --distinct); the
-# rest of attention's decision rule comes from `collect --rule` and `--last-look`, by default the shipped
-# AttentionParams.
-SETTING_FIELDS = (("height", None), ("colour_floor", 0.0), ("distinct_color_contrast", 0.0),
-                  ("color_shading", 0.0), ("min_relative_contrast", 4.4),
-                  ("min_relative_contrast_distinct", 2.7), ("color_saturation", 0.0),
-                  ("last_look_contrast", 0.0), ("last_look_color_contrast", 0.0), ("decision", "rule"),
-                  ("verifier_last_look", 0.0))
-LEGACY_RULE = tuple(old for _, old in SETTING_FIELDS[3:])  # the rule of the days before --rule
 # (scenario, num_targets, num_objects, max_actions): the real-cell-mode graph test's invisible scenes, the
 # paper-sized invisible ones (two heaps, 20 products), random clutter (tilted blocks make low clusters), and
 # the graph test's small random and challenging scenes. Appended, never reordered: a scene's seeds follow
@@ -78,48 +55,27 @@ SCENES = (("invisible", 1, 10, 45), ("invisible", 2, 20, 45), ("random", 2, 10, 
 SEED_BASE = {"tuning": 60_000, "evaluation": splits.EVAL_SEED_BASE + 600_000}
 
 
-def default_rule() -> tuple:
-    params = AttentionParams()
-    return (params.color_shading, params.min_relative_contrast, params.min_relative_contrast_distinct,
-            params.color_saturation, params.last_look_contrast, params.last_look_color_contrast,
-            params.decision, params.verifier_last_look)
-
-
-def jobs_of(split: str, heights, seeds: int, random_palettes: int, floors=COLOUR_FLOORS,
-            distinct=DISTINCT, rule=None) -> list:
+def jobs_of(split: str, heights, seeds: int, random_palettes: int) -> list:
+    """[(height, scene, palette, seed)]: every height on the same scenes."""
     palettes = (splits.tuning_palettes(random_palettes) if split == "tuning"
                 else [splits.DEFAULT_PALETTE, *splits.held_out_palettes(random_palettes)])
     base = SEED_BASE[split]
     scenes = [(scene, palette, base + 100 * index + k) for index, scene in enumerate(SCENES)
               for k, palette in zip(range(seeds), itertools.cycle(palettes))]
-    rule = tuple(default_rule() if rule is None else rule)
-    return [((height, floor, path, *rule), *job) for height in heights for floor in floors
-            for path in distinct for job in scenes]
+    return [(height, *job) for height in heights for job in scenes]
 
 
-def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int) -> dict:
-    """One episode counted by perception with attention's (min_cluster_height (m), min_color_contrast,
-    distinct_color_contrast, color_shading, min_relative_contrast, min_relative_contrast_distinct,
-    color_saturation, last_look_contrast, last_look_color_contrast, decision, verifier_last_look) =
-    setting."""
-    (height, floor, distinct, shading, relative, relative_distinct, saturation, look, look_colour,
-     decision, verifier_look) = setting
+def episode(world, agent, height: float, scene: tuple, palette: str, seed: int) -> dict:
+    """One episode counted by perception with attention's min_cluster_height `height` (m)."""
     scenario, targets, objects, max_actions = scene
     base = AttentionParams()
-    params = dataclasses.replace(base, density=dataclasses.replace(base.density, min_cluster_height=height),
-                                 min_color_contrast=floor, distinct_color_contrast=distinct,
-                                 color_shading=shading, color_saturation=saturation,
-                                 min_relative_contrast=relative,
-                                 min_relative_contrast_distinct=relative_distinct,
-                                 last_look_contrast=look, last_look_color_contrast=look_colour,
-                                 decision=decision, verifier_last_look=verifier_look)
+    params = dataclasses.replace(base, density=dataclasses.replace(base.density, min_cluster_height=height))
     cell = PerceptionSimCell(world, agent, attention_params=params)
     request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
                              max_actions=max_actions, palette=palette)
     summary = picking.run_episode(cell, request, f"{scenario}-{seed}", picking.EpisodeLimits(),
                                   on_error=_reraise)
-    return {**dict(zip((name for name, _ in SETTING_FIELDS), setting, strict=True)),
-            "scenario": scenario, "num_targets": targets, "num_objects": objects,
+    return {"height": height, "scenario": scenario, "num_targets": targets, "num_objects": objects,
             "palette": palette, "group": splits.palette_group(palette), "seed": seed,
             "termination": summary["termination_reason"], "actions": summary["actions"],
             "picked": summary["targets_picked"], "truth_picked": summary["truth_targets_picked"],
@@ -127,16 +83,8 @@ def episode(world, agent, setting: tuple, scene: tuple, palette: str, seed: int)
             "verdicts_agreeing": summary["verdicts_agreeing"]}
 
 
-def setting_of(row: dict) -> tuple:
-    """(min_cluster_height, min_color_contrast, distinct_color_contrast, color_shading,
-    min_relative_contrast, min_relative_contrast_distinct, color_saturation, last_look_contrast,
-    last_look_color_contrast, decision, verifier_last_look) of an episode; a field
-    missing from an older file reads as what it ran with (SETTING_FIELDS)."""
-    return tuple(row[name] if old is None else row.get(name, old) for name, old in SETTING_FIELDS)
-
-
 def key_of(row: dict) -> tuple:
-    return (setting_of(row), row["scenario"], row["num_targets"], row["num_objects"], row["palette"],
+    return (row["height"], row["scenario"], row["num_targets"], row["num_objects"], row["palette"],
             row["seed"])
 
 
@@ -146,21 +94,17 @@ def collect(args) -> int:
     from ur5_driver_sim.core.world import CellWorld
 
     torch.set_num_threads(args.threads)
-    shipped = default_rule()
-    rule = (*(args.rule or shipped[:4]), *(args.last_look or shipped[4:6]), args.decision or shipped[6],
-            shipped[7] if args.verifier_last_look is None else args.verifier_last_look)
-    jobs = jobs_of(args.split, args.heights, args.seeds, args.random_palettes,
-                   args.colour_floors, args.distinct, rule)[args.shard::args.shards]
+    jobs = jobs_of(args.split, args.heights, args.seeds, args.random_palettes)[args.shard::args.shards]
     out = pathlib.Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {key_of(row) for row in read(out)} if out.exists() else set()
     world = CellWorld(mode="floating")
     agent = make_agent("ours", pathlib.Path(args.checkpoint), "cell")
     with out.open("a") as sink:
-        for setting, scene, palette, seed in tqdm(jobs, desc="episodes"):
-            if (tuple(setting), scene[0], scene[1], scene[2], palette, seed) in done:
+        for height, scene, palette, seed in tqdm(jobs, desc="episodes"):
+            if (height, scene[0], scene[1], scene[2], palette, seed) in done:
                 continue
-            sink.write(json.dumps(episode(world, agent, setting, scene, palette, seed)) + "\n")
+            sink.write(json.dumps(episode(world, agent, height, scene, palette, seed)) + "\n")
             sink.flush()
     return 0
 
@@ -194,34 +138,27 @@ def scene_of(row: dict) -> tuple:
 
 
 def common_scenes(rows: list) -> list:
-    """The rows of the scenes every setting ran: settings are compared on the same scenes only."""
-    settings = {setting_of(r) for r in rows}
-    shared = set.intersection(*({scene_of(r) for r in rows if setting_of(r) == s} for s in settings))
+    """The rows of the scenes every height ran: heights are compared on the same scenes only."""
+    heights = {r["height"] for r in rows}
+    shared = set.intersection(*({scene_of(r) for r in rows if r["height"] == h} for h in heights))
     return [r for r in rows if scene_of(r) in shared]
 
 
-def choose(rows: list) -> tuple:
-    """The tuning rows' (min_cluster_height, min_color_contrast, distinct_color_contrast) with the most
-    clean ends on the scenes every setting ran; ties go to the lowest colour floor, then the lowest height
-    (the least that a real cell is told to ignore), then the distinct-colour path on (it finds more
-    impurities in first views: palette-sweep)."""
+def choose(rows: list) -> float:
+    """The tuning rows' min_cluster_height with the most clean ends on the scenes every height ran; ties go
+    to the lowest (the least that a real cell is told to ignore)."""
     rows = common_scenes(rows)
-    settings = sorted({setting_of(r) for r in rows})
 
-    def clean_ends(setting):
-        return round(figures([r for r in rows if setting_of(r) == setting])["clean_end"], 6)
+    def clean_ends(height):
+        return round(figures([r for r in rows if r["height"] == height])["clean_end"], 6)
 
-    return max(settings, key=lambda s: (clean_ends(s), -s[1], -s[0], s[2]))
+    return max(sorted({r["height"] for r in rows}), key=lambda h: (clean_ends(h), -h))
 
 
-def line(setting: tuple, name: str, rows: list) -> str:
+def line(height: float, name: str, rows: list) -> str:
     f = figures(rows)
-    return (f"{setting[0]:18.3f}  {setting[1]:18.2f}  {setting[2]:8.2f}  {setting[3]:7.2f}  "
-            f"{setting[4]:4.1f}  {setting[5]:4.1f}  {setting[6]:3.0f}  {setting[7]:4.1f}  {setting[8]:4.1f}  "
-            f"{setting[9]:8s}  {setting[10]:4.2f}  "
-            f"{name:22s} {f['episodes']:8d}  "
-            f"{f['clean_end']:9.1%}  {f['ended_by_none']:13.1%}"
-            f"  {f['left_behind']:11d}  {f['completion']:10.1%}  "
+    return (f"{height:18.3f}  {name:22s} {f['episodes']:8d}  {f['clean_end']:9.1%}  "
+            f"{f['ended_by_none']:13.1%}  {f['left_behind']:11d}  {f['completion']:10.1%}  "
             f"{f['actions']:7.1f}  {f['count_match']:11.1%}  {f['verdicts']:8.1%}")
 
 
@@ -233,31 +170,25 @@ def report(args) -> int:
     tuning = [r for r in rows
               if r["group"] in ("default", "tuning") and r["seed"] in splits.TUNING_SEED_RANGE]
     chosen = choose(tuning) if tuning else None
-    print("min_cluster_height  min_color_contrast  distinct  shading    s1    s2  sat  ll_s  ll_c  decision  "
-          "ll_p  scenes                "
-          "episodes  clean_end  "
+    print("min_cluster_height  scenes                 episodes  clean_end  "
           "ended_by_NONE  left_behind  completion  actions  count_match  verdicts")
     for group in sorted({r["group"] for r in rows}):
         print(f"== palettes: {group}")
-        for setting in sorted({setting_of(r) for r in rows}):
-            of = [r for r in rows if r["group"] == group and setting_of(r) == setting]
+        for height in sorted({r["height"] for r in rows}):
+            of = [r for r in rows if r["group"] == group and r["height"] == height]
             for s, t, o, _ in SCENES:
                 subset = [r for r in of if (r["scenario"], r["num_targets"], r["num_objects"]) == (s, t, o)]
                 if subset:
-                    print(line(setting, f"{s} {t}/{o}", subset))
+                    print(line(height, f"{s} {t}/{o}", subset))
             if of:
-                print(line(setting, "all", of))
+                print(line(height, "all", of))
     if chosen is not None:
         shared = common_scenes(tuning)
-        print("== the choice: default and tuning palettes, tuning seeds, the scenes every setting ran")
-        for setting in sorted({setting_of(r) for r in shared}):
-            print(line(setting, "all", [r for r in shared if setting_of(r) == setting]))
-        print("chosen on the tuning episodes (most clean ends; ties to the lowest colour floor, then height, "
-              f"then the distinct-colour path on): min_cluster_height {chosen[0]:.3f} m, min_color_contrast "
-              f"{chosen[1]:.2f}, distinct_color_contrast {chosen[2]:.2f}, color_shading {chosen[3]:.2f}, "
-              f"min_relative_contrast {chosen[4]:.1f}, min_relative_contrast_distinct {chosen[5]:.1f}, "
-              f"color_saturation {chosen[6]:.0f}, last look {chosen[7]:.1f} / {chosen[8]:.1f}, decision "
-              f"{chosen[9]}, verifier last look {chosen[10]:.2f}")
+        print("== the choice: default and tuning palettes, tuning seeds, the scenes every height ran")
+        for height in sorted({r["height"] for r in shared}):
+            print(line(height, "all", [r for r in shared if r["height"] == height]))
+        print(f"chosen on the tuning episodes (most clean ends; ties to the lowest): min_cluster_height "
+              f"{chosen:.3f} m")
     return 0
 
 
@@ -269,23 +200,6 @@ def parse_args(argv=None):
                    help="tuning: tuning palettes and seeds; evaluation: default and held-out palettes, "
                         "evaluation seeds (only measured)")
     c.add_argument("--heights", type=float, nargs="+", default=list(HEIGHTS), help="min_cluster_height (m)")
-    c.add_argument("--colour-floors", type=float, nargs="+", default=list(COLOUR_FLOORS),
-                   help="attention's min_color_contrast values, each with every height")
-    c.add_argument("--distinct", type=float, nargs="+", default=list(DISTINCT),
-                   help="attention's distinct_color_contrast values (0 = off), each with every height and "
-                        "floor")
-    c.add_argument("--rule", type=float, nargs=4, default=None,
-                   metavar=("COLOR_SHADING", "MIN_RELATIVE_CONTRAST", "MIN_RELATIVE_CONTRAST_DISTINCT",
-                            "COLOR_SATURATION"),
-                   help="the rest of attention's decision rule (default: the shipped AttentionParams)")
-    c.add_argument("--last-look", type=float, nargs=2, default=None,
-                   metavar=("LAST_LOOK_CONTRAST", "LAST_LOOK_COLOR_CONTRAST"),
-                   help="attention's last look (0 0 = off; default: the shipped AttentionParams)")
-    c.add_argument("--decision", choices=DECISIONS, default=None,
-                   help="attention's decision (rule: the thresholds; verifier: the region verifier); by "
-                        "default the shipped AttentionParams'")
-    c.add_argument("--verifier-last-look", type=float, default=None,
-                   help="attention's verifier_last_look (0 = off; default: the shipped AttentionParams')")
     c.add_argument("--seeds", type=int, default=8, help="episodes per scene size")
     c.add_argument("--random-palettes", type=int, default=4, help="random palettes of the split")
     c.add_argument("--checkpoint", default=str(SHIPPED_CHECKPOINT))
@@ -293,7 +207,7 @@ def parse_args(argv=None):
     c.add_argument("--shard", type=int, default=0, help="run every --shards-th job from this one")
     c.add_argument("--shards", type=int, default=1, help="processes sharing the jobs (each its own --out)")
     c.add_argument("--out", required=True, help="JSON lines, one episode each (appended: resumable)")
-    r = sub.add_parser("report", help="figures per threshold, scene and palette group")
+    r = sub.add_parser("report", help="figures per height, scene and palette group")
     r.add_argument("files", nargs="+")
     return p.parse_args(argv)
 
