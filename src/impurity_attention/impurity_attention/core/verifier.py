@@ -110,7 +110,8 @@ class RegionVerifier:
     """A logistic model over FEATURES: p = 1 / (1 + exp(-(coef . (clip(x, low, high) - mean) / scale +
     intercept))). mean, scale, coef, low, high: one value per feature (low / high: the range the fitting
     rows spanned; a feature outside it counts as its nearest end, so a view unlike any the model was fitted
-    on cannot drive the linear score anywhere); threshold: the least probability that makes a target."""
+    on cannot drive the linear score anywhere); threshold: the least probability that makes a target;
+    last_look and stall_look: attention's look thresholds, matched to this model's probabilities."""
 
     mean: tuple
     scale: tuple
