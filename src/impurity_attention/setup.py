@@ -11,7 +11,8 @@ setup(
     data_files=[
         ("share/ament_index/resource_index/packages", ["resource/" + package_name]),
         ("share/" + package_name, ["package.xml"]),
-        ("share/" + package_name + "/checkpoints", glob.glob("checkpoints/*.pt")),
+        ("share/" + package_name + "/checkpoints",
+         sorted(glob.glob("checkpoints/*.pt") + glob.glob("checkpoints/*.json"))),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

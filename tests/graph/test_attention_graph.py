@@ -11,6 +11,7 @@ from std_srvs.srv import SetBool
 
 from impurity_attention.core.attention import AttentionParams
 from impurity_attention.core.synthetic import Box, random_boxes, render_boxes
+from impurity_attention.core.verifier import default_verifier
 from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_common.enums import AttentionMode
@@ -220,11 +221,12 @@ def known_product_publisher(ros_node):
 
 def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clears_it(ros_node, launch):
     maps, known = red_box_beside_a_heap(), known_product_publisher(ros_node)
-    # the known product (here a view that held the red colour too) is sent before the node starts, as
-    # after a restart mid-episode: the latched message still reaches it. Its near miss (the red box) is kept,
-    # as if the decision had missed it and nothing had left it out (the default leaves it out: next test)
-    known.publish(heightmap_message(500_000_000, maps.color, maps.height))
-    attention = launch("impurity_attention", "attention_node", ros_args({"known_product_near_miss": False}))
+    # the known product (here a view of the same objects, every one red: a red product) is sent before the
+    # node starts, as after a restart mid-episode: the latched message still reaches it
+    red_product = maps.color.copy()
+    red_product[maps.height > AttentionParams().density.occupied_height] = (220, 60, 40)
+    known.publish(heightmap_message(500_000_000, red_product, maps.height))
+    attention = launch("impurity_attention", "attention_node")
     publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
     results = TopicRecorder(ros_node, AttentionResult, names.ATTENTION_TOPIC, RELIABLE)
     try:
@@ -249,7 +251,7 @@ def test_a_latched_known_product_is_attended_with_until_an_empty_heightmap_clear
         ros_node.destroy_publisher(known)
 
 
-def test_by_default_the_known_products_near_miss_is_left_out_and_stays_a_target(ros_node, launch):
+def test_the_known_products_near_miss_is_left_out_and_stays_a_target(ros_node, launch):
     maps, known = red_box_beside_a_heap(), known_product_publisher(ros_node)
     known.publish(heightmap_message(500_000_000, maps.color, maps.height))  # a view that held the red box
     attention = launch("impurity_attention", "attention_node")
@@ -286,9 +288,8 @@ def simulated_view(scenario: str, seed: int, palette: str):
 
 def test_a_stall_look_asked_for_on_look_closer_attends_the_next_frames_at_its_threshold(ros_node, launch):
     # an invisible scene on the default palette whose likeliest region reads 0.27 against the shipped
-    # verifier's 0.74 (0.68 against 0.81 with the fifteen-feature verifier before the thirty-seventh
-    # session): a heap is pushed at; on a stall look (the episode node's, after pushes that found nothing)
-    # the threshold is stall_look_threshold (0.134 by default), and the region is a target
+    # verifier's 0.74: a heap is pushed at; on a stall look (the episode node's, after pushes that found
+    # nothing) the threshold is the shipped model's stall_look (0.134), and the region is a target
     maps = simulated_view("invisible", 5, "blocks")
     attention = launch("impurity_attention", "attention_node")
     publisher = ros_node.create_publisher(Heightmap, names.HEIGHTMAP_TOPIC, RELIABLE)
@@ -301,7 +302,7 @@ def test_a_stall_look_asked_for_on_look_closer_attends_the_next_frames_at_its_th
         assert first.mode == AttentionMode.OCCLUDED_REGION
         on = call_service(ros_node, SetBool, names.LOOK_CLOSER_SERVICE, SetBool.Request(data=True),
                           processes=processes, resend_after=5.0)
-        assert on.success and f"{AttentionParams().stall_look_threshold:.2f}" in on.message
+        assert on.success and f"{default_verifier().stall_look:.2f}" in on.message
         publisher.publish(heightmap_message(2_000_000_000, maps.color, maps.height))
         closer = results.wait_for(1, 30.0, with_stamp(2_000_000_000), processes)[0]
         assert closer.mode == AttentionMode.TARGET
@@ -314,10 +315,3 @@ def test_a_stall_look_asked_for_on_look_closer_attends_the_next_frames_at_its_th
     finally:
         results.destroy()
         ros_node.destroy_publisher(publisher)
-
-
-def test_a_stall_look_is_declined_with_its_reason_when_switched_off(ros_node, launch):
-    attention = launch("impurity_attention", "attention_node", ros_args({"stall_look_threshold": 0.0}))
-    answer = call_service(ros_node, SetBool, names.LOOK_CLOSER_SERVICE, SetBool.Request(data=True),
-                          processes=(attention,), resend_after=5.0)
-    assert not answer.success and "stall_look_threshold > 0" in answer.message

@@ -4,7 +4,7 @@ look, and switches it off again (impurity_policy.core.picking's module docstring
 
 from test_episode_graph import launch_cell, steps_of
 
-from impurity_attention.core.attention import AttentionParams
+from impurity_attention.core.verifier import default_verifier
 from impurity_interfaces.action import RunEpisode
 from ros_harness import ActionHelper, spin_until
 
@@ -29,6 +29,6 @@ def test_the_episode_node_decides_on_a_stall_look_and_switches_it_off(ros_node, 
     attention = processes["attention_node"]
     spin_until(ros_node, lambda: "stall look off" in attention.output(), 30.0, "the stall look switched off",
                procs)
-    threshold = AttentionParams().stall_look_threshold
+    threshold = default_verifier().stall_look
     assert f"stall look on: verifier threshold {threshold:.2f}" in attention.output()
     episode.destroy()

@@ -6,201 +6,42 @@ heightmap's stamp; a malformed heightmap is dropped with one rate-limited log li
 target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
 cells, sent at each episode's reset) clears it. /attention/look_closer (std_srvs/SetBool; the episode
 node's stall look, core/picking.py) set true makes the heightmaps that follow attended with closer=True (the
-verifier's threshold lowered to stall_look_threshold) until it is set false; with stall_look_threshold 0 or
-another decision than the verifier it answers success false and nothing changes.
+verifier's threshold lowered to its model's stall_look) until it is set false.
+
+The node's parameters are AttentionParams' fields (declared from the core dataclass, nested saliency.* and
+density.*) and two of its own (AttentionNodeParameters).
 """
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 from std_srvs.srv import SetBool
 
-from impurity_attention.core.attention import (
-    BACKGROUNDS,
-    CONTRASTS,
-    DECISIONS,
-    AttentionParams,
-    attend,
-    debug_image,
-    shipped_network,
-)
-from impurity_attention.core.density import CLUSTER_SCORES, DensityParams
+from impurity_attention.core.attention import AttentionParams, attend, debug_image, shipped_network
 from impurity_attention.core.product_memory import known_product
-from impurity_attention.core.saliency import SaliencyParams
 from impurity_attention.core.verifier import default_verifier
-from impurity_common import cell, names
+from impurity_common import names
 from impurity_common.conversions import ImageFormatError, grid_from_heightmap, image_to_numpy, numpy_to_image
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import InvalidParameter, declare_parameters, param
+from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Heightmap
 
-DEFAULTS = AttentionParams()
-
 
 @dataclass(frozen=True)
-class SaliencyParameters:
-    """VOCUS2 saliency (parameters saliency.*)."""
+class AttentionNodeParameters(AttentionParams):
+    """Every parameter of the node (bringup/config/cell.yaml, section attention): attention's own
+    (AttentionParams) and the node's."""
 
-    center_sigma: float = param(DEFAULTS.saliency.center_sigma, "VOCUS2 centre blur of the finest layer (px)",
-                                low=0.1, high=50.0)
-    surround_sigma: float = param(DEFAULTS.saliency.surround_sigma, "VOCUS2 surround blur (px, > centre)",
-                                  low=0.1, high=100.0)
-    n_scales: int = param(DEFAULTS.saliency.n_scales, "VOCUS2 scales per octave", low=1, high=8)
-    start_layer: int = param(DEFAULTS.saliency.start_layer, "VOCUS2 first pyramid octave", low=0, high=6)
-    stop_layer: int = param(DEFAULTS.saliency.stop_layer, "VOCUS2 last pyramid octave", low=0, high=6)
-
-    def __post_init__(self):
-        if self.surround_sigma <= self.center_sigma:
-            raise InvalidParameter("surround_sigma", f"is not above center_sigma ({self.center_sigma})")
-        if self.stop_layer < self.start_layer:
-            raise InvalidParameter("stop_layer", f"is below start_layer ({self.start_layer})")
-
-
-@dataclass(frozen=True)
-class DensityParameters:
-    """DBSCAN clusters of the occluded-region search (parameters density.*)."""
-
-    occupied_height: float = param(DEFAULTS.density.occupied_height,
-                                   "Cells higher than this are objects, for DBSCAN and saliency (m)",
-                                   low=0.0, high=0.5)
-    stride: int = param(DEFAULTS.density.stride, "Sub-grid step of the DBSCAN points (cells)", low=1, high=32)
-    eps: float = param(DEFAULTS.density.eps, "DBSCAN neighbourhood radius (m)", low=0.001, high=0.5)
-    min_samples: int = param(DEFAULTS.density.min_samples, "DBSCAN points within eps that make a core point",
-                             low=1, high=10000)
-    height_weight: float = param(DEFAULTS.density.height_weight,
-                                 "Height as a DBSCAN coordinate: m per m (0 = off)", low=0.0, high=100.0)
-    min_cluster_height: float = param(DEFAULTS.density.min_cluster_height,
-                                      "Lower clusters cannot hide a target (m): the tallest single "
-                                      "product piece plus a margin", low=0.0, high=1.0)
-    min_cluster_area: float = param(DEFAULTS.density.min_cluster_area,
-                                    "Smaller clusters cannot hide a target (m^2)", low=0.0, high=1.0)
-    height_percentile: float = param(DEFAULTS.density.height_percentile,
-                                     "Cluster height = this percentile (%)", low=0.0, high=100.0)
-    score: str = param(DEFAULTS.density.score, "What makes a cluster the largest: area or volume",
-                       choices=CLUSTER_SCORES)
-
-
-@dataclass(frozen=True)
-class AttentionNodeParameters:
-    """Every parameter of the node (bringup/config/cell.yaml, section attention)."""
-
-    saliency: SaliencyParameters = SaliencyParameters()
-    density: DensityParameters = DensityParameters()
-    background: str = param(DEFAULTS.background, "objects: paint table cells with the objects' median colour "
-                            "before saliency; table: the plain heightmap (paper)", choices=BACKGROUNDS)
-    region_fraction: float = param(DEFAULTS.region_fraction,
-                                   "Salient region: object cells >= this x peak saliency",
-                                   low=0.01, high=0.99)
-    min_region_area: int = param(DEFAULTS.min_region_area, "Smallest salient region (cells)",
-                                 low=1, high=cell.HEIGHTMAP_SIZE ** 2)
-    contrast: str = param(DEFAULTS.contrast, "relative: judge the best region against the scene's own "
-                          "product contrast (any palette, any exposure); absolute: opponent-colour units "
-                          "(calibrated for red among blue only)", choices=CONTRASTS)
-    lightness_weight: float = param(DEFAULTS.lightness_weight, "relative: weight of the lightness map "
-                                    "against the chromatic ones (shading makes product heaps salient in "
-                                    "lightness)", low=0.01, high=1.0)
-    min_relative_contrast: float = param(DEFAULTS.min_relative_contrast, "relative: mean relative saliency "
-                                         "of the best region below this: no visible target", low=0.0)
-    min_color_contrast: float = param(DEFAULTS.min_color_contrast, "relative: the best region's mean colour "
-                                      "must lie at least this far (Mahalanobis) from the other objects' "
-                                      "colours to be a target; 0: no colour test", low=0.0)
-    color_min_spread: float = param(DEFAULTS.color_min_spread, "relative: least colour spread (RGB) granted "
-                                    "to the other objects in the colour test", low=0.1, high=255.0)
-    color_shading: float = param(DEFAULTS.color_shading, "relative: colour test's spread granted along the "
-                                 "other objects' mean colour (shaded faces), as a share of its length; "
-                                 "0: none",
-                                 low=0.0, high=2.0)
-    color_saturation: float = param(DEFAULTS.color_saturation, "relative: colour test leaves out channels in "
-                                    "which half the other objects reach this level (8-bit RGB: clipped by "
-                                    "the camera); 0: compare every channel", low=0.0, high=255.0)
-    distinct_color_contrast: float = param(DEFAULTS.distinct_color_contrast, "relative: a best region at "
-                                           "least this far in colour from the other objects is a target "
-                                           "from min_relative_contrast_distinct on; 0: that path off",
-                                           low=0.0)
-    min_relative_contrast_distinct: float = param(DEFAULTS.min_relative_contrast_distinct, "relative: mean "
-                                                  "relative saliency a region distinct in colour needs",
-                                                  low=0.0)
-    last_look_contrast: float = param(DEFAULTS.last_look_contrast, "relative: with no target and no heap "
-                                      "left, a best region of at least this relative saliency (and "
-                                      "last_look_color_contrast) is grasped before the scene is called "
-                                      "clean; 0: no last look", low=0.0)
-    last_look_color_contrast: float = param(DEFAULTS.last_look_color_contrast, "relative: the colour "
-                                            "contrast the last look needs", low=0.0)
-    decision: str = param(DEFAULTS.decision, "relative: rule: the thresholds above on the best region; "
-                          "verifier: the learned region verifier (core/verifier.py) on the best three",
-                          choices=DECISIONS)
-    verifier_threshold: float = param(DEFAULTS.verifier_threshold, "verifier: least impurity probability of "
-                                      "a target; 0: the shipped model's own (core/verifier_model.py)",
-                                      low=0.0, high=0.999)
-    verifier_last_look: float = param(DEFAULTS.verifier_last_look, "verifier: with no target and no heap "
-                                      "left, the likeliest region is grasped from this impurity probability "
-                                      "on before the scene is called clean; 0: no last look",
-                                      low=0.0, high=0.999)
-    verifier_clipped_threshold: float = param(DEFAULTS.verifier_clipped_threshold, "verifier: least "
-                                              "impurity probability of a target on a view whose objects are "
-                                              "clipped (half their cells at 250+ in one channel); 0, or a "
-                                              "value at or below the threshold used elsewhere: no change. "
-                                              "The last look is not affected", low=0.0, high=0.999)
-    verifier_heap_threshold: float = param(DEFAULTS.verifier_heap_threshold, "verifier: least impurity "
-                                           "probability of a target while a heap that could hide one is "
-                                           "left; 0, or a value at or below the threshold used elsewhere: no "
-                                           "change. With no heap left nothing changes", low=0.0, high=0.999)
-    stall_look_threshold: float = param(DEFAULTS.stall_look_threshold, "verifier: least impurity probability "
-                                        "of a target on a stall look (/attention/look_closer, asked for by "
-                                        "the episode node after pushes that found nothing); 0: off",
-                                        low=0.0, high=0.999)
-    known_product_delta_e: float = param(DEFAULTS.known_product_delta_e, "verifier, with a known product "
-                                         "(/attention/known_product) and a heap left: CIE76 distance within "
-                                         "which a product colour counts as the region's colour",
-                                         low=0.1, high=100.0)
-    known_product_max_share: float = param(DEFAULTS.known_product_max_share, "verifier, with a known product "
-                                           "and a heap left: a region whose colour is that of more than this "
-                                           "share of the known product is passed over", low=0.0, high=0.999)
-    known_product_near_miss: bool = param(DEFAULTS.known_product_near_miss, "verifier: the known product "
-                                          "leaves out the region attention would take in that view at the "
-                                          "last look's threshold (a near miss that may be a missed impurity)")
-    min_target_contrast: float = param(DEFAULTS.min_target_contrast,
-                                       "absolute: mean saliency of the best region below this: no visible "
-                                       "target", low=0.0)
-    mask_chroma_tolerance: float = param(DEFAULTS.mask_chroma_tolerance, "Target mask: object cells within "
-                                         "this chroma distance of m_t (0 = m_t only)", low=0.0)
-    crop_size: int = param(DEFAULTS.crop_size, "Side of the target/cluster-centric crops (cells)",
-                           low=2, high=2 * cell.HEIGHTMAP_SIZE, step=2)
-    publish_debug_image: bool = param(True, "Publish the saliency overlay")
+    publish_debug_image: bool = param(True, "Publish the saliency overlay on /attention/debug_image")
     log_throttle: float = param(5.0, "s between repeated warnings", low=0.0, high=3600.0)
-
-    def attention(self) -> AttentionParams:
-        """The core's parameters."""
-        return AttentionParams(
-            saliency=SaliencyParams(**asdict(self.saliency)), density=DensityParams(**asdict(self.density)),
-            background=self.background, region_fraction=self.region_fraction,
-            min_region_area=self.min_region_area, contrast=self.contrast,
-            min_relative_contrast=self.min_relative_contrast, min_target_contrast=self.min_target_contrast,
-            lightness_weight=self.lightness_weight, min_color_contrast=self.min_color_contrast,
-            color_min_spread=self.color_min_spread, color_shading=self.color_shading,
-            color_saturation=self.color_saturation,
-            distinct_color_contrast=self.distinct_color_contrast,
-            min_relative_contrast_distinct=self.min_relative_contrast_distinct,
-            last_look_contrast=self.last_look_contrast,
-            last_look_color_contrast=self.last_look_color_contrast,
-            decision=self.decision, verifier_threshold=self.verifier_threshold,
-            verifier_last_look=self.verifier_last_look,
-            verifier_clipped_threshold=self.verifier_clipped_threshold,
-            verifier_heap_threshold=self.verifier_heap_threshold,
-            stall_look_threshold=self.stall_look_threshold,
-            known_product_delta_e=self.known_product_delta_e,
-            known_product_max_share=self.known_product_max_share,
-            known_product_near_miss=self.known_product_near_miss,
-            mask_chroma_tolerance=self.mask_chroma_tolerance, crop_size=self.crop_size)
 
 
 class AttentionNode(Node):
     def __init__(self):
         super().__init__("attention")
         self.params = declare_parameters(self, AttentionNodeParameters)
-        self._params = self.params.attention()
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         # the known product's subscription first: with a clear and a heightmap both waiting, the executor
@@ -216,18 +57,15 @@ class AttentionNode(Node):
         self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
-        p = self._params
-        model = p.verifier or default_verifier()
-        threshold = p.verifier_threshold or model.threshold
-        decided = (f"verifier, threshold {threshold:.2f}, last look {p.verifier_last_look:.2f}"
-                   if p.decision == "verifier" else f"{p.decision} thresholds")
-        if p.uses_verifier and model.reads_network:
+        model = self.params.verifier or default_verifier()
+        decided = (f"verifier threshold {model.threshold:.2f}, last look {model.last_look:.2f}, stall look "
+                   f"{model.stall_look:.2f}")
+        if model.reads_network:
             # read now, not at the first heightmap: a missing or wrong weights file stops the node, saying why
             network = shipped_network()
             decided += f", impurity network ({network.provenance or 'no provenance'})"
-        self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; contrast "
-                               f"{p.contrast}, decision {decided} (every setting: ros2 param dump "
-                               f"/{self.get_name()})")
+        self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; {decided} (every "
+                               f"setting: ros2 param dump /{self.get_name()})")
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"heightmap dropped: {reason}",
@@ -241,37 +79,27 @@ class AttentionNode(Node):
             return
         try:
             product = known_product(image_to_numpy(msg.color, ("rgb8",)),
-                                    image_to_numpy(msg.height, ("32FC1",)), self._params,
+                                    image_to_numpy(msg.height, ("32FC1",)), self.params,
                                     grid_from_heightmap(msg))
         except (ImageFormatError, ValueError) as error:
             self._known_product = None
             self.get_logger().warning(f"known product dropped, none is used: {error}")
             return
         self._known_product = product
-        p = self._params
-        near_miss = " (the view's near miss left out)" if p.known_product_near_miss else ""
-        unread = ("" if p.uses_verifier else
-                  f" (not with decision {p.decision}, contrast {p.contrast}: only the verifier reads it)")
         self.get_logger().info(
-            f"known product: {0 if product is None else len(product.colors)} object colours{near_miss} from "
-            f"the view stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; regions coloured like "
-            f"more than {100 * p.known_product_max_share:.1f} % of them are passed over while a heap is "
-            f"left{unread}")
+            f"known product: {0 if product is None else len(product.colors)} object colours (the view's near "
+            f"miss left out) from the view stamped {msg.header.stamp.sec}.{msg.header.stamp.nanosec:09d}; "
+            f"regions coloured like more than {100 * self.params.known_product_max_share:.1f} % of them are "
+            "passed over while a heap is left")
 
     def _on_look_closer(self, request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
-        p = self._params
-        if request.data and not p.stall_look_applies:
-            response.success = False
-            response.message = (f"no stall look: it needs decision verifier, contrast relative and "
-                                f"stall_look_threshold > 0 (decision {p.decision}, contrast {p.contrast}, "
-                                f"stall_look_threshold {p.stall_look_threshold})")
-            return response
+        stall_look = (self.params.verifier or default_verifier()).stall_look
         if request.data != self._closer:
-            threshold = f": verifier threshold {p.stall_look_threshold:.2f}" if request.data else ""
+            threshold = f": verifier threshold {stall_look:.2f}" if request.data else ""
             self.get_logger().info(f"stall look {'on' if request.data else 'off'}{threshold}")
         self._closer = bool(request.data)
         response.success = True
-        response.message = (f"stall look on: verifier threshold {p.stall_look_threshold:.2f}" if self._closer
+        response.message = (f"stall look on: verifier threshold {stall_look:.2f}" if self._closer
                             else "stall look off")
         return response
 
@@ -280,7 +108,7 @@ class AttentionNode(Node):
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
             grid = grid_from_heightmap(msg)
-            output = attend(color, height, self._params, grid, known_product=self._known_product,
+            output = attend(color, height, self.params, grid, known_product=self._known_product,
                             closer=self._closer)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))

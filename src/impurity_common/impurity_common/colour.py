@@ -8,7 +8,7 @@ own least spread (`min_spread`, chosen with its thresholds on tuning scenes). At
 reference as the known product (a view that showed product only) and asks what share of its colours lies
 near a region's colour in CIE L*a*b* (`share_near`, core/product_memory.py of impurity_attention).
 
-    reference = ProductReference.from_view(color, height, target_mask, min_spread=4.0)
+    reference = ProductReference.from_view(color, height, target_mask, 4.0, min_object_height=0.008)
     reference.contrast(rgb)  # dimensionless: about 1 for the product's own colours
     reference.share_near(mask_colour(color, mask), 4.0)  # 0-1: the share within CIE76 dE 4
 """
@@ -96,11 +96,11 @@ class ProductReference:
 
     @classmethod
     def from_view(cls, color: np.ndarray, height: np.ndarray, target_mask: np.ndarray | None,
-                  min_spread: float, min_object_height: float = 0.01,
+                  min_spread: float, min_object_height: float,
                   shading: float = 0.0) -> ProductReference | None:
         """From a colour (H, W, 3) uint8 and height (H, W) m view: object cells (height >
-        min_object_height m) outside target_mask ((H, W) bool, or None), shading as in from_colors. None
-        without such cells."""
+        min_object_height m: the caller's notion of an object) outside target_mask ((H, W) bool, or None),
+        shading as in from_colors. None without such cells."""
         objects = np.asarray(height) > min_object_height
         if np.shape(color) != (*objects.shape, 3):
             raise ValueError(f"color {np.shape(color)} and height {objects.shape} must share one (H, W)")

@@ -27,9 +27,12 @@ choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arra
 `low`/`high` apply per element), and a nested parameters dataclass (names prefixed "<field>.", as
 `saliency: {center_sigma: 2.0}` in a yaml). Ranges are inclusive, as ROS's. Rules between fields go
 in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`.
+A field that is no ROS parameter (a model object set in code) is declared `param(None, "...", ros=False)`:
+it is left out of the parameters and keeps its default.
 
-The pure part (parameter_specs, check_value, build, ParameterError's line, descriptor, unknown_parameters,
-parameters_help) needs no rclpy; only declare_parameters talks to a node.
+Importing this module imports no ROS package, so a pure core can declare its parameters with `param`: the
+pure part (parameter_specs, check_value, build, ParameterError's line, unknown_parameters, parameters_help)
+needs none; descriptor imports rcl_interfaces and declare_parameters rclpy when called.
 """
 
 from __future__ import annotations
@@ -44,26 +47,19 @@ import typing
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
-from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor, ParameterType
-
 from impurity_common import cell
 
 PARAMETER_ERROR_EXIT_CODE = 2  # what a node exits with when a parameter is bad (argparse's usage code)
 _METADATA_KEY = "impurity_parameter"
 _INT64 = (-(2 ** 63), 2 ** 63 - 1)
 
-# ROS parameter type name -> (ParameterType constant, Python element type, words for messages)
+# ROS parameter type name -> (rcl_interfaces ParameterType constant's name, Python element type, words for
+# messages); the constant is looked up when a descriptor is built, so this module imports no ROS package
 _SCALARS = {
-    "double": (ParameterType.PARAMETER_DOUBLE, float, "a double"),
-    "integer": (ParameterType.PARAMETER_INTEGER, int, "an integer"),
-    "bool": (ParameterType.PARAMETER_BOOL, bool, "a bool"),
-    "string": (ParameterType.PARAMETER_STRING, str, "a string"),
-}
-_ARRAYS = {
-    "double": ParameterType.PARAMETER_DOUBLE_ARRAY,
-    "integer": ParameterType.PARAMETER_INTEGER_ARRAY,
-    "bool": ParameterType.PARAMETER_BOOL_ARRAY,
-    "string": ParameterType.PARAMETER_STRING_ARRAY,
+    "double": ("PARAMETER_DOUBLE", float, "a double"),
+    "integer": ("PARAMETER_INTEGER", int, "an integer"),
+    "bool": ("PARAMETER_BOOL", bool, "a bool"),
+    "string": ("PARAMETER_STRING", str, "a string"),
 }
 _PLURALS = {"double": "doubles", "integer": "integers", "bool": "bools", "string": "strings"}
 _TYPE_WORDS = {float: "double", int: "integer", bool: "bool", str: "string"}
@@ -94,15 +90,22 @@ class Limits:
 
 def param(default, description: str, *, low: float | None = None, high: float | None = None,
           step: float | None = None, choices: Sequence | None = None, length: int | None = None,
-          check: Callable[[typing.Any], str | None] | None = None):
+          check: Callable[[typing.Any], str | None] | None = None, ros: bool = True):
     """A parameter field: `resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005)`.
     `check(value)` returns None when the value is fine, else a short phrase of what is wrong with it
-    ("must be increasing"); it runs after the type, range, choices and length checks passed."""
+    ("must be increasing"); it runs after the type, range, choices and length checks passed.
+    ros=False: a field of the dataclass that is no ROS parameter (an object such as a model, set in code):
+    parameter_specs leaves it out and build gives it its default."""
+    if not ros:
+        return dataclasses.field(default=default, metadata={_METADATA_KEY: NOT_ROS})
     if isinstance(default, list):
         default = tuple(default)
     limits = Limits(description, low, high, step, tuple(choices) if choices is not None else None, length,
                     check)
     return dataclasses.field(default=default, metadata={_METADATA_KEY: limits})
+
+
+NOT_ROS = "not a ROS parameter"  # the metadata of a param(..., ros=False) field
 
 
 class InvalidParameter(ValueError):
@@ -176,7 +179,10 @@ class ParameterSpec:
 
     @property
     def ros_type(self) -> int:
-        return _ARRAYS[self.kind] if self.array else _SCALARS[self.kind][0]
+        from rcl_interfaces.msg import ParameterType
+
+        name = _SCALARS[self.kind][0]
+        return getattr(ParameterType, f"{name}_ARRAY" if self.array else name)
 
     @property
     def choices(self) -> tuple | None:
@@ -198,6 +204,8 @@ def parameter_specs(cls, prefix: str = "", path: tuple = ()) -> list[ParameterSp
             specs += parameter_specs(annotation, f"{prefix}{field.name}.", path + (field.name,))
             continue
         limits = field.metadata.get(_METADATA_KEY)
+        if limits is NOT_ROS:
+            continue
         if limits is None:
             raise TypeError(f"{cls.__name__}.{field.name}: declare it with param(default, description, ...)")
         specs.append(_spec(f"{prefix}{field.name}", path + (field.name,), annotation, field.default, limits))
@@ -269,9 +277,12 @@ def _bounds_text(limits: Limits) -> str:
     return ""
 
 
-def descriptor(spec: ParameterSpec) -> ParameterDescriptor:
-    """The read-only, typed ROS descriptor: description, the allowed values in words
-    (additional_constraints) and, for scalar doubles and integers with bounds, the ROS range."""
+def descriptor(spec: ParameterSpec):
+    """The read-only, typed ROS descriptor (rcl_interfaces ParameterDescriptor): description, the allowed
+    values in words (additional_constraints) and, for scalar doubles and integers with bounds, the ROS
+    range."""
+    from rcl_interfaces.msg import FloatingPointRange, IntegerRange, ParameterDescriptor
+
     result = ParameterDescriptor(name=spec.name, type=spec.ros_type, description=spec.description,
                                  additional_constraints=allowed(spec), read_only=True)
     limits = spec.limits
@@ -397,6 +408,8 @@ def _construct(node_name: str, cls, values: dict, specs: list, path: tuple):
     kwargs = {}
     for field in dataclasses.fields(cls):
         field_path = path + (field.name,)
+        if field.metadata.get(_METADATA_KEY) is NOT_ROS:
+            continue  # its default
         if dataclasses.is_dataclass(hints[field.name]):
             kwargs[field.name] = _construct(node_name, hints[field.name], values, specs, field_path)
         else:

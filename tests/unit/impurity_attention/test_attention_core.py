@@ -90,8 +90,6 @@ def test_scattered_objects_and_an_empty_table_give_no_region():
 
 def test_density_params_are_checked():
     with pytest.raises(ValueError):
-        density.DensityParams(score="biggest")
-    with pytest.raises(ValueError):
         density.DensityParams(stride=0)
 
 

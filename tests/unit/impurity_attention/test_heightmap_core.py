@@ -175,9 +175,9 @@ def test_a_clipped_table_alone_is_not_an_exposure_problem():
 
 
 def test_exposure_is_judged_on_the_same_objects_as_attention():
-    from impurity_attention.core.density import OCCUPIED_HEIGHT
+    from impurity_attention.core.density import DensityParams
 
-    assert hm.exposure_problem.__defaults__[0] == OCCUPIED_HEIGHT
+    assert hm.exposure_problem.__defaults__[0] == DensityParams().occupied_height
 
 
 def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_share():
@@ -187,11 +187,3 @@ def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_sha
     for bad in (np.full((3, 6), 255, np.uint8), np.full((6, 4), 255, np.uint8), colours / 255.0):
         with pytest.raises(ValueError, match=r"\(N, 3\) uint8"):  # channel-first, RGBA, float: refused
             hm.clipped_channel(bad)
-
-
-def test_a_view_is_clipped_from_half_its_object_cells_on_as_exposure_problem_warns():
-    color, height = exposure_scene((255, 230, 200))
-    objects = height > 0.01
-    assert hm.clipped_view(color, objects) and hm.exposure_problem(color, height) is not None
-    color, height = exposure_scene((200, 180, 150))
-    assert not hm.clipped_view(color, height > 0.01)

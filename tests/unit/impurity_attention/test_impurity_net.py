@@ -18,6 +18,8 @@ from impurity_attention.core.impurity_net import (
     write_network,
 )
 
+THRESHOLDS = {"threshold": 0.5, "last_look": 0.3, "stall_look": 0.2}  # a model's, where they do not matter
+
 
 def view(size=(48, 40), product=(40, 120, 200), impurity=(200, 60, 40)):
     """A flat product of one colour with an 8 x 8 impurity block; the border row and column are table."""
@@ -128,8 +130,8 @@ def test_attention_runs_the_network_for_a_model_that_reads_its_features_and_only
     color, height, _, _ = view(size=(96, 96))
     n = len(ver.ALL_FEATURES)
     model = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                               threshold=0.5, low=(-1e9,) * n, high=(1e9,) * n, features=ver.ALL_FEATURES)
-    lean = ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5,
+                               **THRESHOLDS, low=(-1e9,) * n, high=(1e9,) * n, features=ver.ALL_FEATURES)
+    lean = ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, **THRESHOLDS,
                               low=(-1e9,), high=(1e9,), features=("colour_contrast",))
     assert model.reads_network and not lean.reads_network
     for verifier, calls in ((model, 1), (lean, 0)):

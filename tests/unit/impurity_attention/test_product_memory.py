@@ -11,16 +11,21 @@ from test_attention_palettes import PALETTES, scene
 
 from impurity_attention.core import attention as att
 from impurity_attention.core.product_memory import known_product, near_miss
+from impurity_attention.core.verifier import MIN_SPREAD
 from impurity_common.colour import REFERENCE_CELLS, ProductReference, lab, mask_colour
 
-KEEP_NEAR_MISS = att.AttentionParams(known_product_near_miss=False)  # as shipped before the 27th session
+
+def whole_view(color, height) -> ProductReference:
+    """Every object cell's colour, the view's near miss kept."""
+    return ProductReference.from_view(color, height, None, MIN_SPREAD,
+                                      att.AttentionParams().density.occupied_height)
 
 
 def known(palette: str, seed: int, with_impurity: bool = False) -> ProductReference:
     """The known product of a scene's view; with_impurity: of a view that showed the impurity and was handed
     over all the same, its near miss kept (as if the decision had missed it and nothing left it out)."""
     color, height, _ = scene(palette, seed, with_impurity=with_impurity)
-    return known_product(color, height, KEEP_NEAR_MISS if with_impurity else att.AttentionParams())
+    return whole_view(color, height) if with_impurity else known_product(color, height)
 
 
 def test_a_view_remembers_the_colours_of_its_objects():
@@ -95,11 +100,9 @@ def test_known_product_parameters_out_of_range_are_refused_by_name(field, value)
         att.AttentionParams(**{field: value})
 
 
-NEAR_MISS = att.AttentionParams()  # known_product_near_miss is the default
+NEAR_MISS = att.AttentionParams()
 
 
-def test_near_misses_are_left_out_by_default():
-    assert att.AttentionParams().known_product_near_miss
 
 
 @pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "brown_dark", "green_light", "blue_red"])
@@ -111,10 +114,6 @@ def test_the_near_miss_is_the_region_attention_would_take_at_the_last_looks_thre
     assert near_miss(clean_color, clean_height, NEAR_MISS) is None
 
 
-def test_without_the_verifier_or_the_last_look_there_is_no_near_miss():
-    color, height, _ = scene("cream_grey", 0)
-    assert near_miss(color, height, att.AttentionParams(decision="rule")) is None
-    assert near_miss(color, height, att.AttentionParams(verifier_last_look=0.0)) is None
 
 
 @pytest.mark.parametrize("palette", ["coal_slate", "cream_grey", "green_light"])
@@ -123,7 +122,7 @@ def test_a_near_miss_is_not_remembered_as_product_and_is_found_later(palette):
     # clean); with near misses left out, its colour is not product, so with a heap left it is still found
     color, height, impurity = scene(palette, 0, with_impurity=True)
     product = known_product(color, height, NEAR_MISS)
-    plain = known_product(color, height, KEEP_NEAR_MISS)
+    plain = whole_view(color, height)
     assert len(product.colors) <= len(plain.colors)
     assert plain.share_near(lab(np.array(PALETTES[palette][1], np.uint8))[0], 4.0) > 0.01
     shades, impurity_rgb = PALETTES[palette]
@@ -139,4 +138,4 @@ def test_a_near_miss_is_not_remembered_as_product_and_is_found_later(palette):
 def test_a_clean_view_is_remembered_whole_with_near_misses_left_out():
     color, height, _ = scene("coal_slate", 2, with_impurity=False)
     assert len(known_product(color, height, NEAR_MISS).colors) == \
-        len(known_product(color, height, KEEP_NEAR_MISS).colors)
+        len(whole_view(color, height).colors)

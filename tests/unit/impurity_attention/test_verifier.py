@@ -2,14 +2,16 @@
 is checked, and how attention decides with it."""
 
 import dataclasses
+import json
 
 import numpy as np
 import pytest
 
 from impurity_attention.core import attention as att
-from impurity_attention.core import saliency
 from impurity_attention.core import verifier as ver
 from impurity_attention.core.attention import shipped_network
+
+THRESHOLDS = {"threshold": 0.5, "last_look": 0.3, "stall_look": 0.2}  # a model's, where they do not matter
 
 
 def two_colour_view(impurity=(200, 60, 40), product=(40, 120, 200), size=60, block=12):
@@ -93,11 +95,11 @@ def test_a_feature_beyond_the_fitted_range_counts_as_its_end():
 def test_a_model_reads_the_features_it_names_and_no_others():
     names = ("colour_contrast", "rank")
     model = ver.RegionVerifier(mean=(0.0, 0.0), scale=(1.0, 1.0), coef=(1.0, -1.0), intercept=0.0,
-                               threshold=0.5, low=(-9.0, -9.0), high=(9.0, 9.0), features=names)
+                               **THRESHOLDS, low=(-9.0, -9.0), high=(9.0, 9.0), features=names)
     row = np.full(len(ver.FEATURES), 5.0)  # every other feature: anything
     row[ver.FEATURES.index("colour_contrast")], row[ver.FEATURES.index("rank")] = 2.0, 1.0
     assert model.probability(row)[0] == pytest.approx(1.0 / (1.0 + np.exp(-1.0)))
-    # the shipped model: all fifteen and the network's two (37th session)
+    # the shipped model: all fifteen and the network's two
     assert ver.default_verifier().features == ver.ALL_FEATURES
     assert ver.default_verifier().reads_oriented and not model.reads_oriented
     assert ver.default_verifier().reads_network and not model.reads_network
@@ -132,10 +134,10 @@ def test_a_view_read_once_gives_every_region_the_features_it_gets_alone():
 
 def test_a_model_naming_an_unknown_feature_or_too_few_values_is_refused():
     with pytest.raises(ValueError, match="features must be distinct names of ALL_FEATURES"):
-        ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, threshold=0.5, low=(0.0,),
+        ver.RegionVerifier(mean=(0.0,), scale=(1.0,), coef=(0.0,), intercept=0.0, **THRESHOLDS, low=(0.0,),
                            high=(1.0,), features=("colour_contrast_typo",))
     with pytest.raises(ValueError, match=r"RegionVerifier.coef needs 2 values \(colour_contrast, rank\)"):
-        ver.RegionVerifier(mean=(0.0, 0.0), scale=(1.0, 1.0), coef=(0.0,), intercept=0.0, threshold=0.5,
+        ver.RegionVerifier(mean=(0.0, 0.0), scale=(1.0, 1.0), coef=(0.0,), intercept=0.0, **THRESHOLDS,
                            low=(0.0, 0.0), high=(1.0, 1.0), features=("colour_contrast", "rank"))
 
 
@@ -208,7 +210,7 @@ def test_faces_clipped_in_some_channels_are_still_read():
 def test_a_model_reads_an_unknown_feature_as_its_fitted_mean():
     names = ("colour_contrast", "oriented_contrast")
     model = ver.RegionVerifier(mean=(1.0, 1.5), scale=(0.5, 0.6), coef=(1.0, 2.0), intercept=0.0,
-                               threshold=0.5, low=(0.0, 0.0), high=(3.0, 4.0), features=names)
+                               **THRESHOLDS, low=(0.0, 0.0), high=(3.0, 4.0), features=names)
     row = np.zeros((1, len(ver.FEATURES)))
     row[0, ver.FEATURES.index("colour_contrast")] = 2.0
     at_mean, unknown_row, as_product = row.copy(), row.copy(), row.copy()
@@ -271,18 +273,9 @@ def test_a_malformed_model_is_refused_by_name(field, value, named):
         dataclasses.replace(ver.default_verifier(), **{field: value})
 
 
-@pytest.mark.parametrize("changes, named", [
-    ({"decision": "oracle"}, "decision"),
-    ({"verifier_threshold": 1.5}, "verifier_threshold"),
-])
-def test_bad_decision_settings_are_refused_by_name(changes, named):
-    with pytest.raises(ValueError, match=named):
-        att.AttentionParams(**changes)
-
-
 def test_attention_takes_the_likeliest_region_and_says_why():
     color, height, _, impurity, _ = two_colour_view()
-    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    output = att.attend(color, height, att.AttentionParams())
     assert output.mode == att.AttentionMode.TARGET, output.reason
     assert "impurity probability" in output.reason
     assert np.count_nonzero(output.target_mask & impurity) > 0.5 * np.count_nonzero(output.target_mask)
@@ -290,34 +283,63 @@ def test_attention_takes_the_likeliest_region_and_says_why():
 
 def test_a_view_of_product_only_gives_no_target_with_the_likeliest_probability():
     color, height, *_ = two_colour_view(impurity=(40, 120, 200))
-    output = att.attend(color, height, att.AttentionParams(decision="verifier"))
+    output = att.attend(color, height, att.AttentionParams())
     assert output.mode != att.AttentionMode.TARGET
     assert "no salient region is an impurity: the likeliest, region" in output.reason
 
 
-def test_a_threshold_set_on_the_node_overrides_the_models():
+def test_the_models_threshold_decides():
     # a model that rates every region 0.5, with its own threshold 0.6
     n = len(ver.FEATURES)
     coin = ver.RegionVerifier(mean=(0.0,) * n, scale=(1.0,) * n, coef=(0.0,) * n, intercept=0.0,
-                              threshold=0.6, low=(-1e9,) * n, high=(1e9,) * n)
+                              threshold=0.6, last_look=0.99, stall_look=0.2, low=(-1e9,) * n, high=(1e9,) * n)
     color, height, *_ = two_colour_view()
-    own = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
-                                                        verifier_last_look=0.0))  # no last look at 0.5
+    own = att.attend(color, height, att.AttentionParams(verifier=coin))  # no last look at 0.5
     assert own.mode != att.AttentionMode.TARGET and "0.50 < 0.60" in own.reason
-    lowered = att.attend(color, height, att.AttentionParams(decision="verifier", verifier=coin,
-                                                            verifier_threshold=0.4, verifier_last_look=0.0))
+    lower = dataclasses.replace(coin, threshold=0.4)
+    lowered = att.attend(color, height, att.AttentionParams(verifier=lower))
     assert lowered.mode == att.AttentionMode.TARGET and "0.50 >= 0.40" in lowered.reason
 
 
-def test_the_absolute_contrast_keeps_its_own_threshold_whatever_the_decision():
-    color, height, *_ = two_colour_view()
-    absolute = att.AttentionParams(contrast="absolute", saliency=saliency.ABSOLUTE_SALIENCY)
-    output = att.attend(color, height, absolute)
-    assert "impurity probability" not in output.reason
-    assert output.mode == att.attend(color, height, dataclasses.replace(absolute, decision="rule")).mode
 
 
-def test_a_model_survives_its_json():
-    import json
+def test_a_model_survives_its_file(tmp_path):
     shipped = ver.default_verifier()
-    assert ver.RegionVerifier.from_dict(json.loads(json.dumps(dataclasses.asdict(shipped)))) == shipped
+    ver.write_verifier(shipped, tmp_path / "verifier.json")
+    assert ver.read_verifier(tmp_path / "verifier.json") == shipped
+
+
+def test_the_shipped_model_is_the_file_beside_the_network():
+    assert ver.default_verifier() == ver.read_verifier(ver.SOURCE_VERIFIER)
+    assert ver.default_verifier().features == ver.ALL_FEATURES
+
+
+def test_the_shipped_models_probabilities_are_its_formula():
+    model = ver.default_verifier()
+    rng = np.random.default_rng(0)
+    rows = rng.uniform(np.array(model.low) - 1.0, np.array(model.high) + 1.0, (5, len(model.features)))
+    z = (np.clip(rows, model.low, model.high) - np.array(model.mean)) / np.array(model.scale)
+    expected = 1.0 / (1.0 + np.exp(-(z @ np.array(model.coef) + model.intercept)))
+    np.testing.assert_allclose(model.probability(rows), expected, rtol=1e-12)
+
+
+@pytest.mark.parametrize("change, named", [
+    (lambda fields: fields.pop("stall_look"), "missing: stall_look"),
+    (lambda fields: fields.update(bias=1.0), "unknown: bias"),
+    (lambda fields: fields.update(threshold=1.5), "threshold"),
+])
+def test_a_model_file_that_is_not_a_model_is_refused_naming_the_file_and_field(tmp_path, change, named):
+    fields = dataclasses.asdict(ver.default_verifier())
+    change(fields)
+    path = tmp_path / "verifier.json"
+    path.write_text(json.dumps(fields))
+    with pytest.raises(ValueError, match=named) as refused:
+        ver.read_verifier(path)
+    assert str(path) in str(refused.value)
+
+
+def test_the_installed_model_is_the_source_trees():
+    from impurity_attention.core.checkpoints import shipped_path
+
+    path = shipped_path(ver.SHIPPED_VERIFIER)
+    assert path.is_file() and path.read_text() == ver.SOURCE_VERIFIER.read_text()

@@ -43,10 +43,11 @@ def test_a_view_gives_its_object_cells_outside_the_mask_and_large_views_are_subs
     height[:80], color[:80] = 0.03, LIT
     mask = np.zeros((100, 100), bool)
     mask[:10] = True
-    reference = ProductReference.from_view(color, height, mask, min_spread=4.0)
+    reference = ProductReference.from_view(color, height, mask, min_spread=4.0, min_object_height=0.01)
     assert len(reference.colors) == min(70 * 100, REFERENCE_CELLS)
     assert reference.mean == pytest.approx(LIT)
-    assert ProductReference.from_view(color, np.zeros((100, 100)), None, min_spread=4.0) is None
+    assert ProductReference.from_view(color, np.zeros((100, 100)), None, min_spread=4.0,
+                                      min_object_height=0.01) is None
 
 
 def test_shading_grants_spread_along_the_products_colour_and_not_across_it():

@@ -358,3 +358,38 @@ def test_cell_yaml_names_only_declared_parameters_with_allowed_values(node):
     specs_by_name = {spec.name: spec for spec in parameter_specs(cls)}
     assert set(config) <= set(specs_by_name), f"unknown parameters {set(config) - set(specs_by_name)}"
     build(node, cls, {**{name: spec.default for name, spec in specs_by_name.items()}, **config})
+
+
+# ------------------------------------------------------------------------------ fields that are no parameters
+@dataclass(frozen=True)
+class WithModel:
+    rate: float = param(1.0, "Rate (Hz)", low=0.0)
+    model: object = param(None, "A model object set in code", ros=False)
+
+
+def test_a_field_marked_ros_false_is_no_parameter_and_keeps_its_default():
+    assert [spec.name for spec in parameter_specs(WithModel)] == ["rate"]
+    built = build("node", WithModel, {"rate": 2.0})
+    assert built.rate == 2.0 and built.model is None
+
+
+def test_importing_the_module_imports_no_ros_package():
+    import subprocess
+    import sys
+
+    code = ("import sys, impurity_common.parameters; "
+            "print(sorted(m for m in sys.modules if m.startswith(('rclpy', 'rcl_interfaces'))))")
+    assert subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          check=True).stdout.strip() == "[]"
+
+
+def test_the_attention_nodes_defaults_build_attentions_own_defaults():
+    import dataclasses
+
+    from impurity_attention.attention_node import AttentionNodeParameters
+    from impurity_attention.core.attention import AttentionParams
+
+    cls = AttentionNodeParameters
+    built = build("attention", cls, {spec.name: spec.default for spec in parameter_specs(cls)})
+    assert AttentionParams(**{f.name: getattr(built, f.name) for f in dataclasses.fields(AttentionParams)}) \
+        == AttentionParams()

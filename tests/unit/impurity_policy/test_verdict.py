@@ -208,7 +208,7 @@ def test_a_shaded_face_of_the_product_is_not_taken_for_an_impurity():
     tilted = scene([(10, 20, 10, 20, 0.03, shaded)] + products)
     judged = judge_grasp(*tilted, MASK, *scene(products), HOLDS, reference=reference)
     assert not judged.impurity_picked and "from the product's" in judged.reason
-    without_shading = ProductReference.from_view(first[1], first[0], MASK, MIN_COLOR_SPREAD)
+    without_shading = ProductReference.from_view(first[1], first[0], MASK, MIN_COLOR_SPREAD, 0.01)
     assert without_shading.contrast(shaded) > DEFAULT_MIN_COLOR_CONTRAST  # it would have counted
     red = scene([(10, 20, 10, 20, 0.03, RED)] + products)
     assert judge_grasp(*red, MASK, *scene(products), HOLDS, reference=reference).impurity_picked

@@ -2,9 +2,8 @@
 height map; the largest dense cluster is where a hidden impurity most likely lies.
 
 Points are the heightmap cells standing higher than `occupied_height` above the table, taken on a
-coarser sub-grid (`stride`) so that DBSCAN sees at most (224 / stride)^2 points. Coordinates are in
-metres (x, y) plus, optionally, the height scaled by `height_weight`, so that a low layer and a
-stacked heap beside it can fall apart. A core point needs `min_samples` occupied points within `eps`:
+coarser sub-grid (`stride`) so that DBSCAN sees at most (224 / stride)^2 points, in metres (x, y).
+A core point needs `min_samples` occupied points within `eps`:
 with eps = 15 mm on a 6 mm sub-grid (21 grid points in reach) that is ~60 % of its neighbourhood
 filled, i.e. objects packed close together; sparse, scattered objects are noise and form no cluster.
 Measured on the tuning scenes (scripts/calibrate_attention.py): the same choices as a 4 mm grid with
@@ -14,16 +13,13 @@ eps = 12 mm, in half the time (~6 ms).
 its cells, robust to a single spike) is below `min_cluster_height` is one layer of objects with
 nothing underneath, and one whose area is below `min_cluster_area` is too small to hide an object.
 `min_cluster_height` is 4 cm, above the tallest single object of the simulated scenes (the heaps' bars
-and pillars stand 3.2-3.6 cm): with 3 cm a flattened heap of upright bars stayed "open" and episodes
-counted by perception ran into their limits. Chosen by how such episodes end on tuning palettes and
-seeds (scripts/calibrate_episode_end.py, docs/episode_end/tuning.txt: attention's NONE with no impurity
-left in 86.7 % of 30 episodes at 4 cm, 33.3 % at 3 cm, 86.7 % at 4.5 cm; ties go to the lower). On a
-real cell: the height of the tallest single product piece plus a margin.
-Among the clusters that pass both tests the one with the highest score is chosen ("largest": area,
-or volume = the sum of heights); when none passes, there is no occluded region to explore. Volume is
-the default: hiding a target takes material on top of it, and on the tuning scenes (sweep in
-scripts/calibrate_attention.py) the largest volume held a hidden target in 17/18 invisible scenes,
-the largest area in 14/18.
+and pillars stand 3.2-3.6 cm), chosen by how episodes counted by perception end on tuning palettes
+(scripts/calibrate_episode_end.py: attention's NONE with no impurity left in 86.7 % of 30 episodes at
+4 cm, 33.3 % at 3 cm). On a real cell: the height of the tallest single product piece plus a margin.
+Among the clusters that pass both tests the one of the largest volume (the sum of its cells' heights) is
+chosen: hiding a target takes material on top of it (scripts/calibrate_attention.py sweep on tuning
+scenes: it held a hidden target in 17/18 invisible scenes, the largest area in 14/18); when none passes,
+there is no occluded region to explore.
 """
 
 from __future__ import annotations
@@ -34,28 +30,28 @@ import numpy as np
 from sklearn.cluster import DBSCAN
 
 from impurity_common import cell
-
-CLUSTER_SCORES = ("area", "volume")
-OCCUPIED_HEIGHT = cell.OCCUPIED_HEIGHT  # m: what counts as an object, for DBSCAN and for saliency alike
+from impurity_common.parameters import param
 
 
 @dataclass(frozen=True)
 class DensityParams:
-    occupied_height: float = OCCUPIED_HEIGHT  # m above the table that counts as an object
-    stride: int = 3  # sub-grid step (cells) of the DBSCAN points
-    eps: float = 0.015  # m, DBSCAN neighbourhood radius
-    min_samples: int = 12  # points within eps (itself included) that make a core point
-    height_weight: float = 0.0  # metres of xy distance per metre of height (0: cluster in the plane)
-    min_cluster_height: float = 0.04  # m; lower clusters cannot hide anything (module docstring)
-    min_cluster_area: float = 0.0025  # m^2 (50 mm x 50 mm); smaller clusters cannot hide anything
-    height_percentile: float = 90.0  # cluster height = this percentile of its cells' heights
-    score: str = "volume"  # "area" or "volume": what makes a cluster the "largest" (see module doc)
+    """DBSCAN's occluded-region search (ROS parameters density.*)."""
+
+    occupied_height: float = param(cell.OCCUPIED_HEIGHT, "Cells higher than this above the table are "
+                                   "objects, for saliency and DBSCAN alike (m)", low=0.0, high=0.5)
+    stride: int = param(3, "Sub-grid step of the DBSCAN points (cells)", low=1, high=32)
+    eps: float = param(0.015, "DBSCAN neighbourhood radius (m)", low=0.001, high=0.5)
+    min_samples: int = param(12, "DBSCAN points within eps (itself included) that make a core point",
+                             low=1, high=10000)
+    min_cluster_height: float = param(0.04, "Lower clusters cannot hide a target (m): the tallest single "
+                                      "product piece plus a margin", low=0.0, high=1.0)
+    min_cluster_area: float = param(0.0025, "Smaller clusters cannot hide a target (m^2)", low=0.0, high=1.0)
+    height_percentile: float = param(90.0, "A cluster's height is this percentile of its cells' heights (%)",
+                                     low=0.0, high=100.0)
 
     def __post_init__(self):
         if self.stride < 1 or self.eps <= 0 or self.min_samples < 1:
             raise ValueError(f"need stride >= 1, eps > 0, min_samples >= 1, got {self}")
-        if self.score not in CLUSTER_SCORES:
-            raise ValueError(f"cluster score '{self.score}' not one of {CLUSTER_SCORES}")
 
 
 @dataclass
@@ -85,8 +81,6 @@ def find_clusters(height: np.ndarray, resolution: float, params: DensityParams =
     sub_rows, sub_cols = np.nonzero(occupied)
     spacing = stride * resolution
     points = np.column_stack([sub_rows * spacing, sub_cols * spacing])
-    if params.height_weight > 0:
-        points = np.column_stack([points, sub[sub_rows, sub_cols] * params.height_weight])
     # ball_tree: the fastest of sklearn's neighbour searches on these few thousand grid points
     labels = DBSCAN(eps=params.eps, min_samples=params.min_samples, algorithm="ball_tree").fit_predict(points)
 
@@ -118,7 +112,7 @@ def find_clusters(height: np.ndarray, resolution: float, params: DensityParams =
         clusters.append(Cluster(
             label=int(cell_labels[start]), label_map=label_full, area=area, height=cluster_height,
             volume=volume, centroid=(float(rows.mean()), float(cols.mean())),
-            score=area if params.score == "area" else volume,
+            score=volume,
             passes=cluster_height >= params.min_cluster_height and area >= params.min_cluster_area))
     clusters.sort(key=lambda c: (c.passes, c.score), reverse=True)
     return clusters

@@ -35,6 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common import cell
+from impurity_common.colour import SATURATED_SHARE
 from impurity_common.grid import HeightmapGrid
 
 # Depth encodings the camera driver may publish: integer depth in `depth_scale` m per unit (realsense-ros
@@ -185,14 +186,13 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
 
 # exposure_problem: an 8-bit channel at CLIPPED_LEVEL or more reads the same whatever the light (the
 # camera's ceiling); objects at DARK_LEVEL or less in every channel are nearly black. A colour heightmap is
-# badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark. Half:
-# colour.SATURATED_SHARE's notion of a clipped product. On the tuning palettes' first views (101 palettes;
-# docs/experiments_s7/exposure_flags.py) it flags most scenes of 10 palettes; they include 2 of the 4 where
-# attention finds fewer than half of the impurities (random-33, -40: 1 of 10 each), and 5 where it finds
-# them all: a warning worth reading, not a verdict.
+# badly exposed when at least EXPOSURE_SHARE of its object cells are clipped in one channel, or dark: half,
+# colour.SATURATED_SHARE's notion of a clipped product. On the first views of 101 tuning palettes it flags
+# most scenes of 10 palettes, 2 of the 4 where attention finds fewer than half of the impurities and 5 where
+# it finds them all: a warning worth reading, not a verdict.
 CLIPPED_LEVEL = 250
 DARK_LEVEL = 5
-EXPOSURE_SHARE = 0.5
+EXPOSURE_SHARE = SATURATED_SHARE
 CHANNEL_NAMES = "RGB"
 
 
@@ -208,16 +208,6 @@ def clipped_channel(colours: np.ndarray) -> tuple:
     shares = np.mean(colours >= CLIPPED_LEVEL, axis=0)
     channel = int(np.argmax(shares))
     return channel, float(shares[channel])
-
-
-def clipped_view(color: np.ndarray, objects: np.ndarray) -> bool:
-    """Whether a colour heightmap (H, W, 3) uint8 is clipped on its object cells (H, W) bool: at least
-    EXPOSURE_SHARE of them at CLIPPED_LEVEL or more in one channel (exposure_problem's first test).
-    ValueError when color is not (H, W, 3) uint8."""
-    color = np.asarray(color)
-    if color.ndim != 3:
-        raise ValueError(f"colour heightmap must be (H, W, 3) uint8, got {color.shape} {color.dtype}")
-    return clipped_channel(color[np.asarray(objects, dtype=bool)])[1] >= EXPOSURE_SHARE
 
 
 def exposure_problem(color: np.ndarray, height: np.ndarray,

@@ -1,8 +1,7 @@
 """A small fully convolutional network that marks the cells of a colour heightmap that look like an impurity
-among the product around them (issue 17; screened in the thirty-third and thirty-fourth sessions,
-docs/experiments.md). The region verifier (verifier.py) reads it as two more features of each salient region
-(NETWORK_FEATURES there): where the hand-made features compare one region's colours with the rest of the
-view, the network sees whole objects, their faces and their neighbours.
+among the product around them. The region verifier (verifier.py) reads it as two more features of each
+salient region (NETWORK_FEATURES there): where the hand-made features compare one region's colours with the
+rest of the view, the network sees whole objects, their faces and their neighbours.
 
 Input (scene_planes): four planes relative to the scene, so that neither the product's colour nor the
 exposure sets them. CIE L*a*b* (OpenCV's, of sRGB in [0, 1]) of each cell minus the median over the view's
@@ -14,8 +13,8 @@ size (bilinear), so a heightmap of any size works (padded with empty cells to a 
 Network (ImpurityNet): three resolutions (full, 1/2, 1/4 of the pooled grid; dilations 2, 4, 8 at the
 lowest), each 3 x 3 convolution followed by batch normalisation and ReLU, the coarser levels upsampled and
 concatenated back (a U-Net-like encoder-decoder), one logit per cell. About 0.16 M weights at width 24; CPU
-inference on a 224 x 224 heightmap took 8-10 ms p50 here on 2 threads (`python benchmarks/bench_perception.py
---repeats 20`, thirty-fourth session; `make bench` prints it).
+inference on a 224 x 224 heightmap takes 8-10 ms p50 on 2 threads (`python benchmarks/bench_perception.py
+--repeats 20`; `make bench` prints it).
 
 Weights: written by the trainer (impurity_learning.impurity_net_training, on tuning palettes and tuning
 seeds only) as a dict {"format_version", "width", "state_dict" (float16), "provenance"}; read_network checks
@@ -33,6 +32,8 @@ from torch import nn
 
 from impurity_common.weights_file import check_tensors, read_versioned
 
+from .checkpoints import SOURCE_CHECKPOINTS, shipped_path
+
 MAD_FLOOR = 2.0  # Lab units: the least spread a channel is divided by
 HEIGHT_SCALE = 20.0  # height plane = height (m) x this
 POOL = 2  # cells averaged per side before the network
@@ -40,7 +41,7 @@ MULTIPLE = 4 * POOL  # a heightmap is padded to a multiple of this (the network 
 FORMAT_VERSION = 1
 # The shipped weights in the source tree (a ROS install also has them in the package's share dir:
 # shipped_network_path).
-SHIPPED_NETWORK = pathlib.Path(__file__).resolve().parents[2] / "checkpoints" / "impurity_net.pt"
+SHIPPED_NETWORK = SOURCE_CHECKPOINTS / "impurity_net.pt"
 
 
 class NetworkFileError(RuntimeError):
@@ -128,17 +129,9 @@ def write_network(net: ImpurityNet, path, provenance: str) -> None:
 
 
 def shipped_network_path() -> pathlib.Path:
-    """The shipped weights: the package's share dir (a ROS install) when it has them, else the source tree's
-    SHIPPED_NETWORK."""
-    try:
-        from ament_index_python.packages import get_package_share_directory
-
-        installed = pathlib.Path(get_package_share_directory("impurity_attention")) / "checkpoints"
-        if (installed / SHIPPED_NETWORK.name).is_file():
-            return installed / SHIPPED_NETWORK.name
-    except Exception:  # noqa: BLE001 - no ament index or no such package: the source tree
-        pass
-    return SHIPPED_NETWORK
+    """The shipped weights (checkpoints.shipped_path): the package's share dir when it has them, else the
+    source tree's SHIPPED_NETWORK."""
+    return shipped_path(SHIPPED_NETWORK.name)
 
 
 def read_network(path=None) -> ImpurityNet:

@@ -1,13 +1,8 @@
 """The known product: what the product looked like before anything moved, from a view that showed no impurity.
 
 In an invisible scene the first view shows product only (attention finds no target in it). After pushes the
-region verifier sometimes calls a product piece an impurity (docs/experiments.md, twenty-third section: about
-half of the grasps that separate tuning palettes from the default one in invisible scenes). Those pieces are
-coloured like much of the first view; a revealed impurity is coloured like almost none of it. On 60 invisible
-tuning episodes (twenty-fifth section, `docs/experiments_s25/temporal_screen.py`) a bound of 1 % of the first
-view's object cells within CIE76 dE 4 of a target mask's median colour (chosen on the first 32) kept 99.2 %
-of the 121 TARGET grasps on a target and caught 90.9 % of the 77 on product; tested on fresh tuning seeds in
-the twenty-fifth and twenty-sixth sections.
+region verifier sometimes calls a product piece an impurity; such pieces are coloured like much of the first
+view, while a revealed impurity is coloured like almost none of it.
 
 The known product is an impurity_common.colour.ProductReference of the view's object cells (attention's own
 object threshold, density.occupied_height); attention.attend takes it as `known_product` and, while a heap
@@ -16,8 +11,7 @@ that could hide a target is left, passes over a region whose grown mask is colou
 is the picking loop's decision (core/picking.py of impurity_policy: the episode's first view, when attention
 found no target in it); this module only builds the memory. "No target in the first view" is not
 "product only": an impurity the verifier scored under its threshold would be remembered as product and passed
-over while a heap is left, so the memory leaves out the view's near miss, the region a last look would take
-(AttentionParams.known_product_near_miss; docs/experiments.md, twenty-seventh section).
+over while a heap is left, so the memory leaves out the view's near miss, the region a last look would take.
 """
 
 from __future__ import annotations
@@ -31,17 +25,18 @@ from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
 
 from .attention import AttentionParams, attend
+from .verifier import MIN_SPREAD, default_verifier
 
 
 def near_miss(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
               grid: HeightmapGrid = HeightmapGrid()) -> np.ndarray | None:
     """The grown mask (H, W) bool of the region attention would take in this view at the last look's
-    threshold (the verifier's likeliest region, when its probability reaches params.verifier_last_look),
-    or None: no such region, or a decision other than the verifier, or the last look off."""
-    if params.decision != "verifier" or params.contrast != "relative" or params.verifier_last_look <= 0:
-        return None
-    looked = attend(color, height, dataclasses.replace(params, verifier_threshold=params.verifier_last_look),
-                    grid)
+    threshold (the verifier's likeliest region, when its probability reaches the model's last_look), or
+    None: no such region."""
+    model = params.verifier or default_verifier()
+    at_last_look = dataclasses.replace(model, threshold=model.last_look)
+    looking = dataclasses.replace(params, verifier=at_last_look)
+    looked = attend(color, height, looking, grid)
     return looked.target_mask if looked.mode == AttentionMode.TARGET else None
 
 
@@ -49,15 +44,11 @@ def known_product(color: np.ndarray, height: np.ndarray, params: AttentionParams
                   grid: HeightmapGrid = HeightmapGrid()) -> ProductReference | None:
     """The known product from a colour heightmap (H, W, 3) uint8 and its height map (H, W) float m: the
     colours of its object cells (height > params.density.occupied_height; NaN is no object), at most
-    colour.REFERENCE_CELLS of them; with params.known_product_near_miss, without the cells of near_miss
-    (grid: the heightmap's, for that look). None when the view has no object cell; ValueError when the
-    shapes differ."""
+    colour.REFERENCE_CELLS of them, without the cells of near_miss (grid: the heightmap's, for that look).
+    None when the view has no object cell; ValueError when the shapes differ."""
     height = np.nan_to_num(np.asarray(height, dtype=np.float64))
-    whole = ProductReference.from_view(color, height, None, params.color_min_spread,
-                                       params.density.occupied_height)
-    looks = whole is not None and params.known_product_near_miss
-    left_out = near_miss(color, height, params, grid) if looks else None
+    whole = ProductReference.from_view(color, height, None, MIN_SPREAD, params.density.occupied_height)
+    left_out = near_miss(color, height, params, grid) if whole is not None else None
     if left_out is None:
         return whole
-    return ProductReference.from_view(color, height, left_out, params.color_min_spread,
-                                      params.density.occupied_height)
+    return ProductReference.from_view(color, height, left_out, MIN_SPREAD, params.density.occupied_height)

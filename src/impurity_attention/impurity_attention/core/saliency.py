@@ -31,6 +31,8 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
+from impurity_common.parameters import InvalidParameter, param
+
 CHANNELS = ("I", "RG", "BY")
 MIN_CHANNEL_LEVEL = 1e-4  # a conspicuity map flatter than this over the objects is noise (a level's floor)
 HALF_RES_SIGMA = 5.0  # px; surround blurs at least this wide are computed at half resolution
@@ -38,29 +40,29 @@ HALF_RES_SIGMA = 5.0  # px; surround blurs at least this wide are computed at ha
 
 @dataclass(frozen=True)
 class SaliencyParams:
-    center_sigma: float = 3.0  # px, blur of the finest centre layer
-    surround_sigma: float = 13.0  # px, total blur of the matching surround layer (> center_sigma)
-    n_scales: int = 2  # scales per octave
-    start_layer: int = 0  # first octave used (0 = full resolution)
-    stop_layer: int = 4  # last octave used (each halves the image)
+    """VOCUS2's pyramid (ROS parameters saliency.*)."""
+
+    center_sigma: float = param(3.0, "VOCUS2 centre blur of the finest layer (px)", low=0.1, high=50.0)
+    surround_sigma: float = param(13.0, "VOCUS2 surround blur (px, > centre)", low=0.1, high=100.0)
+    n_scales: int = param(2, "VOCUS2 scales per octave", low=1, high=8)
+    start_layer: int = param(0, "VOCUS2 first pyramid octave (0 = full resolution)", low=0, high=6)
+    stop_layer: int = param(4, "VOCUS2 last pyramid octave (each halves the image)", low=0, high=6)
 
     def __post_init__(self):
-        if not (0 < self.center_sigma < self.surround_sigma):
-            raise ValueError(f"need 0 < center_sigma < surround_sigma, got {self}")
-        if self.n_scales < 1 or self.start_layer < 0 or self.stop_layer < self.start_layer:
-            raise ValueError(f"need n_scales >= 1 and 0 <= start_layer <= stop_layer, got {self}")
+        if not (0 < self.center_sigma and self.n_scales >= 1 and self.start_layer >= 0):
+            raise ValueError(f"need center_sigma > 0, n_scales >= 1 and start_layer >= 0, got {self}")
+        if self.surround_sigma <= self.center_sigma:
+            raise InvalidParameter("surround_sigma", f"is not above center_sigma ({self.center_sigma})")
+        if self.stop_layer < self.start_layer:
+            raise InvalidParameter("stop_layer", f"is below start_layer ({self.start_layer})")
 
 
 VOCUS2_DEFAULTS = SaliencyParams()  # the CVPR 2015 defaults (MSRA-style images, large objects)
 VOCUS2_CLUTTER = SaliencyParams(center_sigma=2.0, surround_sigma=6.0)  # the authors' "cluttered scenes"
-# Cell default, on the 224 x 224 colour heightmap (2 mm/px; blocks are 13-50 px across), for the
-# relative decision (attention.py): the CVPR 2015 defaults. Measured with scripts/calibrate_attention.py
-# on the tuning palettes (29 palettes + the default at exposure x0.5 and x2; 310 visible / 186 clean
-# scenes), impurities found at the threshold giving 2.2 % false TARGET: (3, 13) 97.7 %, (2, 10, 3
-# octaves) 96.8 %, (2, 8) 96.1 %, (2, 6) 95.5 %, (1.5, 6) 95.5 %. (Red among blue only, with the absolute
-# decision, (2, 6) had separated best: ABSOLUTE_SALIENCY.)
+# Cell default, on the 224 x 224 colour heightmap (2 mm/px; blocks are 13-50 px across): the CVPR 2015
+# defaults. scripts/calibrate_attention.py on tuning palettes, impurities found at 2.2 % false TARGET:
+# (3, 13) 97.7 %, (2, 10, 3 octaves) 96.8 %, (2, 6) 95.5 %.
 CELL_SALIENCY = VOCUS2_DEFAULTS
-ABSOLUTE_SALIENCY = VOCUS2_CLUTTER  # what attention's min_target_contrast was calibrated with
 
 
 @dataclass

@@ -1,13 +1,7 @@
-"""Which salient regions are impurities: a learned region verifier (issue 17; eighth session, twelve
-features and the own-layout scenes from the ninth, the picking loop's own views from the seventeenth, the
-three orientation-matched features from the twenty-first).
-
-The thresholds rule (attention.is_target) judges the best salient region alone, by its relative saliency and
-its colour contrast. On tuning palettes it misses impurities whose region is the best one but whose
-contrast falls short (the product's shading is as salient), and it cannot take the second region when the
-first is a shadow. The verifier scores each of the TOP_REGIONS best regions with a logistic model of
-FEATURES, all relative to the scene (so neither the product's colour nor the exposure sets them), and
-attention takes the most probable region when its probability reaches the model's threshold.
+"""Which salient regions are impurities: a learned region verifier. It scores each of the TOP_REGIONS best
+salient regions with a logistic model of FEATURES, all relative to the scene (so neither the product's colour
+nor the exposure sets them), and attention takes the most probable region when its probability reaches the
+model's threshold.
 
 Features of a region m among the object cells O (FEATURES, in this order). P is the product: O minus m
 grown by PRODUCT_MARGIN px (O minus m when that leaves nothing). A region with no other object cell in view
@@ -31,7 +25,7 @@ Of the region (REGION_FEATURES, region_features):
   much lighter or darker than the product, in the product's own spread (exposure scales I, so it cancels);
 - dark_share: the share of m's cells darker (L) than the product's darkest DARK_QUANTILE.
   Both read cells with no channel clipped (>= SATURATION) only, and are 0 when m or P has none.
-- oriented_contrast, oriented_lightness, oriented_off_share (twentieth session; oriented_features): m against
+- oriented_contrast, oriented_lightness, oriented_off_share (oriented_features): m against
   product faces of the same orientation. Under one directional light a face's shading, and at a long
   exposure its clipping (a blue product's lit faces turn cyan), is a function of its normal, which the
   heightmap gives. The product's log I, RG / I and BY / I are fitted over P as a quadratic in the local slope
@@ -39,7 +33,7 @@ Of the region (REGION_FEATURES, region_features):
   SLOPE_SIGMA px), and m is read by its residuals r: log(1 + d), d the Mahalanobis distance of m's mean r
   under P's residual covariance (+ ORIENTED_RIDGE I), capped at COLOUR_CAP; the median log-I residual over m
   in P's residual spread; the share of m's cells whose own r lies beyond ORIENTED_OFF (Mahalanobis). They
-  read cells with at least one channel below SATURATION only (twenty-first session), and are unknown (NaN)
+  read cells with at least one channel below SATURATION only, and are unknown (NaN)
   with fewer than ORIENTED_MIN_PRODUCT such product cells or none in m. A model reads an unknown feature as
   its fitted mean: it adds nothing to the score (RegionVerifier.probability).
 Of the region among the others (CONTEXT_FEATURES, context_features):
@@ -50,27 +44,29 @@ Of the region among the others (CONTEXT_FEATURES, context_features):
   the range its tuning scenes span (12-28 % of a 448 mm view): like every feature it is clipped to the
   fitted range (RegionVerifier.low / high), so a fuller view counts as the fullest it was fitted on.
 
-Of the impurity network's map (NETWORK_FEATURES, network_features; impurity_net.py, thirty-fourth session):
+Of the impurity network's map (NETWORK_FEATURES, network_features; impurity_net.py):
 - network_mean: the mean over m of the network's per-cell impurity probability;
 - network_high: its 90th percentile over m (NETWORK_QUANTILE): a region that covers an impurity's top and
   some product around it still reads high.
   Read only when a network is given (candidate_features' rows are then ALL_FEATURES, else FEATURES).
 
-A model reads the features it was fitted on (RegionVerifier.features, by name, any of ALL_FEATURES): the
-shipped model reads the fifteen of FEATURES since the twenty-first session (before it, the twelve without the
-oriented three), not the network's.
+A model reads the features it was fitted on (RegionVerifier.features, by name, any of ALL_FEATURES); the
+shipped one reads them all.
 
-The model (verifier_model.py, written by `scripts/calibrate_attention.py verifier-fit`) is fitted on tuning
-palettes and tuning seeds only: first views (scenes as dropped) and, since the seventeenth session, the views
-the picking loop decided on after its pushes and grasps (docs/experiments_s17/loop_views.py), its threshold
-set on the first views. That script's docstring, the model file and docs/experiments.md (seventeenth and
-twenty-first sections) give its figures. Pure numpy: no
-scikit-learn at run time.
+The model is data: checkpoints/verifier.json beside the impurity network (read_verifier, write_verifier), its
+fields those of RegionVerifier, with the thresholds that go with its probabilities (threshold, last_look,
+stall_look). It is fitted by `scripts/calibrate_attention.py verifier-fit` on tuning palettes and tuning seeds
+only (first views and the picking loop's views after its pushes and grasps); its provenance field gives the
+figures. Pure numpy: no scikit-learn at run time.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import functools
+import json
 import math
+import pathlib
 from dataclasses import dataclass
 
 import cv2
@@ -78,6 +74,8 @@ import numpy as np
 
 from impurity_common.colour import off_colours, region_contrast
 
+from .checkpoints import SOURCE_CHECKPOINTS, shipped_path
+from .heightmap import CLIPPED_LEVEL
 from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromaticity
 
 TOP_REGIONS = 3  # salient regions scored, best first
@@ -88,9 +86,12 @@ CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
 FEATURES = REGION_FEATURES + CONTEXT_FEATURES  # a row without the network (candidate_features' default)
 NETWORK_FEATURES = ("network_mean", "network_high")
 ALL_FEATURES = FEATURES + NETWORK_FEATURES  # a row with the network
-MIN_SPREAD = 4.0  # RGB, the colour test's least spread (AttentionParams.color_min_spread's value)
+# The product-colour reference (impurity_common.colour.ProductReference) of colour_contrast; the known product
+# (product_memory) shares its least spread
+MIN_SPREAD = 4.0  # RGB, least spread of the product's colours
 SHADING = 0.1  # colour_contrast's shading allowance (ProductReference shading)
-SATURATION = 250.0  # colour_contrast: channels clipped at this level on half of the product left out;
+SATURATION = float(CLIPPED_LEVEL)  # colour_contrast: channels clipped (at the camera's ceiling, as the
+# heightmap node's exposure warning reads it) on half of the product left out;
 # lightness_offset, dark_share: cells with a channel at this level are not read
 COLOUR_CAP = 100.0  # Mahalanobis distances above this count as this (and "no other object" as well)
 PRODUCT_MARGIN = 4  # px (8 mm) around the region left out of the product level
@@ -109,7 +110,8 @@ class RegionVerifier:
     """A logistic model over FEATURES: p = 1 / (1 + exp(-(coef . (clip(x, low, high) - mean) / scale +
     intercept))). mean, scale, coef, low, high: one value per feature (low / high: the range the fitting
     rows spanned; a feature outside it counts as its nearest end, so a view unlike any the model was fitted
-    on cannot drive the linear score anywhere); threshold: the least probability that makes a target."""
+    on cannot drive the linear score anywhere); threshold: the least probability that makes a target;
+    last_look and stall_look: attention's look thresholds, matched to this model's probabilities."""
 
     mean: tuple
     scale: tuple
@@ -118,6 +120,8 @@ class RegionVerifier:
     threshold: float
     low: tuple
     high: tuple
+    last_look: float  # the last look's least probability (attention, no heap left)
+    stall_look: float  # the stall look's threshold (attend's closer=True)
     provenance: str = ""
     features: tuple = FEATURES  # the names it was fitted on, a subset of FEATURES, in the order of its values
 
@@ -134,14 +138,21 @@ class RegionVerifier:
             raise ValueError(f"RegionVerifier.scale must be > 0, got {self.scale}")
         if not all(lo <= hi for lo, hi in zip(self.low, self.high, strict=True)):
             raise ValueError(f"RegionVerifier.low must not exceed high, got {self.low} / {self.high}")
-        if not 0.0 < self.threshold < 1.0:
-            raise ValueError(f"RegionVerifier.threshold must be a probability in (0, 1), got "
-                             f"{self.threshold}")
+        for name in ("threshold", "last_look", "stall_look"):
+            if not 0.0 < getattr(self, name) < 1.0:
+                raise ValueError(f"RegionVerifier.{name} must be a probability in (0, 1), got "
+                                 f"{getattr(self, name)}")
 
     @classmethod
     def from_dict(cls, fields: dict) -> RegionVerifier:
-        """A model from its fields as dataclasses.asdict gives them (the JSON of `calibrate_attention.py
-        verifier-fit --model-json`): lists read as tuples."""
+        """A model from its fields as dataclasses.asdict gives them (verifier.json's content): lists read as
+        tuples. ValueError (naming them) for missing or unknown fields."""
+        names = {f.name for f in dataclasses.fields(cls)}
+        required = {f.name for f in dataclasses.fields(cls) if f.default is dataclasses.MISSING}
+        unknown, missing = sorted(set(fields) - names), sorted(required - set(fields))
+        if unknown or missing:
+            raise ValueError(f"a verifier model needs the fields {', '.join(sorted(required))}; unknown: "
+                             f"{', '.join(unknown) or 'none'}, missing: {', '.join(missing) or 'none'}")
         return cls(**{k: tuple(v) if isinstance(v, list) else v for k, v in fields.items()})
 
     @property
@@ -173,7 +184,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     (H, W) float32 m, objects and region (H, W) bool (region not empty, within objects), conspicuity:
     VOCUS2's chromaticity-space maps by channel name ("I", "RG", "BY"), each (H, W) float32. None when no
     other object cell is in view: there is no product to compare with (attention then lets saliency
-    decide alone, as the rule does). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
+    decide alone). oriented False: ORIENTED_FEATURES are left 0, not computed (for a
     model that does not read them: they are the costliest). planes: the view's ViewPlanes when
     several regions of one view are read (computed here when None; the features are the same)."""
     region = np.asarray(region, dtype=bool)
@@ -313,7 +324,32 @@ def candidate_features(color: np.ndarray, height: np.ndarray, objects: np.ndarra
     return candidates
 
 
+SHIPPED_VERIFIER = "verifier.json"  # the shipped model, beside the impurity network (checkpoints.py)
+SOURCE_VERIFIER = SOURCE_CHECKPOINTS / SHIPPED_VERIFIER  # its copy in the source tree
+
+
+def read_verifier(path=None) -> RegionVerifier:
+    """The model in the JSON file `path` (None: the shipped one, checkpoints.shipped_path(SHIPPED_VERIFIER)):
+    an object of RegionVerifier's fields (write_verifier). ValueError naming the file for a file that is not
+    such a model; OSError when it cannot be read."""
+    path = pathlib.Path(path) if path is not None else shipped_path(SHIPPED_VERIFIER)
+    try:
+        return RegionVerifier.from_dict(json.loads(path.read_text()))
+    except (ValueError, TypeError) as error:
+        raise ValueError(f"verifier model {path}: {error}") from None
+
+
+def write_verifier(model: RegionVerifier, path) -> None:
+    """Write `model` to the JSON file `path` (read_verifier reads it back equal): one line per field."""
+    fields = dataclasses.asdict(model)
+    lines = [f"  {json.dumps(name)}: {json.dumps(list(value) if isinstance(value, tuple) else value)}"
+             for name, value in fields.items()]
+    path = pathlib.Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("{\n" + ",\n".join(lines) + "\n}\n")
+
+
+@functools.cache
 def default_verifier() -> RegionVerifier:
-    """The shipped model (verifier_model.py)."""
-    from .verifier_model import MODEL
-    return MODEL
+    """The shipped model (read_verifier()), read once per process."""
+    return read_verifier()
