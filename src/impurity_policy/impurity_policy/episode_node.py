@@ -103,7 +103,7 @@ class EpisodeParameters:
                                 "a heap is left, regions coloured like much of it are not targets")
     stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
                                   "impurity, ask attention for a stall look (/attention/look_closer: its "
-                                  "stall_look_threshold) and decide on it; 0: never", low=0, high=1000)
+                                  "stall_look_threshold) and decide on it", low=1, high=1000)
     verdict_min_height_drop: float = param(VERDICT.min_height_drop, "Grasp verdict: m a target cell's "
                                            "height must fall to count as changed", low=0.001)
     verdict_min_color_change: float = param(VERDICT.min_color_change, "Grasp verdict: RGB distance "

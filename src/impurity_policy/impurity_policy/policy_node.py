@@ -91,7 +91,7 @@ class PolicyParameters:
     tried_action_radius_px: int = param(_RULES.tried_action_radius_px, "tried_actions: heightmap px around "
                                         "an executed action that are ruled out", low=0, high=224)
     failed_grasps_before_push: int = param(_RULES.failed_grasps_before_push, "tried_actions: failed grasps "
-                                           "in a row after which only pushes are chosen (0: never)", low=0)
+                                           "in a row after which only pushes are chosen", low=1)
     occluded_push_radius_px: int = param(_RULES.occluded_push_radius_px, "occluded_push_through_heap: "
                                          "pushes pass this close (px) to the crop's highest pile",
                                          low=1, high=224)
@@ -99,7 +99,7 @@ class PolicyParameters:
                                    "inside the workspace (m)", low=0.0, high=0.2)
     occluded_push_edge_margin: float = param(_RULES.occluded_push_edge_margin, "occluded_push_off_edge: "
                                              "pushes that head for a workspace edge end at least this "
-                                             "far from it (m; 0: off; docs/experiments.md, fifteenth)",
+                                             "far from it (m)",
                                              low=0.0, high=0.3)
     occluded_push_start_band: tuple[float, ...] = param(
         _RULES.occluded_push_start_band, "occluded_push_start_on_flank: [low, high] local top at the push "

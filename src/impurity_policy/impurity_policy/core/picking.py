@@ -212,8 +212,8 @@ class EpisodeLimits:
     stall_look_views: int = 5  # OCCLUDED_REGION views in a row before a stall look (module doc); 0 = off
 
     def __post_init__(self):
-        if self.stall_look_views < 0:
-            raise ValueError(f"stall_look_views must be >= 0 (0 = off), got {self.stall_look_views}")
+        if self.stall_look_views < 1:
+            raise ValueError(f"stall_look_views must be >= 1, got {self.stall_look_views}")
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
@@ -333,8 +333,7 @@ class _Episode:
             return view
         self.occluded_views += 1
         look_closer = getattr(self.cell, "look_closer", None)
-        if not self.limits.stall_look_views or self.occluded_views < self.limits.stall_look_views \
-                or look_closer is None:
+        if self.occluded_views < self.limits.stall_look_views or look_closer is None:
             return view
         self.occluded_views = 0
         closer = look_closer()

@@ -16,25 +16,13 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
   9. target_push_start_near        pref  with a target in view, pushes that start next to it
  10. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
                                          when no grasp is left there, the policy pushes)
- 11. grasp_along_ridge             pref  with a target whose top has a crest (an upright prism), grasps
-                                         closing along the crest, not across it
- 12. grasp_across_corners          pref  with a target whose top is a flat rectangle, grasps closing at
-                                         least corner_min_skew_deg off both its face normals (a candidate)
- 13. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp
+ 11. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp
                                          turns its closing axis onto the nearer face normal, at most
                                          square_max_turn_deg (adopted on tuning seeds, twenty-ninth section)
- 14. grasp_turned_along_ridge      pose  with a target whose top has a crest (pose.ridge_direction: a
-                                         half cylinder lying flat, an upright prism), the chosen grasp
-                                         turns its closing axis onto the crest, by any angle
-                                         (a candidate, thirtieth section)
- 15. canonical_colours             input the network sees the colour crop in the default palette
-                                         (canonical.canonical_colours): attention has said which cells
-                                         are the target (a candidate: tested twice, not adopted)
 
 A *mask* always applies. A *preference* applies only where it leaves at least one action of its
 primitive (counting what the rules before it and -inf Q values already took away); otherwise it
-gives way. An *input* rule rules nothing out: it changes what the network is shown (Policy.q_maps). A
-*pose* rule rules nothing out either: it changes how the chosen action is executed
+gives way. A *pose* rule rules nothing out: it changes how the chosen action is executed
 (`RulePipeline.adjust_pose`, after the decision), never which action is chosen.
 The geometry of each rule is a pure function in `pose`; the figures that chose the thresholds are in
 docs/experiments.md.
@@ -65,8 +53,6 @@ from .network import GRASP, PUSH, valid_action_mask
 from .pose import (
     ActionPose,
     PoseRules,
-    closing_along,
-    closing_off_faces,
     face_direction,
     grasp_clear_at,
     grasp_clearance,
@@ -77,7 +63,6 @@ from .pose import (
     pushes_not_toward_near_edge,
     pushes_passing,
     pushes_starting_on_flank,
-    ridge_direction,
     target_core,
     target_on_top,
     top_slope,
@@ -86,7 +71,7 @@ from .pose import (
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = (AttentionMode.NONE, AttentionMode.TARGET,
                                                 AttentionMode.OCCLUDED_REGION)
-MASK, PREFERENCE, INPUT, POSE = "mask", "preference", "input", "pose"
+MASK, PREFERENCE, POSE = "mask", "preference", "pose"
 
 
 @dataclass(frozen=True)
@@ -110,13 +95,8 @@ class RuleParams:
     target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
     target_push_radius_px: int = 12  # target_push_start_near: px from the target's mask
     grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
-    ridge_min_slope: float = 0.4  # grasp_along_ridge: root-mean-square slope (m/m) of a top with a crest
-    # (pose.ridge_direction; flat tops about 0.1, a half cylinder 0.6, an upright prism 1.3)
     face_min_fill: float = 0.85  # grasp_across_corners: the share of its least-area rectangle the target's
     # mask fills for its top to count as a rectangle (pose.face_direction)
-    corner_min_skew_deg: float = 20.0  # grasp_across_corners: closing axes at least this far from both face
-    # normals (twenty-fourth section of docs/experiments.md: upright cubes lifted 83 % of grasps closing
-    # 7.5-22.5 deg off their faces, 95 % of the others)
     corner_max_slope: float = 0.3  # grasp_across_corners: the most root-mean-square slope (m/m) of a top
     # that counts as flat (pose.top_slope; flat tops 0.05-0.12, a half cylinder lying down 0.6, a prism 1.3:
     # nineteenth section; the rule lost grasps on those two in challenging scenes: twenty-fourth section)
@@ -124,35 +104,27 @@ class RuleParams:
     # onto a face normal (22.5: every axis nearer a face normal than a diagonal; twenty-fourth section of
     # docs/experiments.md: upright cubes lifted 83 % of grasps closing 7.5-22.5 deg off their faces, 95 %
     # of those closing within 7.5 deg of them and 95 % of those at 22.5 deg and more)
-    ridge_max_angle_deg: float = 35.0  # grasp_along_ridge: closing axes at most this far from the crest
-    # (in the simulator an upright prism alone held from 45 deg off across on and slipped out within 34 deg
-    # of across; beside others one slipped at 47 deg: docs/experiments.md, nineteenth section)
 
     def __post_init__(self):
         low, high = self.occluded_push_start_band
         if not 0.0 <= low < high <= 1.0:
             raise ValueError(f"occluded_push_start_band must be 0 <= low < high <= 1, got {(low, high)}")
-        for name in ("tried_action_radius_px", "changed_pixels", "failed_grasps_before_push",
-                     "occluded_push_radius_px", "target_push_radius_px"):
+        for name in ("tried_action_radius_px", "changed_pixels", "target_push_radius_px"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("failed_grasps_before_push", "occluded_push_radius_px"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
-                     "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope",
-                     "corner_max_slope"):
+                     "target_on_top_tolerance", "grasp_core_depth_px", "corner_max_slope"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.face_min_fill <= 1.0:
             raise ValueError(f"face_min_fill must be in [0, 1] (a share of the rectangle), got "
                              f"{self.face_min_fill}")
-        if not 0.0 <= self.corner_min_skew_deg <= 45.0:
-            raise ValueError(f"corner_min_skew_deg must be in [0, 45] (deg from a face normal), got "
-                             f"{self.corner_min_skew_deg}")
         if not 0.0 <= self.square_max_turn_deg <= 45.0:
             raise ValueError(f"square_max_turn_deg must be in [0, 45] (deg of turn onto a face normal), got "
                              f"{self.square_max_turn_deg}")
-        if not 0.0 <= self.ridge_max_angle_deg <= 90.0:
-            raise ValueError(f"ridge_max_angle_deg must be in [0, 90] (deg from the crest), got "
-                             f"{self.ridge_max_angle_deg}")
 
 
 class RuleContext:
@@ -184,15 +156,6 @@ class RuleContext:
             return None
         slope = top_slope(self.obs.height_crop, self.obs.mask, self.grid.resolution)
         return None if slope is None or slope > self.params.corner_max_slope else face
-
-    @functools.cached_property
-    def ridge(self) -> float | None:
-        """The crest's direction (rad, pose.ridge_direction at `ridge_min_slope`) of the target in view; None
-        when its top has none or no target is in view."""
-        if not self.target_in_view:
-            return None
-        return ridge_direction(self.obs.height_crop, self.obs.mask, self.grid.resolution,
-                               self.params.ridge_min_slope)
 
     @functools.cached_property
     def heap_top(self) -> tuple:
@@ -260,7 +223,7 @@ class TriedActions(Rule):
         rotations, size = ctx.rotations, ctx.size
         keep = np.ones((2, rotations, size, size), dtype=bool)
         failed_grasps = sum(entry[0] == GRASP for entry in self.tried)
-        if 0 < self.params.failed_grasps_before_push <= failed_grasps:
+        if failed_grasps >= self.params.failed_grasps_before_push:
             keep[GRASP] = False
         rows, cols = np.ogrid[:size, :size]
         row0, col0 = ctx.obs.crop_origin
@@ -305,7 +268,7 @@ class OccludedPushThroughHeap(Rule):
     name = "occluded_push_through_heap"
 
     def keeps(self, ctx: RuleContext) -> tuple:
-        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_radius_px <= 0:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION:
             return ()
         return (Keep(PUSH, pushes_passing(ctx.heap_top, ctx.size, ctx.params.occluded_push_radius_px,
                                           ctx.rotations, ctx.grid.resolution)),)
@@ -338,7 +301,7 @@ class OccludedPushOffEdge(Rule):
     kind = PREFERENCE
 
     def keeps(self, ctx: RuleContext) -> tuple:
-        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_edge_margin <= 0:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION:
             return ()
         return (Keep(PUSH, pushes_not_toward_near_edge(ctx.obs.crop_origin, ctx.size,
                                                        ctx.params.occluded_push_edge_margin, ctx.rotations,
@@ -399,46 +362,6 @@ class GraspAtTargetCore(Rule):
         if not ctx.target_in_view:
             return ()
         return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
-
-
-class GraspAlongRidge(Rule):
-    """With a target in view whose top has a crest (pose.ridge_direction: an upright prism, a half cylinder,
-    a cylinder lying down, a cube on an edge), a grasp whose closing axis lies more than `ridge_max_angle_deg`
-    from the crest. Closing across the crest the fingers meet the two sloping faces and squeeze the block up
-    and out of the grip; along it they close on its upright ends. In the simulator an upright prism alone
-    slipped out of every grasp closing within 34 deg of across its crest and was held from 45 deg on
-    (docs/experiments.md, nineteenth section). A preference after grasp_at_target_core: where no grasp along
-    the crest is left at the target's middle it gives way."""
-
-    name = "grasp_along_ridge"
-    kind = PREFERENCE
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        crest = ctx.ridge
-        if crest is None:
-            return ()
-        along = closing_along(crest, math.radians(ctx.params.ridge_max_angle_deg), ctx.rotations)
-        return (Keep(GRASP, along[:, None, None]),)
-
-
-class GraspAcrossCorners(Rule):
-    """With a target in view whose top outline is a rectangle (pose.face_direction: a cube or a slab seen
-    from above) and whose top is flat (pose.top_slope at most `corner_max_slope`: not a half cylinder or a
-    prism lying down, whose outlines are rectangles too), a grasp whose closing axis lies within
-    `corner_min_skew_deg` of one of its face normals.
-    In the simulator upright cubes slipped from a sixth of the grasps closing 7.5-22.5 deg skewed to their
-    faces and a twentieth of the others (docs/experiments.md, twenty-fourth section). A candidate; a
-    preference after grasp_at_target_core: where no such grasp is left at the target's middle it gives way."""
-
-    name = "grasp_across_corners"
-    kind = PREFERENCE
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        face = ctx.flat_rectangle_face
-        if face is None:
-            return ()
-        skewed = closing_off_faces(face, math.radians(ctx.params.corner_min_skew_deg), ctx.rotations)
-        return (Keep(GRASP, skewed[:, None, None]),)
 
 
 class PoseRule(Rule):
@@ -504,48 +427,12 @@ class GraspSquareToFaces(PoseRule):
         return ctx.params.square_max_turn_deg
 
 
-class GraspTurnedAlongRidge(PoseRule):
-    """A pose rule, a candidate: the chosen grasp, on a target whose top has a crest (RuleContext.ridge:
-    pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down,
-    whose outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns
-    onto the crest (pose.turn_onto, an axis: at most 90 deg either way) when the turned grasp is clear
-    (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's;
-    only the executed yaw changes. In challenging scenes on tuning palettes, 53 of 65 failed grasps were at
-    half cylinders lying flat: 40 of 40 lifted closing within 30 deg of the cylinder's axis, 7 of 44 at 60-75
-    deg (docs/experiments.md, thirtieth section); the preference grasp_along_ridge, which rules rotations out
-    instead, changed few episodes because it gives way (nineteenth section)."""
-
-    name = "grasp_turned_along_ridge"
-
-    def onto(self, ctx: RuleContext) -> float | None:
-        return ctx.ridge
-
-
-class CanonicalColours(Rule):
-    """The network's colour crop repainted in the default palette (canonical.canonical_colours; Policy.q_maps
-    reads whether the pipeline holds this rule). The network learnt on the default palette first; under
-    another palette it grasped revealed targets that product still touched, and missed, where on the default
-    palette it pushed first. A candidate: its first test on invisible tuning episodes gained 4.8 points of
-    grasp success with an interval reaching below 0, its second lost 0.8 (docs/experiments.md, twenty-third
-    section)."""
-
-    name = "canonical_colours"
-    kind = INPUT
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        return ()
-
-
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
                                       PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
                                       GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore,
-                                      GraspAlongRidge, GraspAcrossCorners, GraspSquareToFaces,
-                                      GraspTurnedAlongRidge,
-                                      CanonicalColours)}
+                                      GraspSquareToFaces)}
 RULE_ORDER = tuple(RULES)
-# rules under test (docs/experiments.md), in no preset until adopted
-CANDIDATES = ("grasp_along_ridge", "grasp_across_corners", "grasp_turned_along_ridge", "canonical_colours")
-PRESETS = {"none": (), "cell": tuple(name for name in RULE_ORDER if name not in CANDIDATES)}
+PRESETS = {"none": (), "cell": RULE_ORDER}
 
 
 class RulePipeline:
