@@ -73,6 +73,7 @@ from typing import Protocol
 import numpy as np
 
 from impurity_common.enums import AttentionMode
+from impurity_common.parameters import param
 
 from .episode import (
     COUNTED_BY_PERCEPTION,
@@ -202,14 +203,27 @@ class Cell(Protocol):
 
 @dataclass(frozen=True)
 class EpisodeLimits:
-    actions_per_target: int = DEFAULT_ACTIONS_PER_TARGET  # when a request's max_actions is 0
-    max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES
-    # Counting by perception (a cell without target counts):
-    none_frames_to_finish: int = DEFAULT_NONE_FRAMES_TO_FINISH  # consecutive NONE views that end it
-    max_actions_uncounted: int = DEFAULT_MAX_ACTIONS_UNCOUNTED  # when a request's max_actions is 0
+    """When an episode ends and how it is judged (module docstring); the episode node's parameters of the
+    same names (the verdict's as verdict.<name>)."""
+
+    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target in the workspace "
+                                    "when a request gives max_actions 0", low=1, high=1000)
+    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES,
+                                          "Failed grasps (nothing lifted) or pushes whose motion failed, "
+                                          "in a row, that end the episode; a motion the driver refuses "
+                                          "ends it at once", low=1, high=1000)
+    none_frames_to_finish: int = param(DEFAULT_NONE_FRAMES_TO_FINISH, "Counting by perception: consecutive "
+                                       "fresh frames on which attention answers NONE that end the episode",
+                                       low=1, high=100)
+    max_actions_uncounted: int = param(DEFAULT_MAX_ACTIONS_UNCOUNTED, "Counting by perception: action limit "
+                                       "when a request gives max_actions 0", low=1, high=10000)
     verdict: VerdictParams = VerdictParams()
-    known_product: bool = True  # hand a first view without target to the cell's know_product (module doc)
-    stall_look_views: int = 5  # OCCLUDED_REGION views in a row before a stall look (module doc); 0 = off
+    known_product: bool = param(True, "When attention finds no target in an episode's first view, hand that "
+                                "view to the cell as the known product (module docstring): while a heap is "
+                                "left, regions coloured like much of it are not targets")
+    stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
+                                  "impurity, ask the cell for a stall look (module docstring) and decide on "
+                                  "it", low=1, high=1000)
 
     def __post_init__(self):
         if self.stall_look_views < 1:

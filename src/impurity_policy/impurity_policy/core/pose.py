@@ -29,18 +29,26 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
+from impurity_common.parameters import param
 
 from .network import GRASP, PUSH
 
 
 @dataclass(frozen=True)
 class PoseRules:
-    grasp_depth: float = 0.03  # m below the local top
-    grasp_min_tip: float = 0.005  # m above the table: low, rounded blocks slip from fingers closed higher
-    push_depth: float = 0.02  # m below the local top at the start pixel
-    push_min_tip: float = 0.01  # m above the table
-    local_radius_px: int = 3  # window (2r+1)^2 for "local top"
-    finger_overlap: float = 0.015  # m: the pads must reach this far below the local top (clearance)
+    """How deep pushes and grasps go (module docstring); the policy node's parameters of the same names."""
+
+    grasp_depth: float = param(0.03, "Grasp fingertips below the local top (m; VPG's grasp depth)",
+                               low=0.0, high=0.2)
+    grasp_min_tip: float = param(0.005, "Lowest grasp fingertip height above the table (m): low, rounded "
+                                 "blocks slip from fingers closed higher", low=0.0, high=0.2)
+    push_depth: float = param(0.02, "Push fingertips below the local top at the start pixel (m)",
+                              low=0.0, high=0.2)
+    push_min_tip: float = param(0.01, "Lowest push fingertip height above the table (m)", low=0.0, high=0.2)
+    local_radius_px: int = param(3, "Heightmap px around a pixel whose highest point is its local top (a "
+                                 "(2r+1)^2 window)", low=0, high=20)
+    finger_overlap: float = param(0.015, "finger_clearance: the pads must reach this far below the local top "
+                                  "at the grasp pixel (m)", low=0.0, high=0.1)
 
 
 @dataclass(frozen=True)

@@ -47,6 +47,7 @@ import numpy as np
 from impurity_common import cell
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
+from impurity_common.parameters import increasing, param
 
 from .change import CHANGE_PIXELS_TAU, changed_pixels
 from .network import GRASP, PUSH, valid_action_mask
@@ -76,34 +77,44 @@ MASK, PREFERENCE, POSE = "mask", "preference", "pose"
 
 @dataclass(frozen=True)
 class RuleParams:
-    """Every rule's thresholds, in one place (node parameters of the same names; docs/experiments.md
-    has the runs that chose them)."""
+    """Every rule's thresholds, in one place; the policy node's parameters of the same names."""
 
-    tried_action_radius_px: int = 10  # tried_actions: heightmap px around an executed action ruled out
-    changed_pixels: int = CHANGE_PIXELS_TAU  # tried_actions: a scene with at most this many changed
-    # pixels (change.changed_pixels) counts as unchanged
-    failed_grasps_before_push: int = 2  # tried_actions: failed grasps in a row after which every grasp
-    # is ruled out until a push (0: never)
-    heap_sigma_px: float = 6.0  # occluded rules: smoothing (px) of the height crop before its top is taken
-    occluded_push_radius_px: int = 10  # occluded_push_through_heap: pushes pass this close to the top
-    push_end_margin: float = 0.06  # m, push_end_inside: pushes end at least this far inside the workspace
-    occluded_push_edge_margin: float = 0.12  # m, occluded_push_off_edge: pushes that head for an edge end
-    # at least this far from it (0: off). Adopted on its second test on tuning seeds (fifteenth section of
-    # docs/experiments.md; the first test, at the same margin, had failed its grasp-success bound)
-    occluded_push_start_band: tuple = (0.5, 0.7)  # occluded_push_start_on_flank: local top at the start,
-    # as a fraction of the heap top's height
-    target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
-    target_push_radius_px: int = 12  # target_push_start_near: px from the target's mask
-    grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
-    face_min_fill: float = 0.85  # grasp_across_corners: the share of its least-area rectangle the target's
-    # mask fills for its top to count as a rectangle (pose.face_direction)
-    corner_max_slope: float = 0.3  # grasp_across_corners: the most root-mean-square slope (m/m) of a top
-    # that counts as flat (pose.top_slope; flat tops 0.05-0.12, a half cylinder lying down 0.6, a prism 1.3:
-    # nineteenth section; the rule lost grasps on those two in challenging scenes: twenty-fourth section)
-    square_max_turn_deg: float = 22.5  # grasp_square_to_faces: the most a grasp's closing axis is turned
-    # onto a face normal (22.5: every axis nearer a face normal than a diagonal; twenty-fourth section of
-    # docs/experiments.md: upright cubes lifted 83 % of grasps closing 7.5-22.5 deg off their faces, 95 %
-    # of those closing within 7.5 deg of them and 95 % of those at 22.5 deg and more)
+    tried_action_radius_px: int = param(10, "tried_actions: heightmap px around an executed action that are "
+                                        "ruled out", low=0, high=224)
+    changed_pixels: int = param(CHANGE_PIXELS_TAU, "tried_actions: a scene with at most this many changed "
+                                "pixels (change.changed_pixels) counts as unchanged (VPG's change threshold)",
+                                low=0)
+    failed_grasps_before_push: int = param(2, "tried_actions: failed grasps in a row after which every grasp "
+                                           "is ruled out until a push", low=1)
+    heap_sigma_px: float = param(6.0, "Occluded rules: Gaussian sigma (px) of the height crop before the "
+                                 "heap's top is taken", low=0.0, high=56.0)
+    occluded_push_radius_px: int = param(10, "occluded_push_through_heap: pushes pass this close (px) to the "
+                                         "crop's highest pile", low=1, high=224)
+    push_end_margin: float = param(0.06, "push_end_inside: pushes end at least this far inside the "
+                                   "workspace (m)", low=0.0, high=0.2)
+    occluded_push_edge_margin: float = param(0.12, "occluded_push_off_edge: pushes that head for a workspace "
+                                             "edge end at least this far from it (m; on 400 invisible tuning "
+                                             "episodes, completion 90.8 -> 94.5 %)", low=0.0, high=0.3)
+    occluded_push_start_band: tuple[float, ...] = param(
+        (0.5, 0.7), "occluded_push_start_on_flank: [low, high] local top at the push start, as a fraction of "
+        "the pile's top", length=2, low=0.0, high=1.0, check=increasing)
+    target_on_top_tolerance: float = param(0.005, "grasp_where_target_on_top: the target is the local top "
+                                           "give or take this (m)", low=0.0, high=0.1)
+    target_push_radius_px: int = param(12, "target_push_start_near: pushes start this close (px) to the "
+                                       "target's mask", low=0, high=224)
+    grasp_core_depth_px: float = param(1.0, "grasp_at_target_core: grasps this close (px) to the depth of "
+                                       "the target mask's deepest point", low=0.0, high=56.0)
+    face_min_fill: float = param(0.85, "grasp_square_to_faces: the share of its least-area rectangle the "
+                                 "target's mask fills for its top to count as a rectangle "
+                                 "(pose.face_direction; a cube or slab seen from above fills 0.9-1.0, a disc "
+                                 "0.79)", low=0.0, high=1.0)
+    corner_max_slope: float = param(0.3, "grasp_square_to_faces: the most root-mean-square slope (m/m) of a "
+                                    "top that counts as flat (pose.top_slope: flat tops 0.05-0.12, a half "
+                                    "cylinder lying down 0.6, an upright prism 1.3)", low=0.0)
+    square_max_turn_deg: float = param(22.5, "grasp_square_to_faces: a grasp on a flat rectangular target "
+                                       "top turns its closing axis at most this far (deg) onto a face normal "
+                                       "(22.5: every axis nearer a face normal than a diagonal)",
+                                       low=0.0, high=45.0)
 
     def __post_init__(self):
         low, high = self.occluded_push_start_band

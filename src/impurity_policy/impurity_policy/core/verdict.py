@@ -47,6 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common.colour import ProductReference, region_contrast
+from impurity_common.parameters import param
 
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
@@ -61,19 +62,23 @@ DEFAULT_MIN_TARGET_SCORE = 0.0
 
 @dataclass(frozen=True)
 class VerdictParams:
-    """Thresholds of judge_grasp (units in the names' docstrings)."""
+    """Thresholds of judge_grasp (module docstring); the episode node's parameters verdict.<name>."""
 
-    min_height_drop: float = 0.01  # m: a cell whose height fell by at least this has lost what stood there
-    min_color_change: float = 60.0  # RGB distance (0-255 per channel) that marks a cell as changed
-    min_gone_fraction: float = 0.5  # share of the target mask's cells that must have changed
-    closed_opening: float = DEFAULT_CLOSED_OPENING  # m: an opening at or below this holds nothing
-    # Saliency contrast (AttentionResult.score of a TARGET) below which an attended region is not counted
-    # as an impurity when lifted; 0 = every TARGET counts.
-    min_target_score: float = DEFAULT_MIN_TARGET_SCORE
-    # Colour distance of the attended region from the product (ProductReference.contrast: Mahalanobis),
-    # below which it is not counted; 0 = no colour test.
-    min_color_contrast: float = DEFAULT_MIN_COLOR_CONTRAST
-    min_object_height: float = 0.01  # m: cells higher than this are objects, for the colour test
+    min_height_drop: float = param(0.01, "m a target cell's height must fall to count as changed",
+                                   low=0.001)
+    min_color_change: float = param(60.0, "RGB distance (0-255 per channel) that counts a target cell as "
+                                    "changed", low=1.0)
+    min_gone_fraction: float = param(0.5, "Share of the attended target's cells that must have changed",
+                                     low=0.01, high=1.0)
+    closed_opening: float = param(DEFAULT_CLOSED_OPENING, "m between the fingers at or below which the "
+                                  "gripper holds nothing (when the driver does not report holding)", low=0.0)
+    min_target_score: float = param(DEFAULT_MIN_TARGET_SCORE, "Saliency contrast (attention score) a lifted "
+                                    "TARGET needs to count as an impurity; 0: every TARGET counts", low=0.0)
+    min_color_contrast: float = param(DEFAULT_MIN_COLOR_CONTRAST, "Colour distance "
+                                      "(ProductReference.contrast, Mahalanobis) a lifted TARGET must keep "
+                                      "from the product's colours to count as an impurity", low=0.0)
+    min_object_height: float = param(0.01, "m: cells higher than this are objects, for the colour test",
+                                     low=0.0, high=0.1)
 
     def __post_init__(self):
         if not self.min_height_drop > 0:
