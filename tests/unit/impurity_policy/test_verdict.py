@@ -1,5 +1,5 @@
 """The perception verdict on a grasp (impurity_policy.core.verdict): was the lifted object the attended
-impurity? Judged from two heightmaps and what the gripper reports, as a real cell must (issue 18 item 1)."""
+impurity? Judged from two heightmaps and what the gripper reports, as a real cell must."""
 
 import numpy as np
 import pytest

@@ -24,22 +24,21 @@ A cell (duck-typed, see `Cell`):
     look_closer() -> View | None     optional: a stall look (below) at the scene as the last view showed
                                      it; None: the cell cannot (the last view is decided on)
 
-The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
-episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
-The cell's attention then passes over regions coloured like much of it while a heap is left; the region a last
-look would take in that view (its near miss, perhaps an impurity the decision missed) is left out of it
-(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth to twenty-seventh sections). When
-the episode ends, however it ends, the loop calls know_product(None); a cell also forgets it at its next
-reset. "First view without target" reads View.mode, the mode the cell's decision answers: a cell whose
-decisions never answer anything but TARGET (the fast sim's full-heightmap and no-occluded-region ablations)
-never gets a known product.
+The known product (EpisodeLimits.known_product): when attention finds no target in the episode's first
+view, that view shows product only, and the loop hands it to the cell's know_product once. The cell's
+attention then passes over regions coloured like much of it while a heap is left; the region a last look
+would take in that view (its near miss, perhaps an impurity the decision missed) is left out of it
+(impurity_attention.core.product_memory). When the episode ends, however it ends, the loop calls
+know_product(None); a cell also forgets it at its next reset. "First view without target" reads View.mode,
+the mode the cell's decision answers: a cell whose decisions never answer anything but TARGET (the fast
+sim's full-heightmap and no-occluded-region ablations) never gets a known product.
 
-The stall look (EpisodeLimits.stall_look_views, 5 by default; 0 = off): on the stall_look_views-th view in a
-row whose mode is OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
+The stall look (EpisodeLimits.stall_look_views): on the stall_look_views-th view in a row whose mode is
+OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
 look_closer() for the view to decide on: attention looks again with the verifier's threshold lowered to
 AttentionParams.stall_look_threshold (impurity_attention.core.attention.attend's closer), so a target it has
 been unsure of in a packed scene is grasped instead of pushed on for the rest of the episode. The count then
-starts over (docs/experiments.md, thirtieth and thirty-first sections).
+starts over.
 
 Two ways to count:
 - by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
@@ -47,7 +46,7 @@ Two ways to count:
   "all_reachable_targets_picked", not completed. The loop stops when every target in the workspace is
   picked, at the action limit, after repeated failures, or when attention (or the decision) finds
   nothing to act on.
-- by perception (reset returned None; issue 18 item 1): no count is needed up front. After each grasp
+- by perception (reset returned None, a real cell): no count is needed up front. After each grasp
   the next fresh view judges it (core/verdict.py: the attended target gone from its cells and the gripper
   holding); the picked count is the number of grasps judged "impurity picked". The loop stops when
   attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible

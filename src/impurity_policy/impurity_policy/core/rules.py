@@ -3,29 +3,38 @@ random scenes, does not. Each rule is a small named unit that keeps some actions
 out (sets their Q value to -inf); none ever adds an action. They are applied in one place
 (`RulePipeline.apply`) in one order, `RULE_ORDER`:
 
-  1. tried_actions                 mask  an executed action that changed nothing is not tried again
-                                         (stateful: `record` after each executed action)
-  2. finger_clearance              mask  grasps whose open finger pads or palm would land on something
-  3. grasp_on_target               mask  with a target in view, grasps on its mask only
-  4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top
-  5. push_end_inside               mask  pushes that end inside the workspace, with a margin
-  6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge
-                                         and end near it (occluded_push_edge_margin, 0.12 m; 0: off)
-  7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
-  8. grasp_where_target_on_top     pref  grasps where the target is the local top
+  1. tried_actions                 mask  an executed action that changed nothing is not tried again (a
+                                         greedy policy repeats itself; VPG's change test, change.py)
+  2. finger_clearance              mask  grasps whose open finger pads or palm would land on something (the
+                                         gripper's guarded descent stops there: cell.GRASP_OPENING, ...)
+  3. grasp_on_target               mask  with a target in view, grasps on its mask only (the cell picks
+                                         impurities; a grasp beside one lifts its neighbour)
+  4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top (paper
+                                         section 4: scatter the heap that can hide a target)
+  5. push_end_inside               mask  pushes that end inside the workspace, with a margin (a target
+                                         pushed out is lost to the cell)
+  6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge and end
+                                         near it (400 invisible tuning episodes: completion 90.8 -> 94.5 %)
+  7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank (from its
+                                         top a push only sweeps what lies on it)
+  8. grasp_where_target_on_top     pref  grasps where the target is the local top (a grasp closes at the
+                                         local top: under a slab it lifts the slab)
   9. target_push_start_near        pref  with a target in view, pushes that start next to it
- 10. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
-                                         when no grasp is left there, the policy pushes)
- 11. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp
-                                         turns its closing axis onto the nearer face normal, at most
-                                         square_max_turn_deg (adopted on tuning seeds, twenty-ninth section)
+ 10. grasp_at_target_core          mask  grasps at the middle of the target; after the preferences, so that
+                                         when no grasp is left there the policy pushes (grasps 10 mm off a
+                                         free 26 mm cube closed on nothing)
+ 11. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp turns
+                                         its closing axis onto the nearer face normal (tuning seeds,
+                                         invisible scenes: +1.6 points of pooled grasp success)
+
+Each rule's place in the preset `cell` is re-checked, leaving one out at a time on tuning seeds and
+palettes, by `python scripts/check_rules.py`.
 
 A *mask* always applies. A *preference* applies only where it leaves at least one action of its
 primitive (counting what the rules before it and -inf Q values already took away); otherwise it
 gives way. A *pose* rule rules nothing out: it changes how the chosen action is executed
 (`RulePipeline.adjust_pose`, after the decision), never which action is chosen.
-The geometry of each rule is a pure function in `pose`; the figures that chose the thresholds are in
-docs/experiments.md.
+The geometry of each rule is a pure function in `pose`; its thresholds are RuleParams.
 
 Presets (`PRESETS`, node parameter `rules`, `--rules` in evaluation and training):
   none  the paper's method: the network's argmax over the valid actions, no rule at all;
@@ -193,9 +202,9 @@ class Rule:
 
 class TriedActions(Rule):
     """A greedy policy repeats itself: after a grasp that closed on nothing or a push that moved
-    nothing the state is about the same, so the argmax is too (invisible scenes showed the same push
-    ten times over). Executed actions are ruled out within `tried_action_radius_px` (a push: its
-    direction; a grasp: its rotation and the opposite one, one closing axis):
+    nothing the state is about the same, so the argmax is too. Executed actions are ruled out within
+    `tried_action_radius_px` (a push: its direction; a grasp: its rotation and the opposite one, one
+    closing axis):
       - a failed grasp until a push rearranges the scene or a grasp lifts something;
       - a push while the scene is unchanged since it was decided (at most `changed_pixels` height
         pixels moved: the paper's change rule, change.changed_pixels);
@@ -303,10 +312,7 @@ class OccludedPushOffEdge(Rule):
     """No target in view: a push that heads for a workspace edge (pose.pushes_not_toward_near_edge) and
     ends less than `occluded_push_edge_margin` from it. A hidden target in the heap is shoved on beyond the
     push's end, and one pushed out of the workspace is lost to the cell; heaps by an edge are pushed along
-    it or inwards instead. On at 0.12 m (a margin of 0 turns it off): adopted on its second test, 400 fresh
-    invisible tuning episodes (completion 90.8 -> 94.5 %, targets pushed out in 21 -> 2 episodes, grasp
-    success pooled 78.6 -> 79.8 %), after its first, on 200, had failed its grasp-success bound
-    (docs/experiments.md, fourteenth and fifteenth sections)."""
+    it or inwards instead. On 400 invisible tuning episodes it raised completion from 90.8 to 94.5 %."""
 
     name = "occluded_push_off_edge"
     kind = PREFERENCE
@@ -421,12 +427,8 @@ class GraspSquareToFaces(PoseRule):
     square on two faces: its closing axis turns onto the nearer face normal (PoseRule, period pi/2) when that
     is at most `square_max_turn_deg` away and the turned grasp is clear (pose.grasp_clear_at). The pixel, the
     rotation index and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by
-    less than the network's 22.5 deg rotation step. Upright cubes slipped from a sixth of the grasps closing
-    7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg (docs/experiments.md,
-    twenty-fourth section); grasp_across_corners, which moved grasps out of that band by ruling out
-    rotations, also moved them to other pixels and scenes went another way (twenty-fourth and twenty-fifth
-    sections). Adopted on fresh tuning seeds (twenty-ninth section): invisible scenes +1.6 points of pooled
-    grasp success (paired 95 % +0.4 to +3.1), random and challenging scenes unchanged."""
+    less than the network's 22.5 deg rotation step. In the simulator upright cubes slipped from a sixth of
+    the grasps closing 7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg."""
 
     name = "grasp_square_to_faces"
     period = math.pi / 2  # a rectangle's two face normals
