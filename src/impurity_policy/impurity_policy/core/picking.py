@@ -296,6 +296,16 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
             except Exception as error:  # noqa: BLE001 - the record must close; the next reset clears it too
                 if on_error is not None:
                     on_error(error)
+    summary = _summary(tracker, reason, episode.truth_targets_total)
+    if recorder is not None:
+        summary = recorder.write_summary(summary, reason)
+        recorder.write_picture()
+    return summary
+
+
+def _summary(tracker: EpisodeTracker, reason: str, truth_targets_total: int | None) -> dict:
+    """run_episode's summary of an ended episode: the tracker's metrics, termination_reason, completed,
+    counted_by and, counted by perception, the truth audit (episode.truth_audit)."""
     metrics = tracker.metrics()
     if tracker.counts_known:
         completed = tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total
@@ -304,10 +314,7 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
     summary = {**metrics, "termination_reason": reason, "completed": completed,
                "counted_by": COUNTED_BY_TRUTH if tracker.counts_known else COUNTED_BY_PERCEPTION}
     if not tracker.counts_known:
-        summary.update(truth_audit(tracker.steps, episode.truth_targets_total))
-    if recorder is not None:
-        summary = recorder.write_summary(summary, reason)
-        recorder.write_picture()
+        summary.update(truth_audit(tracker.steps, truth_targets_total))
     return summary
 
 
@@ -432,23 +439,30 @@ class _Episode:
                 return TERMINATION_NOTHING_LEFT
             if self.stop():
                 return TERMINATION_CANCELED
-            outcome = cell.execute(action)
-            verdict, after, pending = None, None, None
-            if action.kind == "grasp":
-                try:  # the next fresh view judges the grasp, and is the next decision's view
-                    after = self._look()
-                except (EpisodeCanceled, EpisodeAborted) as error:
-                    pending = error  # record the step (not judged), then end
-                verdict = self._judge(view, after, outcome)
+            after, verdict = self._act_and_judge(view, action)
             # a last look answered by a push, or by a grasp the verdict says lifted no impurity, was in vain
             looked_in_vain = looked_in_vain or (view.last_look and not (verdict and verdict.impurity_picked))
-            truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
-            score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
-            self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
-                                     truth_target_grasped=truth_grasped, target_score=score))
-            if pending is not None:
-                raise pending
             view = after
+
+    def _act_and_judge(self, view: View, action: Action) -> tuple[View | None, GraspVerdict | None]:
+        """run_by_perception's step: execute `action` (decided on `view`), judge a grasp on the next fresh
+        view and record the step. Returns (that view, the next decision's; None after a push, the verdict
+        or None). A cancel or an abort while looking after a grasp is raised once the step is recorded."""
+        outcome = self.cell.execute(action)
+        verdict, after, pending = None, None, None
+        if action.kind == "grasp":
+            try:  # the next fresh view judges the grasp, and is the next decision's view
+                after = self._look()
+            except (EpisodeCanceled, EpisodeAborted) as error:
+                pending = error  # record the step (not judged), then end
+            verdict = self._judge(view, after, outcome)
+        truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
+        score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
+        self._record(step_record(self.tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
+                                 truth_target_grasped=truth_grasped, target_score=score))
+        if pending is not None:
+            raise pending
+        return after, verdict
 
     def _judge(self, before: View, after: View | None, outcome: Outcome) -> GraspVerdict:
         gripper = GripperReport(outcome.holding, float(outcome.gripper_opening))
