@@ -381,63 +381,41 @@ class GraspAtTargetCore(Rule):
         return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
 
 
-class PoseRule(Rule):
-    """A rule of kind POSE: it rules nothing out (`keeps` gives ()); after the decision it turns the chosen
-    grasp's closing axis onto the nearest of the directions `onto(ctx)` + k `period` (pose.turn_onto) when
-    the grasp's pixel lies on the target's mask, the turn is non-zero and at most `max_turn_deg(ctx)`, and the
-    fingers are clear at the new yaw (pose.grasp_clear_at). The pixel, the rotation index and the decision
-    stay the network's; only ActionPose.yaw changes. The cheap tests come first: `onto` (a reading of the
-    target's top) is taken only for a grasp on the target."""
+class GraspSquareToFaces(Rule):
+    """A pose rule: it rules nothing out (`keeps` gives ()); after the decision the chosen grasp, on a target
+    whose top outline is a rectangle (pose.face_direction) and whose top is flat (pose.top_slope at most
+    `corner_max_slope`), its pixel on the target's mask, closes square on two faces: its closing axis turns
+    onto the nearer face normal (pose.turn_onto, period pi/2) when the turn is non-zero and at most
+    `square_max_turn_deg`, and the turned grasp is clear (pose.grasp_clear_at). The pixel, the rotation index
+    and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by less than the
+    network's 22.5 deg rotation step. In the simulator upright cubes slipped from a sixth of the grasps
+    closing 7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg."""
 
+    name = "grasp_square_to_faces"
     kind = POSE
-    period = math.pi  # rad: directions this far apart turn a grasp alike (pi: an axis)
+    period = math.pi / 2  # rad: a rectangle's two face normals turn a grasp alike
 
     def keeps(self, ctx: RuleContext) -> tuple:
         return ()
 
-    def onto(self, ctx: RuleContext) -> float | None:
-        """The direction (rad) to turn onto, or None where the rule does not apply."""
-        raise NotImplementedError
-
-    def max_turn_deg(self, ctx: RuleContext) -> float:
-        return math.degrees(self.period / 2)
-
     def adjust(self, ctx: RuleContext, pose: ActionPose) -> ActionPose:
-        """`pose` with its yaw turned, or `pose` itself where the rule does not apply."""
+        """`pose` with its yaw turned, or `pose` itself where the rule does not apply. The cheap tests come
+        first: the target's top is read only for a grasp on the target."""
         if pose.primitive != GRASP or not ctx.target_in_view:
             return pose
         row, col = heightmap_to_crop(pose.heightmap_pixel, ctx.obs.crop_origin)
         if not (0 <= row < ctx.size and 0 <= col < ctx.size) or not ctx.target[row, col]:
             return pose
-        direction = self.onto(ctx)
-        if direction is None:
+        face = ctx.flat_rectangle_face
+        if face is None:
             return pose
-        turn = turn_onto(pose.yaw, direction, self.period)
-        if abs(turn) < 1e-6 or abs(turn) > math.radians(self.max_turn_deg(ctx)) + 1e-9:
+        turn = turn_onto(pose.yaw, face, self.period)
+        if abs(turn) < 1e-6 or abs(turn) > math.radians(ctx.params.square_max_turn_deg) + 1e-9:
             return pose
         yaw = (pose.yaw + turn) % (2.0 * math.pi)
         if not grasp_clear_at(ctx.obs.height, pose.heightmap_pixel, yaw, ctx.pose_rules, ctx.grid.resolution):
             return pose
         return dataclasses.replace(pose, yaw=yaw)
-
-
-class GraspSquareToFaces(PoseRule):
-    """A pose rule: the chosen grasp, on a target whose top outline is a rectangle (pose.face_direction) and
-    whose top is flat (pose.top_slope at most `corner_max_slope`), its pixel on the target's mask, closes
-    square on two faces: its closing axis turns onto the nearer face normal (PoseRule, period pi/2) when that
-    is at most `square_max_turn_deg` away and the turned grasp is clear (pose.grasp_clear_at). The pixel, the
-    rotation index and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by
-    less than the network's 22.5 deg rotation step. In the simulator upright cubes slipped from a sixth of
-    the grasps closing 7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg."""
-
-    name = "grasp_square_to_faces"
-    period = math.pi / 2  # a rectangle's two face normals
-
-    def onto(self, ctx: RuleContext) -> float | None:
-        return ctx.flat_rectangle_face
-
-    def max_turn_deg(self, ctx: RuleContext) -> float:
-        return ctx.params.square_max_turn_deg
 
 
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
