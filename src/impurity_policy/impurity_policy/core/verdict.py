@@ -13,7 +13,7 @@ picked an impurity when all hold:
    from the colours of the object cells (higher than `min_object_height`) of the episode's first view, the
    attended target's left out (ProductReference.contrast, with the shading allowance COLOR_SHADING along
    the product's colour), is at least `min_color_contrast`. Relative to the product's own colours, it
-   needs no per-job colour constant (0 leaves the test out);
+   needs no per-job colour constant;
 4. optionally (`min_target_score` > 0), attention's saliency contrast of the region (AttentionResult.score)
    was at least that.
 
@@ -214,9 +214,9 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
                 reference: ProductReference | None = None) -> GraspVerdict:
     """The perception verdict on one grasp (module docstring): the attended target gone from its cells
     (target_gone_fraction >= min_gone_fraction), attended with a contrast target_score >=
-    min_target_score, and the gripper holding something; with min_color_contrast > 0, its colour at least
-    that far from the product's (ProductReference.contrast): `reference` (the episode's) when given, else
-    the other objects of the same view.
+    min_target_score, the gripper holding something, and its colour at least min_color_contrast from the
+    product's (ProductReference.contrast): `reference` (the episode's) when given, else the other objects
+    of the same view.
 
     target_mask None (the grasp answered no visible target) or a missing map -> not an impurity, with
     the reason. Raises ValueError as target_gone_fraction does on inconsistent maps.
@@ -228,7 +228,7 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
     gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
     contrast = None
-    if gone >= params.min_gone_fraction and holding and params.min_color_contrast > 0:
+    if gone >= params.min_gone_fraction and holding:
         if reference is not None:
             contrast = reference.contrast(region_color(before_color, target_mask))
         else:
@@ -243,15 +243,14 @@ def decide_picked(gone: float, holding: bool, target_score: float, contrast: flo
     """judge_grasp's decision from its measured features, and why: gone (target_gone_fraction, 0..1),
     holding (gripper_holds), target_score (the attended region's contrast), contrast (the region's colour
     contrast from the product, ProductReference.contrast; None when not measured or nothing to compare
-    with). Picked = gone >= min_gone_fraction, holding, target_score >= min_target_score and, with
-    min_color_contrast > 0, a measured contrast >= min_color_contrast. scripts/calibrate_verdict.py
-    replays recorded grasps through it."""
+    with). Picked = gone >= min_gone_fraction, holding, target_score >= min_target_score and, where a
+    contrast was measured, contrast >= min_color_contrast. scripts/calibrate_verdict.py replays recorded
+    grasps through it."""
     is_gone = gone >= params.min_gone_fraction
     if is_gone and holding and target_score < params.min_target_score:
         return False, (f"not counted: the attended region's contrast {target_score:.1f} < "
                        f"{params.min_target_score:.1f} (a product taken for a target?)")
-    if is_gone and holding and params.min_color_contrast > 0 and contrast is not None \
-            and contrast < params.min_color_contrast:
+    if is_gone and holding and contrast is not None and contrast < params.min_color_contrast:
         return False, (f"not counted: the attended region's colour lies {contrast:.1f} from the product's "
                        f"(Mahalanobis, < {params.min_color_contrast:.1f}: a product taken for a target?)")
     if is_gone and holding:
