@@ -17,15 +17,15 @@ every grasp of an attended TARGET with what perception knew when judging it, bes
                   the measure needs no new episodes
 
 The gone and holding tests are kept as they are (geometry: they do not depend on the palette); `sweep`
-chooses min_target_score and min_color_contrast by the agreement of the verdict with the truth on the
-TUNING grasps only (palettes and seeds of impurity_learning.splits), and `measure` reports the chosen
-thresholds on fresh evaluation seeds, default and held-out palettes, without changing anything.
+chooses min_color_contrast (with the product's least colour spread and shading) by the agreement of the
+verdict with the truth on the TUNING grasps only (palettes and seeds of impurity_learning.splits), and
+`measure` reports the chosen thresholds on fresh evaluation seeds, default and held-out palettes, without
+changing anything.
 
     python scripts/calibrate_verdict.py collect --split tuning --out runs/verdict/tuning.jsonl
     python scripts/calibrate_verdict.py sweep runs/verdict/tuning.jsonl
     python scripts/calibrate_verdict.py collect --split evaluation --out runs/verdict/evaluation.jsonl
-    python scripts/calibrate_verdict.py measure runs/verdict/evaluation.jsonl --min-target-score S \\
-        --min-color-contrast C
+    python scripts/calibrate_verdict.py measure runs/verdict/evaluation.jsonl --min-color-contrast C
 
 The episodes behind docs/verdict/*.txt are kept gzipped beside them (tuning.jsonl.gz, evaluation.jsonl.gz,
 exposure.jsonl.gz): `sweep` and `measure` read them as they are.
@@ -68,8 +68,8 @@ SHADINGS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)  # ProductReference shadings (share of
 # the paper-sized ones (more products left when the last impurity is gone: more chances of a false TARGET).
 SCENE_SIZES = {"random": [(1, 5, 15), (2, 10, 25)], "challenging": [(1, 5, 15), (2, 10, 25)],
                "invisible": [(1, 10, 45)]}
-# Without the two thresholds: every grasp that passes the gone and holding tests is counted.
-UNTHRESHOLDED = VerdictParams(min_target_score=0.0, min_color_contrast=0.0)
+# Without the colour threshold: every grasp that passes the gone and holding tests is counted.
+UNTHRESHOLDED = VerdictParams(min_color_contrast=0.0)
 
 
 class RecordingCell(PerceptionSimCell):
@@ -184,25 +184,22 @@ def with_contrast(rows: list, min_spread: float, shading: float = 0.0) -> list:
     return rows
 
 
-def verdict(grasp: dict, min_score: float, min_contrast: float,
-            params: VerdictParams = VerdictParams()) -> bool:
-    """judge_grasp's decision (verdict.decide_picked) on a recorded grasp's features, at the thresholds
-    min_score (min_target_score) and min_contrast (min_color_contrast); a grasp without an attended
-    target is never a pick."""
+def verdict(grasp: dict, min_contrast: float, params: VerdictParams = VerdictParams()) -> bool:
+    """judge_grasp's decision (verdict.decide_picked) on a recorded grasp's features, at the threshold
+    min_contrast (min_color_contrast); a grasp without an attended target is never a pick."""
     if not grasp["target"]:
         return False
-    tried = dataclasses.replace(params, min_target_score=min_score, min_color_contrast=min_contrast)
-    return decide_picked(grasp["gone_fraction"], grasp["holding"], grasp["target_score"],
-                         grasp["color_contrast"], tried)[0]
+    tried = dataclasses.replace(params, min_color_contrast=min_contrast)
+    return decide_picked(grasp["gone_fraction"], grasp["holding"], grasp["color_contrast"], tried)[0]
 
 
-def agreement(rows: list, min_score: float, min_contrast: float) -> dict:
+def agreement(rows: list, min_contrast: float) -> dict:
     """Grasp verdicts agreeing with the truth, and episodes whose picked count equals the truth's."""
     checked = agreeing = episodes = matching = missed = false = 0
     for row in rows:
         picked = truth_picked = 0
         for grasp in row["grasps"]:
-            decided = verdict(grasp, min_score, min_contrast)
+            decided = verdict(grasp, min_contrast)
             checked += 1
             agreeing += decided == grasp["truth"]
             missed += grasp["truth"] and not decided
@@ -237,47 +234,45 @@ def sweep(args) -> int:
                 print(f"  {name:14s} {label:8s} min {values.min():6.2f}  p5 {np.percentile(values, 5):6.2f}  "
                       f"median {np.median(values):6.2f}  p95 {np.percentile(values, 95):6.2f}  "
                       f"max {values.max():6.2f}")
-    scores = np.round(np.arange(0.0, 12.01, 0.25), 2)
     contrasts = np.round(np.arange(0.0, 6.01, 0.25), 2)
-    # Best agreement; ties broken by the episode count match, then by the lowest thresholds (fewest
-    # true impurities refused on scenes unlike the tuning ones), the least spread (most relative) and the
+    # Best agreement; ties broken by the episode count match, then by the lowest threshold (fewest true
+    # impurities refused on scenes unlike the tuning ones), the least spread (most relative) and the
     # least shading.
 
     def key(t):
-        return round(t[3]["agreement"], 4), round(t[3]["count_match"], 4), -t[1], -t[2], -t[0], -t[4]
+        return round(t[2]["agreement"], 4), round(t[2]["count_match"], 4), -t[1], -t[0], -t[3]
 
-    print("shading  least spread (RGB)  min_target_score  min_color_contrast  agreement  missed  false  "
-          "count_match")
+    print("shading  least spread (RGB)  min_color_contrast  agreement  missed  false  count_match")
     best_of = []
     for shading in SHADINGS:
         for spread in SPREADS:
             with_contrast(rows, spread, shading)
-            table = [(spread, s, c, agreement(rows, s, c), shading) for s in scores for c in contrasts]
+            table = [(spread, c, agreement(rows, c), shading) for c in contrasts]
             best_of.append(max(table, key=key))
     best = max(best_of, key=key)
-    for spread, s, c, a, shading in best_of:
-        mark = "  <- chosen" if (spread, shading) == (best[0], best[4]) else ""
-        print(f"{shading:7.1f}  {spread:18.0f} {s:17.2f} {c:19.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  "
+    for spread, c, a, shading in best_of:
+        mark = "  <- chosen" if (spread, shading) == (best[0], best[3]) else ""
+        print(f"{shading:7.1f}  {spread:18.0f} {c:19.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  "
               f"{a['false']:5d}  {a['count_match']:10.1%}{mark}")
-    with_contrast(rows, best[0], best[4])
-    print(f"at least spread {best[0]:.0f}, shading {best[4]:.1f}:")
-    print("min_target_score min_color_contrast  agreement  missed  false  count_match")
-    for s, c in ((0.0, 0.0), (0.0, 1.0), (best[1], best[2]), (0.0, 3.0), (6.25, 0.0)):
-        a = agreement(rows, s, c)
-        print(f"{s:16.2f} {c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
+    with_contrast(rows, best[0], best[3])
+    print(f"at least spread {best[0]:.0f}, shading {best[3]:.1f}:")
+    print("min_color_contrast  agreement  missed  false  count_match")
+    for c in (0.0, 1.0, best[1], 3.0):
+        a = agreement(rows, c)
+        print(f"{c:18.2f}  {a['agreement']:9.1%}  {a['missed']:6d}  {a['false']:5d}  "
               f"{a['count_match']:10.1%}")
-    best = (best[1], best[2], best[3], best[0], best[4])
+    spread, contrast, figures, shading = best
     if args.json:
         pathlib.Path(args.json).write_text(json.dumps(
-            {"chosen": {"min_color_spread": best[3], "shading": best[4], "min_target_score": best[0],
-                        "min_color_contrast": best[1], **best[2]},
+            {"chosen": {"min_color_spread": spread, "shading": shading, "min_color_contrast": contrast,
+                        **figures},
              "episodes": len(rows), "files": [str(f) for f in args.files]}, indent=1) + "\n")
     return 0
 
 
 def measure(args) -> int:
     rows = load(args.files, args.min_color_spread, args.shading)
-    print(f"min_target_score {args.min_target_score}, min_color_contrast {args.min_color_contrast}, least "
+    print(f"min_color_contrast {args.min_color_contrast}, least "
           f"colour spread {args.min_color_spread}, shading {args.shading}")
     print("palettes            scenario      episodes grasps agreement missed false count_match "
           "ended_by_NONE")
@@ -289,7 +284,7 @@ def measure(args) -> int:
             subset = [r for r in rows if member(r) and scenario in ("all", r["scenario"])]
             if not subset:
                 continue
-            a = agreement(subset, args.min_target_score, args.min_color_contrast)
+            a = agreement(subset, args.min_color_contrast)
             ended = np.mean([r["termination"] == TERMINATION_NOTHING_LEFT for r in subset])
             print(f"{group:19s} {scenario:12s} {a['episodes']:9d} {a['grasps']:6d} {a['agreement']:9.1%} "
                   f"{a['missed']:6d} {a['false']:5d} {a['count_match']:11.1%} {ended:13.1%}")
@@ -316,7 +311,6 @@ def parse_args(argv=None):
     s.add_argument("--json", help="write the chosen thresholds and figures here")
     m = sub.add_parser("measure", help="agreement of given thresholds per palette group and scenario")
     m.add_argument("files", nargs="+")
-    m.add_argument("--min-target-score", type=float, required=True)
     m.add_argument("--min-color-contrast", type=float, required=True)
     m.add_argument("--min-color-spread", type=float, default=MIN_COLOR_SPREAD)
     m.add_argument("--shading", type=float, default=COLOR_SHADING)

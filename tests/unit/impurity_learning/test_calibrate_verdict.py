@@ -41,11 +41,11 @@ def files(tmp_path):
 
 def test_a_lifted_product_agrees_only_with_the_colour_test(files):
     rows = calibrate.load([files])
-    assert calibrate.agreement(rows, 0.0, 0.0)["false"] == 3  # every product lifted counts as an impurity
-    judged = calibrate.agreement(rows, 0.0, 1.25)
+    assert calibrate.agreement(rows, 0.0)["false"] == 3  # every product lifted counts as an impurity
+    judged = calibrate.agreement(rows, 1.25)
     assert judged["agreement"] == 1.0 and judged["count_match"] == 1.0
     nothing_held = grasp([200, 30, 30], True, holding=False)
-    assert not calibrate.verdict(calibrate.load([files])[0]["grasps"][0] | nothing_held, 0.0, 0.0)
+    assert not calibrate.verdict(calibrate.load([files])[0]["grasps"][0] | nothing_held, 0.0)
 
 
 def test_the_sweep_reads_tuning_episodes_only_and_writes_its_choice(files, tmp_path, capsys):

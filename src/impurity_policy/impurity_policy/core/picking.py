@@ -140,10 +140,10 @@ class View:
     """One look at the cell. mode: the attention mode the decision will answer (AttentionResult.MODE_*);
     color: the colour heightmap (H, W, 3) uint8 for the episode's picture, or None; height: the height
     map (H, W) float m above the table, or None; target_mask: (H, W) bool, the attended target's cells
-    (TARGET only, else None); target_score: its saliency contrast (inf when not given); color, height,
-    target_mask and target_score let the next view judge a grasp
-    (core/verdict.py); source: the adapter's own data (attention result, sensed state); last_look: a TARGET
-    attention gave as a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
+    (TARGET only, else None); target_score: its saliency contrast (inf when not given), recorded with a
+    judged grasp; color, height and target_mask let the next view judge a grasp (core/verdict.py);
+    source: the adapter's own data (attention result, sensed state); last_look: a TARGET attention gave as
+    a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
 
     mode: int
     color: np.ndarray | None = None
@@ -470,7 +470,7 @@ class _Episode:
             return GraspVerdict(False, -1.0, False, "not judged: no view after the grasp")
         mask = before.target_mask if before.mode == AttentionMode.TARGET else None
         return judge_grasp(before.height, before.color, mask, after.height, after.color, gripper,
-                           self.limits.verdict, before.target_score, self.reference)
+                           self.limits.verdict, self.reference)
 
     def _truth_of_grasp(self) -> bool | None:
         """Did the grasp just recorded remove a target? From the cell's truth (None: it offers none)."""

@@ -13,9 +13,7 @@ picked an impurity when all hold:
    from the colours of the object cells (higher than `min_object_height`) of the episode's first view, the
    attended target's left out (ProductReference.contrast, with the shading allowance COLOR_SHADING along
    the product's colour), is at least `min_color_contrast`. Relative to the product's own colours, it
-   needs no per-job colour constant;
-4. optionally (`min_target_score` > 0), attention's saliency contrast of the region (AttentionResult.score)
-   was at least that.
+   needs no per-job colour constant.
 
 Why test 3: once the last impurity is gone, attention's relative decision can still answer TARGET on the
 most salient product block left (one odd shade among a few blocks); grasping it passes tests 1 and 2. A
@@ -48,8 +46,6 @@ DEFAULT_CLOSED_OPENING = 0.004
 # scripts/calibrate_verdict.py sweep` on tuning episodes: 99.4 % of 346 verdicts agree with the truth (the
 # lowest of the thresholds that tie there).
 DEFAULT_MIN_COLOR_CONTRAST = 0.75
-# Test 4's threshold: the same sweep finds none on attention's contrast that adds agreement.
-DEFAULT_MIN_TARGET_SCORE = 0.0
 
 
 @dataclass(frozen=True)
@@ -64,8 +60,6 @@ class VerdictParams:
                                      low=0.01, high=1.0)
     closed_opening: float = param(DEFAULT_CLOSED_OPENING, "m between the fingers at or below which the "
                                   "gripper holds nothing (when the driver does not report holding)", low=0.0)
-    min_target_score: float = param(DEFAULT_MIN_TARGET_SCORE, "Saliency contrast (attention score) a lifted "
-                                    "TARGET needs to count as an impurity; 0: every TARGET counts", low=0.0)
     min_color_contrast: float = param(DEFAULT_MIN_COLOR_CONTRAST, "Colour distance "
                                       "(ProductReference.contrast, Mahalanobis) a lifted TARGET must keep "
                                       "from the product's colours to count as an impurity", low=0.0)
@@ -81,8 +75,6 @@ class VerdictParams:
             raise ValueError(f"min_gone_fraction must be in (0, 1] (got {self.min_gone_fraction})")
         if not self.closed_opening >= 0:
             raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
-        if not self.min_target_score >= 0:
-            raise ValueError(f"min_target_score must be >= 0 (got {self.min_target_score})")
         if not self.min_color_contrast >= 0:
             raise ValueError(f"min_color_contrast must be >= 0 (got {self.min_color_contrast})")
 
@@ -210,13 +202,12 @@ def product_color_contrast(color: np.ndarray, height: np.ndarray, target_mask: n
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
                 target_mask: np.ndarray | None, after_height: np.ndarray | None,
                 after_color: np.ndarray | None, gripper: GripperReport,
-                params: VerdictParams = VerdictParams(), target_score: float = float("inf"),
+                params: VerdictParams = VerdictParams(),
                 reference: ProductReference | None = None) -> GraspVerdict:
     """The perception verdict on one grasp (module docstring): the attended target gone from its cells
-    (target_gone_fraction >= min_gone_fraction), attended with a contrast target_score >=
-    min_target_score, the gripper holding something, and its colour at least min_color_contrast from the
-    product's (ProductReference.contrast): `reference` (the episode's) when given, else the other objects
-    of the same view.
+    (target_gone_fraction >= min_gone_fraction), the gripper holding something, and its colour at least
+    min_color_contrast from the product's (ProductReference.contrast): `reference` (the episode's) when
+    given, else the other objects of the same view.
 
     target_mask None (the grasp answered no visible target) or a missing map -> not an impurity, with
     the reason. Raises ValueError as target_gone_fraction does on inconsistent maps.
@@ -234,22 +225,18 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         else:
             contrast = product_color_contrast(before_color, before_height, target_mask,
                                               params.min_object_height)
-    picked, reason = decide_picked(gone, holding, target_score, contrast, params)
+    picked, reason = decide_picked(gone, holding, contrast, params)
     return GraspVerdict(picked, gone, holding, reason)
 
 
-def decide_picked(gone: float, holding: bool, target_score: float, contrast: float | None,
+def decide_picked(gone: float, holding: bool, contrast: float | None,
                   params: VerdictParams = VerdictParams()) -> tuple[bool, str]:
     """judge_grasp's decision from its measured features, and why: gone (target_gone_fraction, 0..1),
-    holding (gripper_holds), target_score (the attended region's contrast), contrast (the region's colour
-    contrast from the product, ProductReference.contrast; None when not measured or nothing to compare
-    with). Picked = gone >= min_gone_fraction, holding, target_score >= min_target_score and, where a
-    contrast was measured, contrast >= min_color_contrast. scripts/calibrate_verdict.py replays recorded
-    grasps through it."""
+    holding (gripper_holds), contrast (the region's colour contrast from the product,
+    ProductReference.contrast; None when not measured or nothing to compare with). Picked = gone >=
+    min_gone_fraction, holding and, where a contrast was measured, contrast >= min_color_contrast.
+    scripts/calibrate_verdict.py replays recorded grasps through it."""
     is_gone = gone >= params.min_gone_fraction
-    if is_gone and holding and target_score < params.min_target_score:
-        return False, (f"not counted: the attended region's contrast {target_score:.1f} < "
-                       f"{params.min_target_score:.1f} (a product taken for a target?)")
     if is_gone and holding and contrast is not None and contrast < params.min_color_contrast:
         return False, (f"not counted: the attended region's colour lies {contrast:.1f} from the product's "
                        f"(Mahalanobis, < {params.min_color_contrast:.1f}: a product taken for a target?)")
