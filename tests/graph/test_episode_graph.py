@@ -1,7 +1,7 @@
-"""Whole picking episodes through the separate executables of the cell (issue: picking episodes).
+"""Whole picking episodes through the separate executables of the cell.
 
 The graph: sim_cell (PyBullet, floating gripper for speed), heightmap_node, attention_node,
-policy_node, episode_node, each its own process on this session's isolated ROS domain.
+policy_node, episode_node, each its own process on the test's isolated ROS domain.
 """
 
 import itertools
@@ -125,7 +125,7 @@ def test_a_node_killed_mid_episode_ends_it_with_a_reason_and_intact_records(ros_
 
 
 def test_a_target_outside_the_workspace_is_counted_apart(ros_node, cell, tmp_path):
-    """Issue 19 item 8: a scene file with a second impurity at x = 0.74 m (the workspace ends at 0.724).
+    """A scene file with a second impurity at x = 0.74 m (the workspace ends at 0.724).
     The reset reported 2 targets, the ground truth counted 1 in the workspace, and the episode ended
     "all_targets_picked" with 1 of 2 picked."""
     procs = list(cell.values())

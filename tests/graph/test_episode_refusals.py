@@ -81,7 +81,7 @@ def test_refusals_and_a_missing_cell(ros_node, launch, tmp_path):
     action.destroy()
 
 
-# ---- the episode node against a scripted cell in this process (issue 19 items 4, 7, 11) -------------------
+# ---- the episode node against a scripted cell in this process -------------------------------------------
 class ScriptedCell:
     """Stands in for attention, policy and driver, in this test process on its own executor thread:
     publishes attention results (stamped `stamp_offset` s from this clock) and, with `decide`, a push
@@ -177,9 +177,9 @@ def steps_in(tmp_path) -> list:
 @pytest.mark.parametrize("wait", ["reset service", "decision", "driver goal", "driver result"])
 def test_a_cancel_is_honoured_in_every_wait_and_the_goal_ends_canceled_with_its_records(
         ros_node, launch, tmp_path, scripted_cell, wait):
-    """Issue 19 item 7: an episode waiting for a decision (no camera running) was canceled; the cancel was
-    accepted, then ignored, and the goal ABORTED as node_lost after the decision timeout. Every timeout
-    here is 120 s: a goal that ends within the 30 s below honoured the cancel."""
+    """An episode waiting (for a decision with no camera running, for a reset, for the driver) is canceled:
+    the goal ends CANCELED, not ABORTED as node_lost after the timeout. Every timeout here is 120 s: a goal
+    that ends within the 30 s below honoured the cancel."""
     long = 120.0
     if wait == "reset service":  # a simulated cell whose sim_cell is not running
         episode = episode_node(launch, tmp_path, use_ground_truth=True, service_timeout=long)
@@ -226,8 +226,8 @@ def test_a_cancel_is_honoured_in_every_wait_and_the_goal_ends_canceled_with_its_
 ])
 def test_attention_stamped_on_another_clock_ends_the_episode_naming_the_stamp_gap(
         ros_node, launch, tmp_path, scripted_cell, offset, decide, side):
-    """Issue 19 item 4 (episode part): frames stamped on the camera's own clock, 1000 s off the nodes'.
-    The episode used to end blaming a lost node."""
+    """Frames stamped on the camera's own clock, 1000 s off the nodes': the episode ends stale_input,
+    naming the gap, not node_lost."""
     episode = episode_node(launch, tmp_path, decision_timeout=3.0)
     scripted_cell(stamp_offset=offset, decide=decide, driver="hold")
     action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
@@ -245,8 +245,8 @@ def test_attention_stamped_on_another_clock_ends_the_episode_naming_the_stamp_ga
 
 def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal(
         ros_node, launch, tmp_path, scripted_cell):
-    """Issue 19 item 11: cell.yaml said a refused motion counts toward max_consecutive_failures (5); the
-    first refusal ends the episode, which is the safe choice, and now what cell.yaml says."""
+    """A motion the driver refuses is not one of max_consecutive_failures (5 here): the first refusal ends
+    the episode, as cell.yaml says."""
     episode = episode_node(launch, tmp_path, max_consecutive_failures=5)
     cell = scripted_cell(driver="reject")
     action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode])
@@ -257,11 +257,11 @@ def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal(
     action.destroy()
 
 
-# ---- refusals that used to leave traces, two drivers, stopping an episode (issue: newcomer's list) --------
+# ---- refusals leave no traces, two drivers, stopping an episode -------------------------------------------
 def test_a_start_the_cell_refuses_at_its_scene_reset_leaves_no_folder(ros_node, launch, tmp_path,
                                                                         scripted_cell):
-    """Every unknown-palette refusal used to get a folder under runs/episodes/. The refusal stays in the
-    answer, the node's log and the index (episodes.jsonl); the folder goes."""
+    """A start refused at the scene reset (an unknown palette) leaves no folder under runs/episodes/: the
+    refusal stays in the answer, the node's log and the index (episodes.jsonl)."""
     episode = episode_node(launch, tmp_path, use_ground_truth=True)
     scripted_cell(reset_refusal="unknown palette 'teal'; known: blocks, coal_slate")
     refused = call_service(ros_node, StartEpisode, "/episode/start",

@@ -37,10 +37,6 @@ from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.msg import EpisodeStep
 from impurity_interfaces.srv import StartEpisode
 from impurity_policy.core.episode import (
-    DEFAULT_ACTIONS_PER_TARGET,
-    DEFAULT_MAX_ACTIONS_UNCOUNTED,
-    DEFAULT_MAX_CONSECUTIVE_FAILURES,
-    DEFAULT_NONE_FRAMES_TO_FINISH,
     TERMINATION_CANCELED,
     EpisodeRecorder,
     EpisodeRequest,
@@ -50,10 +46,8 @@ from impurity_policy.core.episode import (
     validate_request,
 )
 from impurity_policy.core.picking import EpisodeCanceled, EpisodeLimits, run_episode
-from impurity_policy.core.verdict import VerdictParams
 from impurity_policy.ros_cell import RosCell, RosCellTimeouts
 
-VERDICT = VerdictParams()
 STOP_WAIT = 30.0  # s /episode/stop waits for the episode's end (a motion under way stops, the arm parks)
 NODE_STOP_WAIT = 10.0  # s a node being stopped waits for the running episode to close its records
 DRIVER_STATUS_TOPIC = names.EXECUTE_PRIMITIVE_ACTION + "/_action/status"  # one publisher per action server
@@ -66,22 +60,13 @@ def default_record_dir() -> str:
 
 
 @dataclass(frozen=True)
-class EpisodeParameters:
-    """Everything bringup/config/cell.yaml may set for the episode node."""
+class EpisodeParameters(EpisodeLimits, RosCellTimeouts):
+    """Everything bringup/config/cell.yaml may set for the episode node: the episode's limits and verdict
+    (picking.EpisodeLimits, verdict.VerdictParams as verdict.<name>), the cell's waits
+    (ros_cell.RosCellTimeouts; an instance serves as either) and the node's own settings below."""
 
     record_dir: str = param("", "Directory of episode records (JSON lines); empty: runs/episodes in the "
                                 "checkout, else ~/.ros/impurity_episodes")
-    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target in the workspace "
-                                    "when a request gives max_actions 0", low=1, high=1000)
-    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES,
-                                          "Failed grasps (nothing lifted) or pushes whose motion failed, "
-                                          "in a row, that end the episode; a motion the driver refuses "
-                                          "ends it at once", low=1, high=1000)
-    decision_timeout: float = param(30.0, "s to wait for a fresh decision before giving up (node_lost, or "
-                                    "stale_input when the attention results are stamped on another clock)",
-                                    low=0.1)
-    motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
-    service_timeout: float = param(30.0, "s to wait for a service (reset, ground truth)", low=0.1)
     start_wait: float = param(10.0, "/episode/start: s to wait for the episode's scene reset before "
                               "answering; a reset that fails within it (e.g. an unknown palette) refuses the "
                               "start with its reason; one still under way is answered accepted, and should "
@@ -90,37 +75,6 @@ class EpisodeParameters:
     use_ground_truth: bool = param(True, "Sim: reset scenes and count targets from ground truth; false "
                                    "(a real cell): no target count, the episode ends by perception and each "
                                    "grasp is judged by perception")
-    none_frames_to_finish: int = param(DEFAULT_NONE_FRAMES_TO_FINISH, "Without ground truth: consecutive "
-                                       "fresh frames on which attention answers NONE that end the episode",
-                                       low=1, high=100)
-    max_actions_uncounted: int = param(DEFAULT_MAX_ACTIONS_UNCOUNTED, "Without ground truth: action limit "
-                                       "when a request gives max_actions 0", low=1, high=10000)
-    scene_service_timeout: float = param(3.0, "Without ground truth: s to wait for a simulated cell's "
-                                         "reset and ground-truth services (a real cell has none; 0: never "
-                                         "ask)", low=0.0)
-    known_product: bool = param(True, "When attention finds no target in an episode's first view, send that "
-                                "view to attention as the known product (/attention/known_product): while "
-                                "a heap is left, regions coloured like much of it are not targets")
-    stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
-                                  "impurity, ask attention for a stall look (/attention/look_closer: its "
-                                  "stall_look_threshold) and decide on it; 0: never", low=0, high=1000)
-    verdict_min_height_drop: float = param(VERDICT.min_height_drop, "Grasp verdict: m a target cell's "
-                                           "height must fall to count as changed", low=0.001)
-    verdict_min_color_change: float = param(VERDICT.min_color_change, "Grasp verdict: RGB distance "
-                                            "(0-255) that counts a target cell as changed", low=1.0)
-    verdict_min_gone_fraction: float = param(VERDICT.min_gone_fraction, "Grasp verdict: share of the "
-                                             "attended target's cells that must have changed", low=0.01,
-                                             high=1.0)
-    verdict_closed_opening: float = param(VERDICT.closed_opening, "Grasp verdict: m between the fingers at "
-                                          "or below which the gripper holds nothing (when the driver does "
-                                          "not report holding)", low=0.0)
-    verdict_min_target_score: float = param(VERDICT.min_target_score, "Grasp verdict: saliency contrast "
-                                            "(attention score) a lifted TARGET needs to count as an "
-                                            "impurity (products taken for targets score lower)", low=0.0)
-    verdict_min_color_contrast: float = param(VERDICT.min_color_contrast, "Grasp verdict: colour distance "
-                                              "a lifted TARGET must keep from the other objects' median "
-                                              "colour, in units of their colour spread, to count as an "
-                                              "impurity; 0: no colour test", low=0.0)
 
 
 @dataclass
@@ -145,18 +99,7 @@ class EpisodeNode(Node):
         self._lock = threading.Lock()  # guards self._running: claimed and released as one step
         self._running: RunningEpisode | None = None
         self._driver_status_topic = self.resolve_topic_name(DRIVER_STATUS_TOPIC)
-        self._cell = RosCell(self, group, RosCellTimeouts(self.params.decision_timeout,
-                                                          self.params.motion_timeout,
-                                                          self.params.service_timeout,
-                                                          self.params.scene_service_timeout),
-                             self.params.use_ground_truth)
-        self._limits = EpisodeLimits(
-            self.params.actions_per_target, self.params.max_consecutive_failures,
-            self.params.none_frames_to_finish, self.params.max_actions_uncounted,
-            VerdictParams(self.params.verdict_min_height_drop, self.params.verdict_min_color_change,
-                          self.params.verdict_min_gone_fraction, self.params.verdict_closed_opening,
-                          self.params.verdict_min_target_score, self.params.verdict_min_color_contrast),
-            self.params.known_product, self.params.stall_look_views)
+        self._cell = RosCell(self, group, self.params, self.params.use_ground_truth)
         self._steps_pub = self.create_publisher(EpisodeStep, names.EPISODE_STEPS_TOPIC, 10)
         self.create_service(StartEpisode, names.START_EPISODE_SERVICE, self._on_start, callback_group=group)
         self.create_service(Trigger, names.STOP_EPISODE_SERVICE, self._on_stop, callback_group=group)
@@ -328,7 +271,7 @@ class EpisodeNode(Node):
         recorder = running.recorder = EpisodeRecorder(self.record_dir, episode_id, request)
         log.info(f"episode {episode_id}: {describe_request(request)}")
         summary = run_episode(
-            StoppingCell(self._cell, self.context), request, episode_id, self._limits, recorder=recorder,
+            StoppingCell(self._cell, self.context), request, episode_id, self.params, recorder=recorder,
             on_step=lambda step: self._publish_step(episode_id, step, goal_handle),
             should_stop=lambda: running.stop.is_set() or not self.context.ok() or (
                 goal_handle is not None and goal_handle.is_cancel_requested),

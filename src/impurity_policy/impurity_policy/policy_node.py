@@ -25,7 +25,7 @@ from impurity_common.conversions import (
 )
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import ParameterError, declare_parameters, increasing, param
+from impurity_common.parameters import ParameterError, declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.checkpoint import CheckpointError, load_network
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
@@ -36,7 +36,6 @@ from impurity_policy.core.rules import PRESETS, RULE_ORDER, RuleParams, RulePipe
 DECISIONS_KEPT = 16  # answered attention results whose height maps wait for their episode step
 DECISION_LOG_PERIOD = 10.0  # s between info lines about the latest decision (debug logs every one)
 PACKAGE_DIR = pathlib.Path(__file__).resolve().parents[1]  # src/impurity_policy with --symlink-install
-_RULES, _POSE = RuleParams(), PoseRules()
 
 
 def default_checkpoint() -> str:
@@ -62,8 +61,10 @@ def known_rules(names) -> str | None:
 
 
 @dataclass(frozen=True)
-class PolicyParameters:
-    """Everything bringup/config/cell.yaml may set for the policy node (rules: core/rules.py)."""
+class PolicyParameters(RuleParams, PoseRules):
+    """Everything bringup/config/cell.yaml may set for the policy node: the pose rules' and the test-time
+    rules' thresholds (pose.PoseRules, rules.RuleParams: their fields are parameters of the same names;
+    an instance serves as either) and the node's own settings below."""
 
     checkpoint: str = param("", "Trained network (.pt); empty: the shipped one")
     allow_untrained: bool = param(False, "Without a checkpoint, decide with seeded random weights (wiring "
@@ -74,70 +75,13 @@ class PolicyParameters:
     publish_q_maps: bool = param(True, "Publish the 32 Q maps as an image")
     threads: int = param(1, "torch CPU threads (1: robust when the cell's other processes share the cores)",
                          low=1, high=256)
-    grasp_depth: float = param(_POSE.grasp_depth, "Grasp fingertips below the local top (m)",
-                               low=0.0, high=0.2)
-    grasp_min_tip: float = param(_POSE.grasp_min_tip, "Lowest grasp fingertip height above the table (m)",
-                                 low=0.0, high=0.2)
-    push_depth: float = param(_POSE.push_depth, "Push fingertips below the local top (m)", low=0.0, high=0.2)
-    push_min_tip: float = param(_POSE.push_min_tip, "Lowest push fingertip height above the table (m)",
-                                low=0.0, high=0.2)
-    finger_overlap: float = param(_POSE.finger_overlap, "finger_clearance: the pads must reach this far "
-                                                        "below the local top at the grasp pixel (m)",
-                                  low=0.0, high=0.1)
     rules: str = param("cell", "Test-time rules preset: none (the paper's argmax) or cell (every rule)",
                        choices=tuple(PRESETS))
     rules_disabled: tuple[str, ...] = param(("",), "Rules of the preset left out (names in core/rules.py; "
                                             "empty strings are ignored)", check=known_rules)
-    tried_action_radius_px: int = param(_RULES.tried_action_radius_px, "tried_actions: heightmap px around "
-                                        "an executed action that are ruled out", low=0, high=224)
-    failed_grasps_before_push: int = param(_RULES.failed_grasps_before_push, "tried_actions: failed grasps "
-                                           "in a row after which only pushes are chosen (0: never)", low=0)
-    occluded_push_radius_px: int = param(_RULES.occluded_push_radius_px, "occluded_push_through_heap: "
-                                         "pushes pass this close (px) to the crop's highest pile",
-                                         low=1, high=224)
-    push_end_margin: float = param(_RULES.push_end_margin, "push_end_inside: pushes end at least this far "
-                                   "inside the workspace (m)", low=0.0, high=0.2)
-    occluded_push_edge_margin: float = param(_RULES.occluded_push_edge_margin, "occluded_push_off_edge: "
-                                             "pushes that head for a workspace edge end at least this "
-                                             "far from it (m; 0: off; docs/experiments.md, fifteenth)",
-                                             low=0.0, high=0.3)
-    occluded_push_start_band: tuple[float, ...] = param(
-        _RULES.occluded_push_start_band, "occluded_push_start_on_flank: [low, high] local top at the push "
-        "start, as a fraction of the pile's top", length=2, low=0.0, high=1.0, check=increasing)
-    target_push_radius_px: int = param(_RULES.target_push_radius_px, "target_push_start_near: pushes start "
-                                       "this close (px) to the target's mask", low=0, high=224)
-    target_on_top_tolerance: float = param(_RULES.target_on_top_tolerance, "grasp_where_target_on_top: "
-                                           "the target is the local top give or take this (m)",
-                                           low=0.0, high=0.1)
-    grasp_core_depth_px: float = param(_RULES.grasp_core_depth_px, "grasp_at_target_core: grasps this "
-                                       "close (px) to the target mask's deepest point", low=0.0, high=56.0)
-    square_max_turn_deg: float = param(_RULES.square_max_turn_deg, "grasp_square_to_faces: a grasp on a flat "
-                                       "rectangular target top turns its closing axis at most this far (deg) "
-                                       "onto a face normal (0: never)", low=0.0, high=45.0)
-    face_min_fill: float = param(_RULES.face_min_fill, "grasp_square_to_faces: the share of its least-area "
-                                 "rectangle the target's mask fills for its top to count as a rectangle",
-                                 low=0.0, high=1.0)
-    corner_max_slope: float = param(_RULES.corner_max_slope, "grasp_square_to_faces: the most "
-                                    "root-mean-square slope (m/m) of a top that counts as flat", low=0.0)
-
-    def pose_rules(self) -> PoseRules:
-        return PoseRules(grasp_depth=self.grasp_depth, grasp_min_tip=self.grasp_min_tip,
-                         push_depth=self.push_depth, push_min_tip=self.push_min_tip,
-                         finger_overlap=self.finger_overlap)
 
     def rule_pipeline(self) -> RulePipeline:
-        params = RuleParams(tried_action_radius_px=self.tried_action_radius_px,
-                            failed_grasps_before_push=self.failed_grasps_before_push,
-                            occluded_push_radius_px=self.occluded_push_radius_px,
-                            push_end_margin=self.push_end_margin,
-                            occluded_push_edge_margin=self.occluded_push_edge_margin,
-                            occluded_push_start_band=tuple(self.occluded_push_start_band),
-                            target_push_radius_px=self.target_push_radius_px,
-                            target_on_top_tolerance=self.target_on_top_tolerance,
-                            grasp_core_depth_px=self.grasp_core_depth_px,
-                            square_max_turn_deg=self.square_max_turn_deg, face_min_fill=self.face_min_fill,
-                            corner_max_slope=self.corner_max_slope)
-        return RulePipeline.preset(self.rules, params, without=[n for n in self.rules_disabled if n])
+        return RulePipeline.preset(self.rules, self, without=[n for n in self.rules_disabled if n])
 
 
 class PolicyNode(Node):
@@ -147,7 +91,7 @@ class PolicyNode(Node):
         import torch
 
         torch.set_num_threads(self.params.threads)
-        self.policy = Policy(self._network(), self.params.pose_rules(), rules=self.params.rule_pipeline())
+        self.policy = Policy(self._network(), self.params, rules=self.params.rule_pipeline())
         self._last_answered_ns = -1
         self._last_warning = {}
         self._memory_episode = ""

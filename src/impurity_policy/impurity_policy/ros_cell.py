@@ -42,6 +42,7 @@ from std_srvs.srv import SetBool
 from impurity_common import names
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.conversions import image_to_numpy, time_to_ns
+from impurity_common.parameters import param
 from impurity_interfaces.action import ExecutePrimitive
 from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
 from impurity_interfaces.srv import GetGroundTruth, ResetScene
@@ -73,12 +74,17 @@ CLOCK_HINT = "camera clock? use_sim_time / the driver's timestamp setting"
 
 @dataclass(frozen=True)
 class RosCellTimeouts:
-    decision: float = 30.0  # s to wait for a fresh decision
-    motion: float = 120.0  # s for the driver to finish a motion
-    service: float = 30.0  # s for a service or an action server to answer
-    # s to wait for a simulated cell's /cell/reset_scene and /cell/ground_truth when use_ground_truth is
-    # false (a real cell has neither: the episode starts after this wait; 0 = never ask)
-    scene_service: float = 3.0
+    """How long the cell's waits last; the episode node's parameters of the same names."""
+
+    decision_timeout: float = param(30.0, "s to wait for a fresh decision before giving up (node_lost, or "
+                                    "stale_input when the attention results are stamped on another clock)",
+                                    low=0.1)
+    motion_timeout: float = param(120.0, "s to wait for the driver to finish a motion", low=0.1)
+    service_timeout: float = param(30.0, "s to wait for a service or an action server (reset, ground truth)",
+                                   low=0.1)
+    scene_service_timeout: float = param(3.0, "Without ground truth: s to wait for a simulated cell's "
+                                         "/cell/reset_scene and /cell/ground_truth (a real cell has neither; "
+                                         "0: never ask)", low=0.0)
 
 
 class RosCell:
@@ -162,7 +168,7 @@ class RosCell:
     def _reset_if_simulated(self, request: EpisodeRequest) -> None:
         """Without use_ground_truth: build the request's scene if a simulated cell offers
         /cell/reset_scene (its counts stay here), and note whether it offers /cell/ground_truth."""
-        wait = self.timeouts.scene_service
+        wait = self.timeouts.scene_service_timeout
         offered = wait > 0 and self._wait_until(
             lambda: self._reset.service_is_ready() or self._ground_truth.service_is_ready(), wait,
             f"service {names.RESET_SCENE_SERVICE} or {names.GROUND_TRUTH_SERVICE}")
@@ -339,7 +345,7 @@ class RosCell:
         return True
 
     def _call(self, client, request, name: str):
-        timeout = self.timeouts.service
+        timeout = self.timeouts.service_timeout
         if not self._wait_until(client.service_is_ready, timeout, f"service {name}"):
             raise EpisodeAborted(f"node_lost: service {name} not available within {timeout:.0f} s")
         response = self._request(client, request, name, timeout)
@@ -366,7 +372,7 @@ class RosCell:
     def _fresh_decision(self, after_ns: int):
         """(attention, primitive) of the first decision from a frame stamped after `after_ns`, or
         (NONE attention, None)."""
-        timeout = self.timeouts.decision
+        timeout = self.timeouts.decision_timeout
         deadline = time.monotonic() + timeout
         waiting_since_ns = self.node.get_clock().now().nanoseconds
         gone_since = None
@@ -422,8 +428,8 @@ class RosCell:
                 "refusing them: see its log)")
 
     def _execute(self, primitive: Primitive):
-        timeout = self.timeouts.motion
-        if not self._wait_until(self._driver.server_is_ready, self.timeouts.service,
+        timeout = self.timeouts.motion_timeout
+        if not self._wait_until(self._driver.server_is_ready, self.timeouts.service_timeout,
                                 f"driver action {names.EXECUTE_PRIMITIVE_ACTION}"):
             raise EpisodeAborted(f"node_lost: driver action {names.EXECUTE_PRIMITIVE_ACTION} not available")
         done = threading.Event()

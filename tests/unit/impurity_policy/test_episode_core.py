@@ -43,7 +43,7 @@ def step(index, kind="grasp", success=False, target=False, remaining=2, pixel=(1
     # more impurities than product (episode_client --targets 50 --objects 5 was accepted: 750 actions)
     (dict(num_targets=50, num_objects=5), "num_targets (50) must not exceed num_objects (5)"),
     (dict(scenario="invisible", num_targets=3, num_objects=2), "must not exceed num_objects"),
-    # outside the messages' fields (seed: uint32; counts: int32): a negative seed used to reach rclpy
+    # outside the messages' fields (seed: uint32; counts: int32): refused here, before rclpy sees them
     (dict(seed=-3), "seed must be >= 0"),
     (dict(seed=2**32), "seed must be <= 4294967295"),
     (dict(num_objects=2**31), "num_objects must be <= 2147483647"),
@@ -114,7 +114,7 @@ def test_termination_by_action_limit_and_repeated_failure():
 
 
 def test_targets_outside_the_workspace_are_counted_apart():
-    # Issue 19 item 8: 2 targets in the scene, 1 of them outside the workspace (x = 0.74 m).
+    # 2 targets in the scene, 1 of them outside the workspace (x = 0.74 m).
     tracker = EpisodeTracker("e", EpisodeRequest(), targets_total=2, max_actions=30)
     tracker.set_scene(in_workspace=1, outside=1)
     assert (tracker.targets_total, tracker.targets_remaining, tracker.targets_outside) == (2, 1, 1)

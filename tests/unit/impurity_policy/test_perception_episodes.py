@@ -1,4 +1,4 @@
-"""Episodes on a cell without ground truth (issue 18 item 1): the picking loop counts by perception.
+"""Episodes on a cell without ground truth: the picking loop counts by perception.
 
 No target count up front; the episode ends when attention answers NONE on N consecutive fresh views, at
 the action limit or after repeated failures; each grasp is judged by the next view (core/verdict.py).

@@ -194,7 +194,7 @@ class WaitingCell(ScriptedCell):
 
 @pytest.mark.parametrize("verb, call, actions", [
     ("reset", 1, 0),  # waiting for /cell/reset_scene
-    ("observe", 2, 1),  # waiting for a decision (issue 19 item 7)
+    ("observe", 2, 1),  # waiting for a decision
     ("execute", 2, 1),  # waiting for the driver to answer the goal: no motion, no step
     ("targets_remaining", 2, 2),  # the motion happened: recorded, with the counts from before it
 ])
@@ -293,7 +293,7 @@ def test_on_step_sees_every_step_in_order():
     assert [s.pixel for s in steps] == [(100, 100 + i) for i in range(5)]  # each step its own action
 
 
-# ---- targets outside the workspace (issue 19 item 8) -------------------------------------------------
+# ---- targets outside the workspace --------------------------------------------------------------------
 class CountingCell(ScriptedCell):
     """A cell that counts like a simulator: reset and every step report Targets (in the workspace,
     outside it) from `counts`, in turn."""
@@ -320,7 +320,7 @@ def run_counting(script, counts, tmp_path, **kwargs):
 
 def test_a_target_outside_the_workspace_from_the_start_is_counted_apart(tmp_path):
     # The instance: a scene file with a second impurity at x = 0.74 m; the reset reports 2 targets, 1 of
-    # them outside the workspace. Picking the other one used to end "all_targets_picked" with 1 of 2.
+    # them outside the workspace. Picking the other one ends "all_reachable_targets_picked", not completed.
     counts = [Targets(1, 1), Targets(1, 1), Targets(0, 1)]
     summary, records = run_counting([push(), grasp()], counts, tmp_path)
     assert summary["termination_reason"] == TERMINATION_REACHABLE_PICKED
@@ -360,7 +360,7 @@ def test_a_cell_that_counts_more_targets_than_there_were_ends_the_episode_as_an_
 
 
 def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal():
-    # bringup/config/cell.yaml (issue 19 item 11): a refusal is not one of max_consecutive_failures.
+    # A refusal is not one of max_consecutive_failures (bringup/config/cell.yaml says so too).
     refused = EpisodeAborted("error: driver rejected the primitive (its log says why)")
     summary, cell = run([push(), refused, push(), push()], limits=EpisodeLimits(max_consecutive_failures=5))
     assert summary["termination_reason"] == str(refused) and summary["actions"] == 1

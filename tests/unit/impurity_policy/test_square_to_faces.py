@@ -19,7 +19,7 @@ from impurity_policy.core.pose import (
     grasp_clearance,
     turn_onto,
 )
-from impurity_policy.core.rules import CANDIDATES, POSE, PRESETS, RuleParams, RulePipeline
+from impurity_policy.core.rules import POSE, PRESETS, RuleParams, RulePipeline
 
 RULE = "grasp_square_to_faces"
 CENTRE = (CROP // 2, CROP // 2)  # crop pixel of the target's middle
@@ -145,7 +145,7 @@ def test_the_cell_executes_the_turned_yaw_and_keeps_the_networks_decision():
 
 
 def test_it_is_a_pose_rule_of_the_cell_preset_and_its_bound_is_checked_by_name():
-    assert RULE not in CANDIDATES and RULE in PRESETS["cell"] and RULE not in PRESETS["none"]
+    assert RULE in PRESETS["cell"] and RULE not in PRESETS["none"]
     assert RulePipeline([RULE]).rules[0].kind == POSE
     for value in (-1.0, 46.0):
         with pytest.raises(ValueError, match="square_max_turn_deg"):

@@ -79,12 +79,6 @@ def test_none_views_break_the_row_when_counting_by_perception():
     assert cell.looks == [11]
 
 
-def test_switched_off_with_zero_views():
-    cell = StallingCell()
-    run(cell, actions=12, stall_look_views=0)
-    assert cell.looks == []
-
-
 def test_a_cell_that_cannot_look_closer_is_decided_on_as_before():
     class Plain(StallingCell):
         look_closer = None
@@ -105,6 +99,7 @@ def test_a_cell_answering_none_keeps_the_view_it_had():
     assert cell.looks == [5] and cell.decided[4] == (OCCLUDED, None)
 
 
-def test_a_negative_count_is_refused_naming_the_field():
+@pytest.mark.parametrize("views", [0, -1])
+def test_a_count_below_one_is_refused_naming_the_field(views):
     with pytest.raises(ValueError, match="stall_look_views"):
-        EpisodeLimits(stall_look_views=-1)
+        EpisodeLimits(stall_look_views=views)

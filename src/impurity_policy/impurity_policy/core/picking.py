@@ -24,22 +24,21 @@ A cell (duck-typed, see `Cell`):
     look_closer() -> View | None     optional: a stall look (below) at the scene as the last view showed
                                      it; None: the cell cannot (the last view is decided on)
 
-The known product (EpisodeLimits.known_product, on by default): when attention finds no target in the
-episode's first view, that view shows product only, and the loop hands it to the cell's know_product once.
-The cell's attention then passes over regions coloured like much of it while a heap is left; the region a last
-look would take in that view (its near miss, perhaps an impurity the decision missed) is left out of it
-(impurity_attention.core.product_memory; docs/experiments.md, twenty-fifth to twenty-seventh sections). When
-the episode ends, however it ends, the loop calls know_product(None); a cell also forgets it at its next
-reset. "First view without target" reads View.mode, the mode the cell's decision answers: a cell whose
-decisions never answer anything but TARGET (the fast sim's full-heightmap and no-occluded-region ablations)
-never gets a known product.
+The known product (EpisodeLimits.known_product): when attention finds no target in the episode's first
+view, that view shows product only, and the loop hands it to the cell's know_product once. The cell's
+attention then passes over regions coloured like much of it while a heap is left; the region a last look
+would take in that view (its near miss, perhaps an impurity the decision missed) is left out of it
+(impurity_attention.core.product_memory). When the episode ends, however it ends, the loop calls
+know_product(None); a cell also forgets it at its next reset. "First view without target" reads View.mode,
+the mode the cell's decision answers: a cell whose decisions never answer anything but TARGET (the fast
+sim's full-heightmap and no-occluded-region ablations) never gets a known product.
 
-The stall look (EpisodeLimits.stall_look_views, 5 by default; 0 = off): on the stall_look_views-th view in a
-row whose mode is OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
+The stall look (EpisodeLimits.stall_look_views): on the stall_look_views-th view in a row whose mode is
+OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
 look_closer() for the view to decide on: attention looks again with the verifier's threshold lowered to
 AttentionParams.stall_look_threshold (impurity_attention.core.attention.attend's closer), so a target it has
 been unsure of in a packed scene is grasped instead of pushed on for the rest of the episode. The count then
-starts over (docs/experiments.md, thirtieth and thirty-first sections).
+starts over.
 
 Two ways to count:
 - by truth (reset returned a count): targets outside the workspace (from the start or pushed out) are
@@ -47,7 +46,7 @@ Two ways to count:
   "all_reachable_targets_picked", not completed. The loop stops when every target in the workspace is
   picked, at the action limit, after repeated failures, or when attention (or the decision) finds
   nothing to act on.
-- by perception (reset returned None; issue 18 item 1): no count is needed up front. After each grasp
+- by perception (reset returned None, a real cell): no count is needed up front. After each grasp
   the next fresh view judges it (core/verdict.py: the attended target gone from its cells and the gripper
   holding); the picked count is the number of grasps judged "impurity picked". The loop stops when
   attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible
@@ -73,6 +72,7 @@ from typing import Protocol
 import numpy as np
 
 from impurity_common.enums import AttentionMode
+from impurity_common.parameters import param
 
 from .episode import (
     COUNTED_BY_PERCEPTION,
@@ -140,10 +140,10 @@ class View:
     """One look at the cell. mode: the attention mode the decision will answer (AttentionResult.MODE_*);
     color: the colour heightmap (H, W, 3) uint8 for the episode's picture, or None; height: the height
     map (H, W) float m above the table, or None; target_mask: (H, W) bool, the attended target's cells
-    (TARGET only, else None); target_score: its saliency contrast (inf when not given); color, height,
-    target_mask and target_score let the next view judge a grasp
-    (core/verdict.py); source: the adapter's own data (attention result, sensed state); last_look: a TARGET
-    attention gave as a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
+    (TARGET only, else None); target_score: its saliency contrast (inf when not given), recorded with a
+    judged grasp; color, height and target_mask let the next view judge a grasp (core/verdict.py);
+    source: the adapter's own data (attention result, sensed state); last_look: a TARGET attention gave as
+    a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
 
     mode: int
     color: np.ndarray | None = None
@@ -202,18 +202,31 @@ class Cell(Protocol):
 
 @dataclass(frozen=True)
 class EpisodeLimits:
-    actions_per_target: int = DEFAULT_ACTIONS_PER_TARGET  # when a request's max_actions is 0
-    max_consecutive_failures: int = DEFAULT_MAX_CONSECUTIVE_FAILURES
-    # Counting by perception (a cell without target counts):
-    none_frames_to_finish: int = DEFAULT_NONE_FRAMES_TO_FINISH  # consecutive NONE views that end it
-    max_actions_uncounted: int = DEFAULT_MAX_ACTIONS_UNCOUNTED  # when a request's max_actions is 0
+    """When an episode ends and how it is judged (module docstring); the episode node's parameters of the
+    same names (the verdict's as verdict.<name>)."""
+
+    actions_per_target: int = param(DEFAULT_ACTIONS_PER_TARGET, "Action limit per target in the workspace "
+                                    "when a request gives max_actions 0", low=1, high=1000)
+    max_consecutive_failures: int = param(DEFAULT_MAX_CONSECUTIVE_FAILURES,
+                                          "Failed grasps (nothing lifted) or pushes whose motion failed, "
+                                          "in a row, that end the episode; a motion the driver refuses "
+                                          "ends it at once", low=1, high=1000)
+    none_frames_to_finish: int = param(DEFAULT_NONE_FRAMES_TO_FINISH, "Counting by perception: consecutive "
+                                       "fresh frames on which attention answers NONE that end the episode",
+                                       low=1, high=100)
+    max_actions_uncounted: int = param(DEFAULT_MAX_ACTIONS_UNCOUNTED, "Counting by perception: action limit "
+                                       "when a request gives max_actions 0", low=1, high=10000)
     verdict: VerdictParams = VerdictParams()
-    known_product: bool = True  # hand a first view without target to the cell's know_product (module doc)
-    stall_look_views: int = 5  # OCCLUDED_REGION views in a row before a stall look (module doc); 0 = off
+    known_product: bool = param(True, "When attention finds no target in an episode's first view, hand that "
+                                "view to the cell as the known product (module docstring): while a heap is "
+                                "left, regions coloured like much of it are not targets")
+    stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
+                                  "impurity, ask the cell for a stall look (module docstring) and decide on "
+                                  "it", low=1, high=1000)
 
     def __post_init__(self):
-        if self.stall_look_views < 0:
-            raise ValueError(f"stall_look_views must be >= 0 (0 = off), got {self.stall_look_views}")
+        if self.stall_look_views < 1:
+            raise ValueError(f"stall_look_views must be >= 1, got {self.stall_look_views}")
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
@@ -283,6 +296,16 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
             except Exception as error:  # noqa: BLE001 - the record must close; the next reset clears it too
                 if on_error is not None:
                     on_error(error)
+    summary = _summary(tracker, reason, episode.truth_targets_total)
+    if recorder is not None:
+        summary = recorder.write_summary(summary, reason)
+        recorder.write_picture()
+    return summary
+
+
+def _summary(tracker: EpisodeTracker, reason: str, truth_targets_total: int | None) -> dict:
+    """run_episode's summary of an ended episode: the tracker's metrics, termination_reason, completed,
+    counted_by and, counted by perception, the truth audit (episode.truth_audit)."""
     metrics = tracker.metrics()
     if tracker.counts_known:
         completed = tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total
@@ -291,10 +314,7 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
     summary = {**metrics, "termination_reason": reason, "completed": completed,
                "counted_by": COUNTED_BY_TRUTH if tracker.counts_known else COUNTED_BY_PERCEPTION}
     if not tracker.counts_known:
-        summary.update(truth_audit(tracker.steps, episode.truth_targets_total))
-    if recorder is not None:
-        summary = recorder.write_summary(summary, reason)
-        recorder.write_picture()
+        summary.update(truth_audit(tracker.steps, truth_targets_total))
     return summary
 
 
@@ -333,8 +353,7 @@ class _Episode:
             return view
         self.occluded_views += 1
         look_closer = getattr(self.cell, "look_closer", None)
-        if not self.limits.stall_look_views or self.occluded_views < self.limits.stall_look_views \
-                or look_closer is None:
+        if self.occluded_views < self.limits.stall_look_views or look_closer is None:
             return view
         self.occluded_views = 0
         closer = look_closer()
@@ -420,23 +439,30 @@ class _Episode:
                 return TERMINATION_NOTHING_LEFT
             if self.stop():
                 return TERMINATION_CANCELED
-            outcome = cell.execute(action)
-            verdict, after, pending = None, None, None
-            if action.kind == "grasp":
-                try:  # the next fresh view judges the grasp, and is the next decision's view
-                    after = self._look()
-                except (EpisodeCanceled, EpisodeAborted) as error:
-                    pending = error  # record the step (not judged), then end
-                verdict = self._judge(view, after, outcome)
+            after, verdict = self._act_and_judge(view, action)
             # a last look answered by a push, or by a grasp the verdict says lifted no impurity, was in vain
             looked_in_vain = looked_in_vain or (view.last_look and not (verdict and verdict.impurity_picked))
-            truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
-            score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
-            self._record(step_record(tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
-                                     truth_target_grasped=truth_grasped, target_score=score))
-            if pending is not None:
-                raise pending
             view = after
+
+    def _act_and_judge(self, view: View, action: Action) -> tuple[View | None, GraspVerdict | None]:
+        """run_by_perception's step: execute `action` (decided on `view`), judge a grasp on the next fresh
+        view and record the step. Returns (that view, the next decision's; None after a push, the verdict
+        or None). A cancel or an abort while looking after a grasp is raised once the step is recorded."""
+        outcome = self.cell.execute(action)
+        verdict, after, pending = None, None, None
+        if action.kind == "grasp":
+            try:  # the next fresh view judges the grasp, and is the next decision's view
+                after = self._look()
+            except (EpisodeCanceled, EpisodeAborted) as error:
+                pending = error  # record the step (not judged), then end
+            verdict = self._judge(view, after, outcome)
+        truth_grasped = self._truth_of_grasp() if action.kind == "grasp" else None
+        score = view.target_score if verdict is not None and view.mode == AttentionMode.TARGET else -1.0
+        self._record(step_record(self.tracker.actions + 1, action, outcome, -1, 0, verdict=verdict,
+                                 truth_target_grasped=truth_grasped, target_score=score))
+        if pending is not None:
+            raise pending
+        return after, verdict
 
     def _judge(self, before: View, after: View | None, outcome: Outcome) -> GraspVerdict:
         gripper = GripperReport(outcome.holding, float(outcome.gripper_opening))
@@ -444,7 +470,7 @@ class _Episode:
             return GraspVerdict(False, -1.0, False, "not judged: no view after the grasp")
         mask = before.target_mask if before.mode == AttentionMode.TARGET else None
         return judge_grasp(before.height, before.color, mask, after.height, after.color, gripper,
-                           self.limits.verdict, before.target_score, self.reference)
+                           self.limits.verdict, self.reference)
 
     def _truth_of_grasp(self) -> bool | None:
         """Did the grasp just recorded remove a target? From the cell's truth (None: it offers none)."""

@@ -19,7 +19,6 @@ import torch
 
 from impurity_common.grid import HeightmapGrid
 
-from .canonical import canonical_colours
 from .checkpoint import load_network
 from .decision import Decision, State, action_masks, best_action, epsilon_greedy
 from .network import GRASP, PUSH, QNetwork, network_inputs
@@ -92,8 +91,7 @@ class Policy:
     network: QNetwork (eval mode); pose_rules: pose.PoseRules (heights of pushes and grasps);
     grasp_needs_object: grasps only where the height crop shows something (as in training);
     rules: rules.RulePipeline (default: none, the paper's method: the network's argmax over the valid
-    actions). With the candidate input rule canonical_colours among the rules, the network sees the colour
-    crop repainted in the default palette (canonical.canonical_colours)."""
+    actions)."""
 
     def __init__(self, network: QNetwork, pose_rules: PoseRules = PoseRules(),
                  grasp_needs_object: bool = True, rules: RulePipeline | None = None):
@@ -101,11 +99,6 @@ class Policy:
         self.device = next(network.parameters()).device  # the network's: load_network(device=...)
         self.pose_rules, self.grasp_needs_object = pose_rules, grasp_needs_object
         self.rules = rules if rules is not None else RulePipeline()
-
-    @property
-    def canonical_colours(self) -> bool:
-        """Whether the network's colour input is repainted: the rules hold the rule canonical_colours."""
-        return "canonical_colours" in self.rules.names
 
     @classmethod
     def from_checkpoint(cls, path, device: str = "cpu", **kwargs) -> Policy:
@@ -116,10 +109,7 @@ class Policy:
     @torch.no_grad()
     def q_maps(self, obs: Observation) -> np.ndarray:
         """(R, 2, S, S) Q maps of the observation's crops."""
-        color = obs.color_crop
-        if self.canonical_colours:
-            color = canonical_colours(color, obs.height_crop, obs.mask, obs.mode == MODE_TARGET)
-        inputs = network_inputs(color, obs.height_crop, obs.mask).to(self.device)
+        inputs = network_inputs(obs.color_crop, obs.height_crop, obs.mask).to(self.device)
         return self.network.q_maps(inputs).cpu().numpy()
 
     def masks(self, obs: Observation) -> np.ndarray:

@@ -29,18 +29,26 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
+from impurity_common.parameters import param
 
 from .network import GRASP, PUSH
 
 
 @dataclass(frozen=True)
 class PoseRules:
-    grasp_depth: float = 0.03  # m below the local top
-    grasp_min_tip: float = 0.005  # m above the table: low, rounded blocks slip from fingers closed higher
-    push_depth: float = 0.02  # m below the local top at the start pixel
-    push_min_tip: float = 0.01  # m above the table
-    local_radius_px: int = 3  # window (2r+1)^2 for "local top"
-    finger_overlap: float = 0.015  # m: the pads must reach this far below the local top (clearance)
+    """How deep pushes and grasps go (module docstring); the policy node's parameters of the same names."""
+
+    grasp_depth: float = param(0.03, "Grasp fingertips below the local top (m; VPG's grasp depth)",
+                               low=0.0, high=0.2)
+    grasp_min_tip: float = param(0.005, "Lowest grasp fingertip height above the table (m): low, rounded "
+                                 "blocks slip from fingers closed higher", low=0.0, high=0.2)
+    push_depth: float = param(0.02, "Push fingertips below the local top at the start pixel (m)",
+                              low=0.0, high=0.2)
+    push_min_tip: float = param(0.01, "Lowest push fingertip height above the table (m)", low=0.0, high=0.2)
+    local_radius_px: int = param(3, "Heightmap px around a pixel whose highest point is its local top (a "
+                                 "(2r+1)^2 window)", low=0, high=20)
+    finger_overlap: float = param(0.015, "finger_clearance: the pads must reach this far below the local top "
+                                  "at the grasp pixel (m)", low=0.0, high=0.1)
 
 
 @dataclass(frozen=True)
@@ -201,110 +209,27 @@ def target_core(mask: np.ndarray, depth_px: float) -> np.ndarray:
     return (mask > 0) & (depth >= depth.max() - depth_px)
 
 
-RIDGE_ERODE_PX = 2  # ridge_direction: mask cells this close to its edge are left out (slopes there are steps)
-RIDGE_SMOOTHING_PX = 1.0  # ridge_direction: Gaussian sigma of the height crop before its slopes are taken
-RIDGE_MIN_CELLS = 10  # ridge_direction: fewer inner cells than this: no ridge read
-RIDGE_MIN_ANISOTROPY = 0.5  # ridge_direction: least (l1 - l2) / (l1 + l2) of the slope tensor
-RIDGE_MAX_ONE_SIDED = 0.5  # ridge_direction: |mean slope| / mean |slope| along that axis: 1 = a tilted plane
-RIDGE_MAX_CREST_OFFSET = 0.05  # ridge_direction: the crest's offset from the middle, a share of the block's
-# width across it (its 10th to 90th percentile): upright prisms in packed scenes 0-0.02, leaning slabs and
-# bars 0.04-0.13 (docs/experiments.md, nineteenth section)
-RIDGE_MAX_OUTLINE_STEP = 0.018  # m, ridge_direction: the outline's step over what lies beside it across the
-# crest: prisms and half cylinders 6-12 mm, full cylinders lying down 23-29 mm (nineteenth section)
-RIDGE_OUTLINE_RING_PX = 3  # ridge_direction: cells beyond the outline compared with it
-
-
-def _top_slopes(height_crop: np.ndarray, mask: np.ndarray, resolution: float):
-    """The slopes of the target's top, as ridge_direction and top_slope read them, or None with fewer than
-    RIDGE_MIN_CELLS inner cells: (inner (S, S) bool: the mask's cells RIDGE_ERODE_PX in from its edge, heights
-    (S, S) m with NaN as 0, smooth: heights after a RIDGE_SMOOTHING_PX Gaussian, gx and gy (N,) m/m: the
-    height gradient at the inner cells, +x = +col, +y = +row, (low, high): the eigenvalues of the slope tensor
-    J = mean(g g^T), fall (2,): the unit eigenvector of `high`)."""
-    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * RIDGE_ERODE_PX + 1,) * 2, np.uint8)) > 0
-    if np.count_nonzero(inner) < RIDGE_MIN_CELLS:
-        return None
-    heights = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
-    smooth = cv2.GaussianBlur(heights, (0, 0), RIDGE_SMOOTHING_PX)
-    g_row, g_col = np.gradient(smooth)
-    gx, gy = g_col[inner] / resolution, g_row[inner] / resolution  # +col = +x, +row = +y (module docstring)
-    tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])
-    (low, high), vectors = np.linalg.eigh(tensor)
-    return inner, heights, smooth, gx, gy, (low, high), vectors[:, 1]
+TOP_ERODE_PX = 2  # top_slope: mask cells this close to its edge are left out (slopes there are steps)
+TOP_SMOOTHING_PX = 1.0  # top_slope: Gaussian sigma (px) of the height crop before its slopes are taken
+TOP_MIN_CELLS = 10  # top_slope: with fewer inner cells than this, no slope is read
 
 
 def top_slope(height_crop: np.ndarray, mask: np.ndarray, resolution: float) -> float | None:
-    """m/m: the root-mean-square slope of the target's top along its steepest axis, sqrt(l1) of
-    ridge_direction's slope tensor over the mask's inner cells (heights in m, `resolution` m per px). A flat
-    top reads about 0.1, a half cylinder lying down 0.6, an upright prism 1.3, a flat face tilted by t about
-    tan(t) (docs/experiments.md, nineteenth section). None with fewer than RIDGE_MIN_CELLS inner cells."""
-    slopes = _top_slopes(height_crop, mask, resolution)
-    if slopes is None:
+    """m/m: the root-mean-square slope of the target's top along its steepest axis, sqrt(l1) of the slope
+    tensor J = mean(g g^T) over the mask's inner cells (TOP_ERODE_PX in from its edge; g the height gradient
+    after a TOP_SMOOTHING_PX Gaussian, heights in m, `resolution` m per px, +x = +col, +y = +row). A flat top
+    reads about 0.1, a half cylinder lying down 0.6, an upright prism 1.3, a flat face tilted by t about
+    tan(t). None with fewer than TOP_MIN_CELLS inner cells."""
+    inner = cv2.erode((mask > 0).astype(np.uint8), np.ones((2 * TOP_ERODE_PX + 1,) * 2, np.uint8)) > 0
+    if np.count_nonzero(inner) < TOP_MIN_CELLS:
         return None
-    _, _, _, _, _, (_, high), _ = slopes
+    heights = np.nan_to_num(height_crop, nan=0.0).astype(np.float32)
+    smooth = cv2.GaussianBlur(heights, (0, 0), TOP_SMOOTHING_PX)
+    g_row, g_col = np.gradient(smooth)
+    gx, gy = g_col[inner] / resolution, g_row[inner] / resolution
+    tensor = np.array([[np.mean(gx * gx), np.mean(gx * gy)], [np.mean(gx * gy), np.mean(gy * gy)]])
+    (_, high), _ = np.linalg.eigh(tensor)
     return math.sqrt(max(high, 0.0))
-
-
-def ridge_direction(height_crop: np.ndarray, mask: np.ndarray, resolution: float,
-                    min_slope: float) -> float | None:
-    """The direction (rad in [0, pi), image = base_link yaw) of the crest of the target's top, or None when
-    its top has none. The target is the mask's cells (mask > 0); heights in m, `resolution` m per px.
-
-    A ridge is a top that slopes down on both sides of a line, as an upright prism's, a half cylinder's, a
-    cylinder lying on its side or a cube standing on an edge: over the mask's inner cells (RIDGE_ERODE_PX in
-    from its edge, heights smoothed by RIDGE_SMOOTHING_PX) the slope tensor J = mean(g g^T), g the height
-    gradient (m/m), has a dominant eigenvector e1 (the fall line) with
-      - root-mean-square slope sqrt(l1) >= min_slope (a flat top has about 0.1, a half cylinder 0.6, an
-        upright prism 1.3),
-      - anisotropy (l1 - l2) / (l1 + l2) >= RIDGE_MIN_ANISOTROPY (the slopes run along one axis), and
-      - |mean(g . e1)| / mean(|g . e1|) <= RIDGE_MAX_ONE_SIDED (they fall both ways: a tilted flat face falls
-        one way, and has no crest), and
-      - the crest (the inner cells in the top 5 % of heights) lies over the middle: along e1 its mean is at
-        most RIDGE_MAX_CREST_OFFSET of the block's width (10th to 90th percentile) from the cells' mean. A
-        slab or bar leaning on a neighbour shows a broad face and a narrow one meeting in a crest off the
-        middle; an upright prism's or half cylinder's crest is central, and
-      - the outline reaches down to what the block rests on: over the middle half of its length, on neither
-        side across the crest does the mask's outermost row stand more than RIDGE_MAX_OUTLINE_STEP above the
-        RIDGE_OUTLINE_RING_PX cells beyond it (medians; a taller neighbour counts as no step). A full cylinder
-        lying down curves in under its widest line, so its outline stands about a radius up, and its round
-        ends slip from fingers closing along it; a half cylinder's or a prism's flanks reach the table.
-    The crest runs across e1. Figures: docs/experiments.md, nineteenth section."""
-    slopes = _top_slopes(height_crop, mask, resolution)
-    if slopes is None:
-        return None
-    inner, heights, smooth, gx, gy, (low, high), fall = slopes
-    along = gx * fall[0] + gy * fall[1]
-    if (math.sqrt(max(high, 0.0)) < min_slope or (high - low) < RIDGE_MIN_ANISOTROPY * (high + low)
-            or abs(along.mean()) > RIDGE_MAX_ONE_SIDED * np.abs(along).mean()):
-        return None
-    rows, cols = np.nonzero(inner)
-    across = (cols - cols.mean()) * fall[0] + (rows - rows.mean()) * fall[1]  # px along the fall line
-    tops = smooth[rows, cols]
-    crest = across[tops >= np.percentile(tops, 95)].mean()
-    width = np.percentile(across, 90) - np.percentile(across, 10)
-    if width <= 0 or abs(crest) > RIDGE_MAX_CREST_OFFSET * width:
-        return None
-    if outline_step(heights, mask > 0, fall) > RIDGE_MAX_OUTLINE_STEP:
-        return None
-    return (math.atan2(fall[1], fall[0]) + math.pi / 2) % math.pi
-
-
-def outline_step(heights: np.ndarray, inside: np.ndarray, fall) -> float:
-    """m: how far the outline of `inside` (bool) stands above the cells beyond it across a crest whose fall
-    line is the unit vector `fall` (x = +col, y = +row): the larger side's step, ridge_direction's last
-    condition; 0 where neither side can be read."""
-    rows, cols = np.nonzero(inside)
-    grid_rows, grid_cols = np.mgrid[:inside.shape[0], :inside.shape[1]]
-    across = (grid_cols - cols.mean()) * fall[0] + (grid_rows - rows.mean()) * fall[1]
-    along = (grid_cols - cols.mean()) * -fall[1] + (grid_rows - rows.mean()) * fall[0]
-    middle = np.abs(along) <= 0.5 * np.abs(along[inside]).max()
-    step = 0.0
-    for edge, outward in ((across[inside].min(), -1.0), (across[inside].max(), 1.0)):
-        beyond_edge = (across - edge) * outward
-        rim = inside & middle & (np.abs(across - edge) <= 1.5)
-        beyond = ~inside & middle & (beyond_edge > 0) & (beyond_edge <= RIDGE_OUTLINE_RING_PX + 0.5)
-        if rim.any() and beyond.any():
-            step = max(step, float(np.median(heights[rim]) - np.median(heights[beyond])))
-    return step
 
 
 FACE_MIN_CELLS = 20  # face_direction: a target mask with fewer cells has no outline to read
@@ -330,27 +255,6 @@ def face_direction(mask: np.ndarray, min_fill: float) -> float | None:
     if len(rows) < min_fill * area:
         return None
     return math.radians(angle) % (math.pi / 2)
-
-
-def closing_off_faces(face: float, min_skew: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
-    """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw) lies at least
-    `min_skew` (rad) from both face normals, `face` and face + pi/2 (rad): closing across the corners of a
-    rectangular top rather than a little skewed to its faces."""
-    return closing_offsets(face, math.pi / 2, num_rotations) >= min_skew - 1e-9
-
-
-def closing_offsets(direction: float, period: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
-    """(R,) rad: each rotation's grasp closing axis (cell.rotation_yaw) from `direction` (rad), directions
-    `period` apart counting alike (pi: an axis; pi/2: a rectangle's two face normals), folded to
-    [0, period / 2]."""
-    yaws = np.array([cell.rotation_yaw(r) for r in range(num_rotations)])
-    return np.abs(turn_onto(yaws, direction, period))
-
-
-def closing_along(direction: float, max_angle: float, num_rotations: int = cell.NUM_ROTATIONS) -> np.ndarray:
-    """(R,) bool: True for the rotations whose grasp closing axis (cell.rotation_yaw, an axis: r and r + R/2
-    close alike) lies within `max_angle` (rad) of `direction` (rad)."""
-    return closing_offsets(direction, math.pi, num_rotations) <= max_angle + 1e-9
 
 
 def turn_onto(yaw, direction: float, period: float):

@@ -3,41 +3,38 @@ random scenes, does not. Each rule is a small named unit that keeps some actions
 out (sets their Q value to -inf); none ever adds an action. They are applied in one place
 (`RulePipeline.apply`) in one order, `RULE_ORDER`:
 
-  1. tried_actions                 mask  an executed action that changed nothing is not tried again
-                                         (stateful: `record` after each executed action)
-  2. finger_clearance              mask  grasps whose open finger pads or palm would land on something
-  3. grasp_on_target               mask  with a target in view, grasps on its mask only
-  4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top
-  5. push_end_inside               mask  pushes that end inside the workspace, with a margin
-  6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge
-                                         and end near it (occluded_push_edge_margin, 0.12 m; 0: off)
-  7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank
-  8. grasp_where_target_on_top     pref  grasps where the target is the local top
+  1. tried_actions                 mask  an executed action that changed nothing is not tried again (a
+                                         greedy policy repeats itself; VPG's change test, change.py)
+  2. finger_clearance              mask  grasps whose open finger pads or palm would land on something (the
+                                         gripper's guarded descent stops there: cell.GRASP_OPENING, ...)
+  3. grasp_on_target               mask  with a target in view, grasps on its mask only (the cell picks
+                                         impurities; a grasp beside one lifts its neighbour)
+  4. occluded_push_through_heap    mask  no target in view: pushes that pass near the heap's top (paper
+                                         section 4: scatter the heap that can hide a target)
+  5. push_end_inside               mask  pushes that end inside the workspace, with a margin (a target
+                                         pushed out is lost to the cell)
+  6. occluded_push_off_edge        pref  no target in view: pushes that do not head for a near edge and end
+                                         near it (400 invisible tuning episodes: completion 90.8 -> 94.5 %)
+  7. occluded_push_start_on_flank  pref  no target in view: pushes that start on the heap's flank (from its
+                                         top a push only sweeps what lies on it)
+  8. grasp_where_target_on_top     pref  grasps where the target is the local top (a grasp closes at the
+                                         local top: under a slab it lifts the slab)
   9. target_push_start_near        pref  with a target in view, pushes that start next to it
- 10. grasp_at_target_core          mask  grasps at the middle of the target (after the preferences:
-                                         when no grasp is left there, the policy pushes)
- 11. grasp_along_ridge             pref  with a target whose top has a crest (an upright prism), grasps
-                                         closing along the crest, not across it
- 12. grasp_across_corners          pref  with a target whose top is a flat rectangle, grasps closing at
-                                         least corner_min_skew_deg off both its face normals (a candidate)
- 13. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp
-                                         turns its closing axis onto the nearer face normal, at most
-                                         square_max_turn_deg (adopted on tuning seeds, twenty-ninth section)
- 14. grasp_turned_along_ridge      pose  with a target whose top has a crest (pose.ridge_direction: a
-                                         half cylinder lying flat, an upright prism), the chosen grasp
-                                         turns its closing axis onto the crest, by any angle
-                                         (a candidate, thirtieth section)
- 15. canonical_colours             input the network sees the colour crop in the default palette
-                                         (canonical.canonical_colours): attention has said which cells
-                                         are the target (a candidate: tested twice, not adopted)
+ 10. grasp_at_target_core          mask  grasps at the middle of the target; after the preferences, so that
+                                         when no grasp is left there the policy pushes (grasps 10 mm off a
+                                         free 26 mm cube closed on nothing)
+ 11. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp turns
+                                         its closing axis onto the nearer face normal (tuning seeds,
+                                         invisible scenes: +1.6 points of pooled grasp success)
+
+Each rule's place in the preset `cell` is re-checked, leaving one out at a time on tuning seeds and
+palettes, by `python scripts/check_rules.py`.
 
 A *mask* always applies. A *preference* applies only where it leaves at least one action of its
 primitive (counting what the rules before it and -inf Q values already took away); otherwise it
-gives way. An *input* rule rules nothing out: it changes what the network is shown (Policy.q_maps). A
-*pose* rule rules nothing out either: it changes how the chosen action is executed
+gives way. A *pose* rule rules nothing out: it changes how the chosen action is executed
 (`RulePipeline.adjust_pose`, after the decision), never which action is chosen.
-The geometry of each rule is a pure function in `pose`; the figures that chose the thresholds are in
-docs/experiments.md.
+The geometry of each rule is a pure function in `pose`; its thresholds are RuleParams.
 
 Presets (`PRESETS`, node parameter `rules`, `--rules` in evaluation and training):
   none  the paper's method: the network's argmax over the valid actions, no rule at all;
@@ -59,14 +56,13 @@ import numpy as np
 from impurity_common import cell
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
+from impurity_common.parameters import increasing, param
 
 from .change import CHANGE_PIXELS_TAU, changed_pixels
 from .network import GRASP, PUSH, valid_action_mask
 from .pose import (
     ActionPose,
     PoseRules,
-    closing_along,
-    closing_off_faces,
     face_direction,
     grasp_clear_at,
     grasp_clearance,
@@ -77,7 +73,6 @@ from .pose import (
     pushes_not_toward_near_edge,
     pushes_passing,
     pushes_starting_on_flank,
-    ridge_direction,
     target_core,
     target_on_top,
     top_slope,
@@ -86,73 +81,70 @@ from .pose import (
 
 MODE_NONE, MODE_TARGET, MODE_OCCLUDED_REGION = (AttentionMode.NONE, AttentionMode.TARGET,
                                                 AttentionMode.OCCLUDED_REGION)
-MASK, PREFERENCE, INPUT, POSE = "mask", "preference", "input", "pose"
+MASK, PREFERENCE, POSE = "mask", "preference", "pose"
 
 
 @dataclass(frozen=True)
 class RuleParams:
-    """Every rule's thresholds, in one place (node parameters of the same names; docs/experiments.md
-    has the runs that chose them)."""
+    """Every rule's thresholds, in one place; the policy node's parameters of the same names."""
 
-    tried_action_radius_px: int = 10  # tried_actions: heightmap px around an executed action ruled out
-    changed_pixels: int = CHANGE_PIXELS_TAU  # tried_actions: a scene with at most this many changed
-    # pixels (change.changed_pixels) counts as unchanged
-    failed_grasps_before_push: int = 2  # tried_actions: failed grasps in a row after which every grasp
-    # is ruled out until a push (0: never)
-    heap_sigma_px: float = 6.0  # occluded rules: smoothing (px) of the height crop before its top is taken
-    occluded_push_radius_px: int = 10  # occluded_push_through_heap: pushes pass this close to the top
-    push_end_margin: float = 0.06  # m, push_end_inside: pushes end at least this far inside the workspace
-    occluded_push_edge_margin: float = 0.12  # m, occluded_push_off_edge: pushes that head for an edge end
-    # at least this far from it (0: off). Adopted on its second test on tuning seeds (fifteenth section of
-    # docs/experiments.md; the first test, at the same margin, had failed its grasp-success bound)
-    occluded_push_start_band: tuple = (0.5, 0.7)  # occluded_push_start_on_flank: local top at the start,
-    # as a fraction of the heap top's height
-    target_on_top_tolerance: float = 0.005  # m, grasp_where_target_on_top
-    target_push_radius_px: int = 12  # target_push_start_near: px from the target's mask
-    grasp_core_depth_px: float = 1.0  # grasp_at_target_core: px below the mask's deepest inside
-    ridge_min_slope: float = 0.4  # grasp_along_ridge: root-mean-square slope (m/m) of a top with a crest
-    # (pose.ridge_direction; flat tops about 0.1, a half cylinder 0.6, an upright prism 1.3)
-    face_min_fill: float = 0.85  # grasp_across_corners: the share of its least-area rectangle the target's
-    # mask fills for its top to count as a rectangle (pose.face_direction)
-    corner_min_skew_deg: float = 20.0  # grasp_across_corners: closing axes at least this far from both face
-    # normals (twenty-fourth section of docs/experiments.md: upright cubes lifted 83 % of grasps closing
-    # 7.5-22.5 deg off their faces, 95 % of the others)
-    corner_max_slope: float = 0.3  # grasp_across_corners: the most root-mean-square slope (m/m) of a top
-    # that counts as flat (pose.top_slope; flat tops 0.05-0.12, a half cylinder lying down 0.6, a prism 1.3:
-    # nineteenth section; the rule lost grasps on those two in challenging scenes: twenty-fourth section)
-    square_max_turn_deg: float = 22.5  # grasp_square_to_faces: the most a grasp's closing axis is turned
-    # onto a face normal (22.5: every axis nearer a face normal than a diagonal; twenty-fourth section of
-    # docs/experiments.md: upright cubes lifted 83 % of grasps closing 7.5-22.5 deg off their faces, 95 %
-    # of those closing within 7.5 deg of them and 95 % of those at 22.5 deg and more)
-    ridge_max_angle_deg: float = 35.0  # grasp_along_ridge: closing axes at most this far from the crest
-    # (in the simulator an upright prism alone held from 45 deg off across on and slipped out within 34 deg
-    # of across; beside others one slipped at 47 deg: docs/experiments.md, nineteenth section)
+    tried_action_radius_px: int = param(10, "tried_actions: heightmap px around an executed action that are "
+                                        "ruled out", low=0, high=224)
+    changed_pixels: int = param(CHANGE_PIXELS_TAU, "tried_actions: a scene with at most this many changed "
+                                "pixels (change.changed_pixels) counts as unchanged (VPG's change threshold)",
+                                low=0)
+    failed_grasps_before_push: int = param(2, "tried_actions: failed grasps in a row after which every grasp "
+                                           "is ruled out until a push", low=1)
+    heap_sigma_px: float = param(6.0, "Occluded rules: Gaussian sigma (px) of the height crop before the "
+                                 "heap's top is taken", low=0.0, high=56.0)
+    occluded_push_radius_px: int = param(10, "occluded_push_through_heap: pushes pass this close (px) to the "
+                                         "crop's highest pile", low=1, high=224)
+    push_end_margin: float = param(0.06, "push_end_inside: pushes end at least this far inside the "
+                                   "workspace (m)", low=0.0, high=0.2)
+    occluded_push_edge_margin: float = param(0.12, "occluded_push_off_edge: pushes that head for a workspace "
+                                             "edge end at least this far from it (m; on 400 invisible tuning "
+                                             "episodes, completion 90.8 -> 94.5 %)", low=0.0, high=0.3)
+    occluded_push_start_band: tuple[float, ...] = param(
+        (0.5, 0.7), "occluded_push_start_on_flank: [low, high] local top at the push start, as a fraction of "
+        "the pile's top", length=2, low=0.0, high=1.0, check=increasing)
+    target_on_top_tolerance: float = param(0.005, "grasp_where_target_on_top: the target is the local top "
+                                           "give or take this (m)", low=0.0, high=0.1)
+    target_push_radius_px: int = param(12, "target_push_start_near: pushes start this close (px) to the "
+                                       "target's mask", low=0, high=224)
+    grasp_core_depth_px: float = param(1.0, "grasp_at_target_core: grasps this close (px) to the depth of "
+                                       "the target mask's deepest point", low=0.0, high=56.0)
+    face_min_fill: float = param(0.85, "grasp_square_to_faces: the share of its least-area rectangle the "
+                                 "target's mask fills for its top to count as a rectangle "
+                                 "(pose.face_direction; a cube or slab seen from above fills 0.9-1.0, a disc "
+                                 "0.79)", low=0.0, high=1.0)
+    corner_max_slope: float = param(0.3, "grasp_square_to_faces: the most root-mean-square slope (m/m) of a "
+                                    "top that counts as flat (pose.top_slope: flat tops 0.05-0.12, a half "
+                                    "cylinder lying down 0.6, an upright prism 1.3)", low=0.0)
+    square_max_turn_deg: float = param(22.5, "grasp_square_to_faces: a grasp on a flat rectangular target "
+                                       "top turns its closing axis at most this far (deg) onto a face normal "
+                                       "(22.5: every axis nearer a face normal than a diagonal)",
+                                       low=0.0, high=45.0)
 
     def __post_init__(self):
         low, high = self.occluded_push_start_band
         if not 0.0 <= low < high <= 1.0:
             raise ValueError(f"occluded_push_start_band must be 0 <= low < high <= 1, got {(low, high)}")
-        for name in ("tried_action_radius_px", "changed_pixels", "failed_grasps_before_push",
-                     "occluded_push_radius_px", "target_push_radius_px"):
+        for name in ("tried_action_radius_px", "changed_pixels", "target_push_radius_px"):
             if getattr(self, name) < 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
+        for name in ("failed_grasps_before_push", "occluded_push_radius_px"):
+            if getattr(self, name) < 1:
+                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
         for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
-                     "target_on_top_tolerance", "grasp_core_depth_px", "ridge_min_slope",
-                     "corner_max_slope"):
+                     "target_on_top_tolerance", "grasp_core_depth_px", "corner_max_slope"):
             if not getattr(self, name) >= 0:
                 raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= self.face_min_fill <= 1.0:
             raise ValueError(f"face_min_fill must be in [0, 1] (a share of the rectangle), got "
                              f"{self.face_min_fill}")
-        if not 0.0 <= self.corner_min_skew_deg <= 45.0:
-            raise ValueError(f"corner_min_skew_deg must be in [0, 45] (deg from a face normal), got "
-                             f"{self.corner_min_skew_deg}")
         if not 0.0 <= self.square_max_turn_deg <= 45.0:
             raise ValueError(f"square_max_turn_deg must be in [0, 45] (deg of turn onto a face normal), got "
                              f"{self.square_max_turn_deg}")
-        if not 0.0 <= self.ridge_max_angle_deg <= 90.0:
-            raise ValueError(f"ridge_max_angle_deg must be in [0, 90] (deg from the crest), got "
-                             f"{self.ridge_max_angle_deg}")
 
 
 class RuleContext:
@@ -186,15 +178,6 @@ class RuleContext:
         return None if slope is None or slope > self.params.corner_max_slope else face
 
     @functools.cached_property
-    def ridge(self) -> float | None:
-        """The crest's direction (rad, pose.ridge_direction at `ridge_min_slope`) of the target in view; None
-        when its top has none or no target is in view."""
-        if not self.target_in_view:
-            return None
-        return ridge_direction(self.obs.height_crop, self.obs.mask, self.grid.resolution,
-                               self.params.ridge_min_slope)
-
-    @functools.cached_property
     def heap_top(self) -> tuple:
         return heap_top(self.obs.height_crop, valid_action_mask(self.size), self.params.heap_sigma_px)
 
@@ -219,9 +202,9 @@ class Rule:
 
 class TriedActions(Rule):
     """A greedy policy repeats itself: after a grasp that closed on nothing or a push that moved
-    nothing the state is about the same, so the argmax is too (invisible scenes showed the same push
-    ten times over). Executed actions are ruled out within `tried_action_radius_px` (a push: its
-    direction; a grasp: its rotation and the opposite one, one closing axis):
+    nothing the state is about the same, so the argmax is too. Executed actions are ruled out within
+    `tried_action_radius_px` (a push: its direction; a grasp: its rotation and the opposite one, one
+    closing axis):
       - a failed grasp until a push rearranges the scene or a grasp lifts something;
       - a push while the scene is unchanged since it was decided (at most `changed_pixels` height
         pixels moved: the paper's change rule, change.changed_pixels);
@@ -260,7 +243,7 @@ class TriedActions(Rule):
         rotations, size = ctx.rotations, ctx.size
         keep = np.ones((2, rotations, size, size), dtype=bool)
         failed_grasps = sum(entry[0] == GRASP for entry in self.tried)
-        if 0 < self.params.failed_grasps_before_push <= failed_grasps:
+        if failed_grasps >= self.params.failed_grasps_before_push:
             keep[GRASP] = False
         rows, cols = np.ogrid[:size, :size]
         row0, col0 = ctx.obs.crop_origin
@@ -305,7 +288,7 @@ class OccludedPushThroughHeap(Rule):
     name = "occluded_push_through_heap"
 
     def keeps(self, ctx: RuleContext) -> tuple:
-        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_radius_px <= 0:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION:
             return ()
         return (Keep(PUSH, pushes_passing(ctx.heap_top, ctx.size, ctx.params.occluded_push_radius_px,
                                           ctx.rotations, ctx.grid.resolution)),)
@@ -329,16 +312,13 @@ class OccludedPushOffEdge(Rule):
     """No target in view: a push that heads for a workspace edge (pose.pushes_not_toward_near_edge) and
     ends less than `occluded_push_edge_margin` from it. A hidden target in the heap is shoved on beyond the
     push's end, and one pushed out of the workspace is lost to the cell; heaps by an edge are pushed along
-    it or inwards instead. On at 0.12 m (a margin of 0 turns it off): adopted on its second test, 400 fresh
-    invisible tuning episodes (completion 90.8 -> 94.5 %, targets pushed out in 21 -> 2 episodes, grasp
-    success pooled 78.6 -> 79.8 %), after its first, on 200, had failed its grasp-success bound
-    (docs/experiments.md, fourteenth and fifteenth sections)."""
+    it or inwards instead. On 400 invisible tuning episodes it raised completion from 90.8 to 94.5 %."""
 
     name = "occluded_push_off_edge"
     kind = PREFERENCE
 
     def keeps(self, ctx: RuleContext) -> tuple:
-        if ctx.obs.mode != MODE_OCCLUDED_REGION or ctx.params.occluded_push_edge_margin <= 0:
+        if ctx.obs.mode != MODE_OCCLUDED_REGION:
             return ()
         return (Keep(PUSH, pushes_not_toward_near_edge(ctx.obs.crop_origin, ctx.size,
                                                        ctx.params.occluded_push_edge_margin, ctx.rotations,
@@ -401,79 +381,36 @@ class GraspAtTargetCore(Rule):
         return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
 
 
-class GraspAlongRidge(Rule):
-    """With a target in view whose top has a crest (pose.ridge_direction: an upright prism, a half cylinder,
-    a cylinder lying down, a cube on an edge), a grasp whose closing axis lies more than `ridge_max_angle_deg`
-    from the crest. Closing across the crest the fingers meet the two sloping faces and squeeze the block up
-    and out of the grip; along it they close on its upright ends. In the simulator an upright prism alone
-    slipped out of every grasp closing within 34 deg of across its crest and was held from 45 deg on
-    (docs/experiments.md, nineteenth section). A preference after grasp_at_target_core: where no grasp along
-    the crest is left at the target's middle it gives way."""
+class GraspSquareToFaces(Rule):
+    """A pose rule: it rules nothing out (`keeps` gives ()); after the decision the chosen grasp, on a target
+    whose top outline is a rectangle (pose.face_direction) and whose top is flat (pose.top_slope at most
+    `corner_max_slope`), its pixel on the target's mask, closes square on two faces: its closing axis turns
+    onto the nearer face normal (pose.turn_onto, period pi/2) when the turn is non-zero and at most
+    `square_max_turn_deg`, and the turned grasp is clear (pose.grasp_clear_at). The pixel, the rotation index
+    and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by less than the
+    network's 22.5 deg rotation step. In the simulator upright cubes slipped from a sixth of the grasps
+    closing 7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg."""
 
-    name = "grasp_along_ridge"
-    kind = PREFERENCE
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        crest = ctx.ridge
-        if crest is None:
-            return ()
-        along = closing_along(crest, math.radians(ctx.params.ridge_max_angle_deg), ctx.rotations)
-        return (Keep(GRASP, along[:, None, None]),)
-
-
-class GraspAcrossCorners(Rule):
-    """With a target in view whose top outline is a rectangle (pose.face_direction: a cube or a slab seen
-    from above) and whose top is flat (pose.top_slope at most `corner_max_slope`: not a half cylinder or a
-    prism lying down, whose outlines are rectangles too), a grasp whose closing axis lies within
-    `corner_min_skew_deg` of one of its face normals.
-    In the simulator upright cubes slipped from a sixth of the grasps closing 7.5-22.5 deg skewed to their
-    faces and a twentieth of the others (docs/experiments.md, twenty-fourth section). A candidate; a
-    preference after grasp_at_target_core: where no such grasp is left at the target's middle it gives way."""
-
-    name = "grasp_across_corners"
-    kind = PREFERENCE
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        face = ctx.flat_rectangle_face
-        if face is None:
-            return ()
-        skewed = closing_off_faces(face, math.radians(ctx.params.corner_min_skew_deg), ctx.rotations)
-        return (Keep(GRASP, skewed[:, None, None]),)
-
-
-class PoseRule(Rule):
-    """A rule of kind POSE: it rules nothing out (`keeps` gives ()); after the decision it turns the chosen
-    grasp's closing axis onto the nearest of the directions `onto(ctx)` + k `period` (pose.turn_onto) when
-    the grasp's pixel lies on the target's mask, the turn is non-zero and at most `max_turn_deg(ctx)`, and the
-    fingers are clear at the new yaw (pose.grasp_clear_at). The pixel, the rotation index and the decision
-    stay the network's; only ActionPose.yaw changes. The cheap tests come first: `onto` (a reading of the
-    target's top) is taken only for a grasp on the target."""
-
+    name = "grasp_square_to_faces"
     kind = POSE
-    period = math.pi  # rad: directions this far apart turn a grasp alike (pi: an axis)
+    period = math.pi / 2  # rad: a rectangle's two face normals turn a grasp alike
 
     def keeps(self, ctx: RuleContext) -> tuple:
         return ()
 
-    def onto(self, ctx: RuleContext) -> float | None:
-        """The direction (rad) to turn onto, or None where the rule does not apply."""
-        raise NotImplementedError
-
-    def max_turn_deg(self, ctx: RuleContext) -> float:
-        return math.degrees(self.period / 2)
-
     def adjust(self, ctx: RuleContext, pose: ActionPose) -> ActionPose:
-        """`pose` with its yaw turned, or `pose` itself where the rule does not apply."""
+        """`pose` with its yaw turned, or `pose` itself where the rule does not apply. The cheap tests come
+        first: the target's top is read only for a grasp on the target."""
         if pose.primitive != GRASP or not ctx.target_in_view:
             return pose
         row, col = heightmap_to_crop(pose.heightmap_pixel, ctx.obs.crop_origin)
         if not (0 <= row < ctx.size and 0 <= col < ctx.size) or not ctx.target[row, col]:
             return pose
-        direction = self.onto(ctx)
-        if direction is None:
+        face = ctx.flat_rectangle_face
+        if face is None:
             return pose
-        turn = turn_onto(pose.yaw, direction, self.period)
-        if abs(turn) < 1e-6 or abs(turn) > math.radians(self.max_turn_deg(ctx)) + 1e-9:
+        turn = turn_onto(pose.yaw, face, self.period)
+        if abs(turn) < 1e-6 or abs(turn) > math.radians(ctx.params.square_max_turn_deg) + 1e-9:
             return pose
         yaw = (pose.yaw + turn) % (2.0 * math.pi)
         if not grasp_clear_at(ctx.obs.height, pose.heightmap_pixel, yaw, ctx.pose_rules, ctx.grid.resolution):
@@ -481,71 +418,12 @@ class PoseRule(Rule):
         return dataclasses.replace(pose, yaw=yaw)
 
 
-class GraspSquareToFaces(PoseRule):
-    """A pose rule: the chosen grasp, on a target whose top outline is a rectangle (pose.face_direction) and
-    whose top is flat (pose.top_slope at most `corner_max_slope`), its pixel on the target's mask, closes
-    square on two faces: its closing axis turns onto the nearer face normal (PoseRule, period pi/2) when that
-    is at most `square_max_turn_deg` away and the turned grasp is clear (pose.grasp_clear_at). The pixel, the
-    rotation index and the decision stay the network's; only the executed yaw (ActionPose.yaw) changes, by
-    less than the network's 22.5 deg rotation step. Upright cubes slipped from a sixth of the grasps closing
-    7.5-22.5 deg skewed to their faces and a twentieth of those closing within 7.5 deg (docs/experiments.md,
-    twenty-fourth section); grasp_across_corners, which moved grasps out of that band by ruling out
-    rotations, also moved them to other pixels and scenes went another way (twenty-fourth and twenty-fifth
-    sections). Adopted on fresh tuning seeds (twenty-ninth section): invisible scenes +1.6 points of pooled
-    grasp success (paired 95 % +0.4 to +3.1), random and challenging scenes unchanged."""
-
-    name = "grasp_square_to_faces"
-    period = math.pi / 2  # a rectangle's two face normals
-
-    def onto(self, ctx: RuleContext) -> float | None:
-        return ctx.flat_rectangle_face
-
-    def max_turn_deg(self, ctx: RuleContext) -> float:
-        return ctx.params.square_max_turn_deg
-
-
-class GraspTurnedAlongRidge(PoseRule):
-    """A pose rule, a candidate: the chosen grasp, on a target whose top has a crest (RuleContext.ridge:
-    pose.ridge_direction, a half cylinder lying flat or an upright prism; not a full cylinder lying down,
-    whose outline stands up), its pixel on the target's mask, closes along the crest: its closing axis turns
-    onto the crest (pose.turn_onto, an axis: at most 90 deg either way) when the turned grasp is clear
-    (pose.grasp_clear_at). The pixel, the rotation index and the decision stay the network's;
-    only the executed yaw changes. In challenging scenes on tuning palettes, 53 of 65 failed grasps were at
-    half cylinders lying flat: 40 of 40 lifted closing within 30 deg of the cylinder's axis, 7 of 44 at 60-75
-    deg (docs/experiments.md, thirtieth section); the preference grasp_along_ridge, which rules rotations out
-    instead, changed few episodes because it gives way (nineteenth section)."""
-
-    name = "grasp_turned_along_ridge"
-
-    def onto(self, ctx: RuleContext) -> float | None:
-        return ctx.ridge
-
-
-class CanonicalColours(Rule):
-    """The network's colour crop repainted in the default palette (canonical.canonical_colours; Policy.q_maps
-    reads whether the pipeline holds this rule). The network learnt on the default palette first; under
-    another palette it grasped revealed targets that product still touched, and missed, where on the default
-    palette it pushed first. A candidate: its first test on invisible tuning episodes gained 4.8 points of
-    grasp success with an interval reaching below 0, its second lost 0.8 (docs/experiments.md, twenty-third
-    section)."""
-
-    name = "canonical_colours"
-    kind = INPUT
-
-    def keeps(self, ctx: RuleContext) -> tuple:
-        return ()
-
-
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
                                       PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
                                       GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore,
-                                      GraspAlongRidge, GraspAcrossCorners, GraspSquareToFaces,
-                                      GraspTurnedAlongRidge,
-                                      CanonicalColours)}
+                                      GraspSquareToFaces)}
 RULE_ORDER = tuple(RULES)
-# rules under test (docs/experiments.md), in no preset until adopted
-CANDIDATES = ("grasp_along_ridge", "grasp_across_corners", "grasp_turned_along_ridge", "canonical_colours")
-PRESETS = {"none": (), "cell": tuple(name for name in RULE_ORDER if name not in CANDIDATES)}
+PRESETS = {"none": (), "cell": RULE_ORDER}
 
 
 class RulePipeline:

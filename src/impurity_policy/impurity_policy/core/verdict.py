@@ -1,4 +1,4 @@
-"""Was the lifted object an impurity? Judged by perception alone, as a real cell must (issue 18 item 1).
+"""Was the lifted object an impurity? Judged by perception alone, as a real cell must.
 
 A grasp aimed at an attended target (attention mode TARGET, paper Algorithm 1: the salient region m_t)
 picked an impurity when all hold:
@@ -13,24 +13,15 @@ picked an impurity when all hold:
    from the colours of the object cells (higher than `min_object_height`) of the episode's first view, the
    attended target's left out (ProductReference.contrast, with the shading allowance COLOR_SHADING along
    the product's colour), is at least `min_color_contrast`. Relative to the product's own colours, it
-   needs no per-job colour constant (0 leaves the test out);
-4. optionally (`min_target_score` > 0), attention's saliency contrast of the region (AttentionResult.score)
-   was at least that.
+   needs no per-job colour constant.
 
 Why test 3: once the last impurity is gone, attention's relative decision can still answer TARGET on the
-most salient product block left (one odd shade among a few blocks); grasping it passes tests 1 and 2. In
-the fast simulator counted by perception (scripts/calibrate_verdict.py, 200 tuning episodes of the default
-and tuning palettes, 327 grasps of a TARGET), 39 grasps lifted such a product: with tests 1 and 2 alone
-87.8 % of the verdicts agree with the truth; with test 3 (least spread 24, min_color_contrast 1.5)
-96.3 %; attention's contrast adds nothing there (the sweep's best min_target_score is 0). Most of the
-disagreements left were shaded faces of product blocks: a tilted block shows a darker face of the
-product's hue, which the first view's lit faces do not cover, so it read as another colour. With a
-shading allowance along the product's colour (COLOR_SHADING 0.3, least spread 40, min_color_contrast
-0.75) 99.4 % agree (re-collected: 200 episodes, 346 grasps of a TARGET, with attention's distinct-colour
-path; without shading the best is 96.8 %). The sweep chose the thresholds (docs/verdict/tuning_sweep.txt);
-evaluation seeds and held-out palettes are only measured (docs/verdict/evaluation.txt). (Earlier
-collections: before attention's colour floor and 4 cm heaps, 219 of 618 grasps lifted a product and the
-sweep chose 1.25 at 95.0 %; with them and without shading, 1.5 at 96.3 %.)
+most salient product block left (one odd shade among a few blocks); grasping it passes tests 1 and 2. A
+tilted product block shows a darker face of the product's hue, which the first view's lit faces do not
+cover: the shading allowance keeps it product. The thresholds are chosen by `python
+scripts/calibrate_verdict.py sweep` on tuning episodes of the default and tuning palettes, counted by
+perception in the fast simulator: 99.4 % of 346 verdicts on grasps of a TARGET agree with the simulator's
+truth.
 
 A grasp decided without a visible target (OCCLUDED_REGION: aimed at a heap that may hide one) is never
 counted as an impurity picked: nothing attended can be seen to have gone. Pure numpy; no ROS.
@@ -47,33 +38,33 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common.colour import ProductReference, region_contrast
+from impurity_common.parameters import param
 
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
-# Test 3's threshold (module docstring): chosen by scripts/calibrate_verdict.py sweep on tuning episodes
-# with MIN_COLOR_SPREAD and COLOR_SHADING (docs/verdict/tuning_sweep.txt: 99.4 % of 346 verdicts agree
-# with the truth, 99.0 % of 200 episodes count what the truth counts; 1.0: 97.1 %, 3.0: 36.4 %). Many
-# settings tie at 99.4 % (shading 0.2-0.5, least spread 20-48); the sweep takes the lowest threshold.
+# Test 3's threshold (module docstring): chosen with MIN_COLOR_SPREAD and COLOR_SHADING by `python
+# scripts/calibrate_verdict.py sweep` on tuning episodes: 99.4 % of 346 verdicts agree with the truth (the
+# lowest of the thresholds that tie there).
 DEFAULT_MIN_COLOR_CONTRAST = 0.75
-# Test 4 off: the same sweep found no threshold on attention's contrast that adds agreement.
-DEFAULT_MIN_TARGET_SCORE = 0.0
 
 
 @dataclass(frozen=True)
 class VerdictParams:
-    """Thresholds of judge_grasp (units in the names' docstrings)."""
+    """Thresholds of judge_grasp (module docstring); the episode node's parameters verdict.<name>."""
 
-    min_height_drop: float = 0.01  # m: a cell whose height fell by at least this has lost what stood there
-    min_color_change: float = 60.0  # RGB distance (0-255 per channel) that marks a cell as changed
-    min_gone_fraction: float = 0.5  # share of the target mask's cells that must have changed
-    closed_opening: float = DEFAULT_CLOSED_OPENING  # m: an opening at or below this holds nothing
-    # Saliency contrast (AttentionResult.score of a TARGET) below which an attended region is not counted
-    # as an impurity when lifted; 0 = every TARGET counts.
-    min_target_score: float = DEFAULT_MIN_TARGET_SCORE
-    # Colour distance of the attended region from the product (ProductReference.contrast: Mahalanobis),
-    # below which it is not counted; 0 = no colour test.
-    min_color_contrast: float = DEFAULT_MIN_COLOR_CONTRAST
-    min_object_height: float = 0.01  # m: cells higher than this are objects, for the colour test
+    min_height_drop: float = param(0.01, "m a target cell's height must fall to count as changed",
+                                   low=0.001)
+    min_color_change: float = param(60.0, "RGB distance (0-255 per channel) that counts a target cell as "
+                                    "changed", low=1.0)
+    min_gone_fraction: float = param(0.5, "Share of the attended target's cells that must have changed",
+                                     low=0.01, high=1.0)
+    closed_opening: float = param(DEFAULT_CLOSED_OPENING, "m between the fingers at or below which the "
+                                  "gripper holds nothing (when the driver does not report holding)", low=0.0)
+    min_color_contrast: float = param(DEFAULT_MIN_COLOR_CONTRAST, "Colour distance "
+                                      "(ProductReference.contrast, Mahalanobis) a lifted TARGET must keep "
+                                      "from the product's colours to count as an impurity", low=0.0)
+    min_object_height: float = param(0.01, "m: cells higher than this are objects, for the colour test",
+                                     low=0.0, high=0.1)
 
     def __post_init__(self):
         if not self.min_height_drop > 0:
@@ -84,8 +75,6 @@ class VerdictParams:
             raise ValueError(f"min_gone_fraction must be in (0, 1] (got {self.min_gone_fraction})")
         if not self.closed_opening >= 0:
             raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
-        if not self.min_target_score >= 0:
-            raise ValueError(f"min_target_score must be >= 0 (got {self.min_target_score})")
         if not self.min_color_contrast >= 0:
             raise ValueError(f"min_color_contrast must be >= 0 (got {self.min_color_contrast})")
 
@@ -175,14 +164,11 @@ def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: n
 # RGB standard deviation: the least colour spread granted to the product on every axis. The first view
 # often shows one face of every product block, evenly lit (heaps: a spread of 2-3); blocks seen later on
 # another face or in shade differ by 10-15 and are still product. Chosen with the verdict's thresholds by
-# scripts/calibrate_verdict.py sweep on tuning scenes (docs/verdict/tuning_sweep.txt): at shading 0.3,
-# agreement with the truth 98.3 % at 12, 99.1 % at 24, 99.4 % at 32, 40 and 48 (each with its best
-# threshold; ties go to the lowest threshold: 40 with 0.75).
+# `python scripts/calibrate_verdict.py sweep` on tuning episodes (agreement with the truth 99.4 % at 40).
 MIN_COLOR_SPREAD = 40.0
 # Share of the product's mean colour granted as spread along its direction (ProductReference's shading:
 # a tilted block shows a darker face of the product's hue, which the first view's lit faces do not cover).
-# Chosen with the thresholds by the same sweep: best agreement 96.8 % without shading, 98.6 % at 0.1,
-# 99.4 % from 0.2 to 0.5.
+# Chosen with the thresholds by the same sweep (agreement 99.4 % at 0.3, 96.8 % without shading).
 COLOR_SHADING = 0.3
 
 
@@ -216,13 +202,12 @@ def product_color_contrast(color: np.ndarray, height: np.ndarray, target_mask: n
 def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | None,
                 target_mask: np.ndarray | None, after_height: np.ndarray | None,
                 after_color: np.ndarray | None, gripper: GripperReport,
-                params: VerdictParams = VerdictParams(), target_score: float = float("inf"),
+                params: VerdictParams = VerdictParams(),
                 reference: ProductReference | None = None) -> GraspVerdict:
     """The perception verdict on one grasp (module docstring): the attended target gone from its cells
-    (target_gone_fraction >= min_gone_fraction), attended with a contrast target_score >=
-    min_target_score, and the gripper holding something; with min_color_contrast > 0, its colour at least
-    that far from the product's (ProductReference.contrast): `reference` (the episode's) when given, else
-    the other objects of the same view.
+    (target_gone_fraction >= min_gone_fraction), the gripper holding something, and its colour at least
+    min_color_contrast from the product's (ProductReference.contrast): `reference` (the episode's) when
+    given, else the other objects of the same view.
 
     target_mask None (the grasp answered no visible target) or a missing map -> not an impurity, with
     the reason. Raises ValueError as target_gone_fraction does on inconsistent maps.
@@ -234,30 +219,25 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
     gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
     contrast = None
-    if gone >= params.min_gone_fraction and holding and params.min_color_contrast > 0:
+    if gone >= params.min_gone_fraction and holding:
         if reference is not None:
             contrast = reference.contrast(region_color(before_color, target_mask))
         else:
             contrast = product_color_contrast(before_color, before_height, target_mask,
                                               params.min_object_height)
-    picked, reason = decide_picked(gone, holding, target_score, contrast, params)
+    picked, reason = decide_picked(gone, holding, contrast, params)
     return GraspVerdict(picked, gone, holding, reason)
 
 
-def decide_picked(gone: float, holding: bool, target_score: float, contrast: float | None,
+def decide_picked(gone: float, holding: bool, contrast: float | None,
                   params: VerdictParams = VerdictParams()) -> tuple[bool, str]:
     """judge_grasp's decision from its measured features, and why: gone (target_gone_fraction, 0..1),
-    holding (gripper_holds), target_score (the attended region's contrast), contrast (the region's colour
-    contrast from the product, ProductReference.contrast; None when not measured or nothing to compare
-    with). Picked = gone >= min_gone_fraction, holding, target_score >= min_target_score and, with
-    min_color_contrast > 0, a measured contrast >= min_color_contrast. scripts/calibrate_verdict.py
-    replays recorded grasps through it."""
+    holding (gripper_holds), contrast (the region's colour contrast from the product,
+    ProductReference.contrast; None when not measured or nothing to compare with). Picked = gone >=
+    min_gone_fraction, holding and, where a contrast was measured, contrast >= min_color_contrast.
+    scripts/calibrate_verdict.py replays recorded grasps through it."""
     is_gone = gone >= params.min_gone_fraction
-    if is_gone and holding and target_score < params.min_target_score:
-        return False, (f"not counted: the attended region's contrast {target_score:.1f} < "
-                       f"{params.min_target_score:.1f} (a product taken for a target?)")
-    if is_gone and holding and params.min_color_contrast > 0 and contrast is not None \
-            and contrast < params.min_color_contrast:
+    if is_gone and holding and contrast is not None and contrast < params.min_color_contrast:
         return False, (f"not counted: the attended region's colour lies {contrast:.1f} from the product's "
                        f"(Mahalanobis, < {params.min_color_contrast:.1f}: a product taken for a target?)")
     if is_gone and holding:
