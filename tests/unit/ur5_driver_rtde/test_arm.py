@@ -8,11 +8,12 @@ the controller is back in normal operation."""
 
 import pytest
 
-from impurity_common import cell, motion, names
+from impurity_common import cell, names
 from impurity_common.enums import PrimitiveKind
 from ur5_driver_rtde.core.arm import SafetyStop, UrArm
 from ur5_driver_rtde.core.executor import PlanExecutor
 from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunReceive, DryRunRobot
+from ur5_motion import motion
 
 GRASP = ("grasp", 0.50, 0.10, 0.02, 0.3)
 PROTECTIVE_STOP, ROBOT_IDLE = 3, 5
