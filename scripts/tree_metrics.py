@@ -51,7 +51,13 @@ def classes_in(files) -> dict[str, tuple[ast.ClassDef, pathlib.Path, list[str]]]
     return found
 
 
-def fields(cls: ast.ClassDef):
+def fields(cls: ast.ClassDef, classes=None):
+    """The annotated fields of `cls`, those of its base classes first when `classes` ({name: (ClassDef,
+    ...)}) can resolve them, as dataclasses order them."""
+    for base in cls.bases if classes else ():
+        name = ast.unparse(base).split(".")[-1]
+        if name in classes and classes[name][0] is not cls:
+            yield from fields(classes[name][0], classes)
     for stmt in cls.body:
         if isinstance(stmt, ast.AnnAssign) and isinstance(stmt.target, ast.Name):
             yield stmt
@@ -74,7 +80,7 @@ def node_parameters(cls_name: str, classes, prefix="") -> list[str]:
         return []
     cls, _, _ = classes[cls_name]
     names = []
-    for stmt in fields(cls):
+    for stmt in fields(cls, classes):
         value = stmt.value
         if value is not None and "ros=False" in ast.unparse(value).replace(" ", ""):
             continue
