@@ -10,7 +10,8 @@ Figures (all read from the source with `ast`, nothing imported):
   defined in the decision path's cores
   (impurity_attention/core, impurity_policy/core) plus their UPPER_CASE numeric module constants.
 - switched-off paths: fields there whose default is 0, 0.0 or False and whose comment or description says
-  0 or False turns it off, choice tuples' members that are not the default, and rules in no preset.
+  0 or False turns it off, choice tuples' members that are not the default and that no other line of src/
+  names, and rules in no preset.
 - declarations per parameter: for each node parameter, the dataclass fields of that name in src/ plus the
   keyword arguments `name=<obj>.name` that copy it by hand (1 = declared once).
 - files over 500 lines, functions over 60 lines: Python files tracked under src/, bringup/, scripts/,
@@ -122,6 +123,7 @@ def numeric_knobs(root, classes) -> list[str]:
 
 
 def switched_off(root) -> list[str]:
+    sources = [f.read_text() for f in python_files(root, ("src",))]
     out = []
     for d in CORE_DIRS:
         for path in sorted((root / d).glob("*.py")):
@@ -154,9 +156,10 @@ def switched_off(root) -> list[str]:
                         isinstance(stmt.value, ast.Tuple) and 2 <= len(stmt.value.elts) <= 4 and \
                         all(isinstance(getattr(e, "value", None), str) for e in stmt.value.elts):
                     choices = [e.value for e in stmt.value.elts]
-                    used = [c for c in choices if re.search(rf'str\s*=\s*(param\()?"{c}"', text)]
+                    default = [c for c in choices if re.search(rf'str\s*=\s*(param\()?"{c}"', text)]
                     for c in choices:
-                        if used and c not in used:
+                        if default and c not in default and sum(
+                                f'"{c}"' in s for s in sources) <= 1:  # named nowhere but in its tuple
                             out.append(f"{path.name}:{stmt.targets[0].id} '{c}' (not the default)")
                 if constant_name(stmt) == "CANDIDATES" and isinstance(stmt.value, ast.Tuple):
                     out += [f"{path.name}: rule '{e.value}' in no preset" for e in stmt.value.elts]
