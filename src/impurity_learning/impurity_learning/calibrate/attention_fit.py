@@ -8,6 +8,7 @@ feature names of impurity_attention.core.verifier (ALL_FEATURES with a network, 
 from __future__ import annotations
 
 import dataclasses
+import math
 import pathlib
 
 import numpy as np
@@ -175,12 +176,15 @@ def fit_verifier(features, on, scene, group, visible, feature_names: tuple, caps
 
 def choose_thresholds(best, visible, caps: dict = CAPS) -> dict:
     """Per RegionVerifier threshold field of `caps` (threshold, last_look, stall_look): the least probability
-    that lets at most that share of the scenes without a visible impurity through (threshold_at, rounded to
-    6 digits and kept inside (0, 1) as RegionVerifier requires), and how many it lets through."""
+    that lets at most that share of the scenes without a visible impurity through (threshold_at, rounded up
+    to 6 digits, so the rounding lets no more through, and kept inside (0, 1) as RegionVerifier requires),
+    and how many it lets through."""
     best, visible = np.asarray(best, float), np.asarray(visible, bool)
     chosen = {}
     for field, cap in caps.items():
-        threshold = round(min(max(threshold_at(best, visible, cap), 1e-6), 1 - 1e-6), 6)
+        exact = threshold_at(best, visible, cap)
+        threshold = math.ceil(exact * 1e6) / 1e6
+        threshold = round(min(max(threshold + 1e-6 if threshold < exact else threshold, 1e-6), 1 - 1e-6), 6)
         chosen[field] = {"value": threshold, "cap": cap,
                          "clean_through": int(np.sum(best[~visible] >= threshold)),
                          "clean_scenes": int(np.sum(~visible))}
