@@ -189,10 +189,10 @@ def parse_args(argv=None):
             "probability letting through at most a fixed share of the scenes without a visible impurity:\n"
             f"threshold {100 * attention_fit.CAPS['threshold']:.0f} %, last_look "
             f"{100 * attention_fit.CAPS['last_look']:.2f} %, stall_look "
-            f"{100 * attention_fit.CAPS['stall_look']:.2f} % (the shares the shipped\n"
-            "values let through under the shipped verifier on its tuning scenes). They are chosen here,\n"
-            "not by a command of their own, because they read this model's probabilities: a refitted\n"
-            "model needs all three anew, and one file then holds what attention reads.\n"
+            f"{100 * attention_fit.CAPS['stall_look']:.2f} %\n"
+            "(the shares the shipped values let through under the shipped verifier on its tuning scenes).\n"
+            "They are chosen here, not by a command of their own, because they read this model's\n"
+            "probabilities: a refitted model needs all three anew, and one file holds what attention reads.\n"
             "Prints palette-grouped cross-validation (with 5 palettes or more).\n"
             "Writes OUT/verifier.json in the shipped format (impurity_attention.core.verifier's\n"
             "write_verifier: feature names, weights and bias over the standardised features, threshold,\n"
@@ -203,7 +203,7 @@ def parse_args(argv=None):
                         "OUT/impurity_net.pt if there, else the shipped one)")
     p.set_defaults(run=run_verifier)
 
-    p = add("verdict", "choose the grasp verdict's thresholds (was an impurity picked?)",
+    p = add("verdict", "choose the grasp verdict's colour test (was an impurity picked?)",
             "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) without\n"
             "the verdict's colour test, then chooses min_color_contrast and the product reference's least\n"
             "spread and shading by the agreement of the verdict with the simulator's truth.\n"
