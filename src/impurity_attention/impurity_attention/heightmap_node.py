@@ -59,8 +59,8 @@ COLOR_ENCODINGS = tuple(RGB_ENCODINGS)  # rgb8, bgr8, rgba8, bgra8: read as RGB,
 # Frames stamped further than this from the node's clock are on another clock (warned once).
 STAMP_OFFSET_WARNING = 1.0  # s
 # Lab statistics of the seen cells of sim-rendered heightmaps (70 tuning scenes): the reference of the
-# optional sim-to-real transfer. Re-measure with `scripts/calibrate_attention.py lab-reference` when
-# the sim's look changes.
+# optional sim-to-real transfer. Re-measure with `python -m impurity_learning.calibrate colour-reference`
+# when the sim's look changes.
 SIM_LAB_MEAN = (60.21, 1.36, -8.57)
 SIM_LAB_STD = (9.35, 5.76, 19.01)
 

@@ -266,17 +266,29 @@ def close_worker() -> None:
     _WORKER.pop("agents", None)
 
 
+def model_files() -> dict:
+    """The attention model files an episode reads besides the policy checkpoint (whose bytes task_key holds):
+    name -> path of the shipped verifier.json and impurity_net.pt (impurity_attention's checkpoints dir)."""
+    from impurity_attention.core.checkpoints import shipped_path
+    from impurity_attention.core.verifier import SHIPPED_VERIFIER
+
+    return {name: shipped_path(name) for name in (SHIPPED_VERIFIER, "impurity_net.pt")}
+
+
 @functools.cache
 def settings_digest() -> str:
     """12 hex digits of sha256 over the decision settings an episode runs with besides the checkpoint: the
-    attention's, the rules' and the episode limits' defaults (AttentionParams, RuleParams, EpisodeLimits).
-    A journal written before a threshold changed then no longer resumes into a run after it."""
+    attention's, the rules' and the episode limits' defaults (AttentionParams, RuleParams, EpisodeLimits)
+    and the sha256 of each of model_files() (none for a missing file). A journal written before a threshold
+    or a model file changed then no longer resumes into a run after it."""
     from impurity_attention.core.attention import AttentionParams
     from impurity_policy.core.picking import EpisodeLimits
     from impurity_policy.core.rules import RuleParams
 
     settings = {type(params).__name__: dataclasses.asdict(params)
                 for params in (AttentionParams(), RuleParams(), EpisodeLimits())}
+    settings["model_files"] = {name: hashlib.sha256(path.read_bytes()).hexdigest() if path.is_file() else None
+                               for name, path in model_files().items()}
     return hashlib.sha256(json.dumps(settings, sort_keys=True, default=str).encode()).hexdigest()[:12]
 
 

@@ -59,7 +59,7 @@ def test_episode_jobs_stay_in_the_tuning_split():
     assert {splits.palette_group(palette) for _, _, palette, _ in jobs} <= {"default", "tuning"}
 
 
-# --------------------------------------------------------------------------------- verifier, thresholds
+# ------------------------------------------------------------------- the verifier and its thresholds
 def test_the_threshold_lets_at_most_the_capped_share_of_clean_scenes_through():
     best = np.array([0.9, 0.8, 0.5, 0.4, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.0, 0.7])
     visible = np.array([True, True] + [False] * 10)
@@ -86,18 +86,35 @@ def synthetic_rows(rng, scenes_count=60):
     return np.array(rows), np.array(on), np.array(scene), np.array(group), visible
 
 
-def test_the_verifier_separates_impurity_regions_and_round_trips_through_its_json(tmp_path):
+def test_the_verifier_separates_impurity_regions():
     from impurity_attention.core.verifier import FEATURES
     rows = synthetic_rows(np.random.default_rng(0))
     verifier, figures = attention_fit.fit_verifier(*rows, feature_names=FEATURES, provenance="test")
     assert figures["fitted"]["found"] > 0.9 and figures["fitted"]["false_target"] <= 0.01
     assert "out_of_fold" in figures  # six palettes: palette-grouped cross-validation
+
+
+def test_the_fitted_verifier_carries_its_three_thresholds_chosen_on_its_own_probabilities():
+    from impurity_attention.core.verifier import FEATURES
+    verifier, figures = attention_fit.fit_verifier(*synthetic_rows(np.random.default_rng(0)),
+                                                   feature_names=FEATURES)
+    chosen = figures["thresholds"]
+    assert (verifier.threshold, verifier.last_look, verifier.stall_look) == \
+        (chosen["threshold"]["value"], chosen["last_look"]["value"], chosen["stall_look"]["value"])
+    assert verifier.threshold >= verifier.last_look >= verifier.stall_look
+
+
+def test_the_fitted_verifier_round_trips_through_the_shipped_format(tmp_path):
+    from impurity_attention.core.verifier import FEATURES, read_verifier, write_verifier
+    rows = synthetic_rows(np.random.default_rng(0))
+    verifier, _ = attention_fit.fit_verifier(*rows, feature_names=FEATURES, provenance="test")
     path = tmp_path / "verifier.json"
-    attention_fit.write_verifier(verifier, path)
+    write_verifier(verifier, path)
     written = json.loads(path.read_text())
     assert written["features"] == list(FEATURES) and len(written["coef"]) == len(FEATURES)
-    assert {"intercept", "threshold", "mean", "scale", "low", "high"} <= set(written)
-    assert attention_fit.read_verifier(path) == verifier
+    assert {"intercept", "threshold", "last_look", "stall_look", "mean", "scale", "low", "high"} \
+        <= set(written)
+    assert read_verifier(path) == verifier
 
 
 def test_the_verifier_refuses_rows_of_one_class():
@@ -112,29 +129,36 @@ def test_the_looks_thresholds_let_more_clean_scenes_through_than_the_decisions()
     best = np.concatenate([rng.uniform(0.5, 1.0, 100), rng.uniform(0.0, 0.6, 400)])
     visible = np.arange(500) < 100
     chosen = attention_fit.choose_thresholds(best, visible)
-    assert set(chosen) == {"verifier_threshold", "verifier_last_look", "stall_look_threshold"}
-    order = ("verifier_threshold", "verifier_last_look", "stall_look_threshold")
+    order = ("threshold", "last_look", "stall_look")
+    assert set(chosen) == set(order)
     values = [chosen[field]["value"] for field in order]
     assert values == sorted(values, reverse=True)
     for entry in chosen.values():
         assert entry["clean_scenes"] == 400 and entry["clean_through"] <= entry["cap"] * 400
 
 
-def test_a_calibration_directory_sets_attentions_thresholds(tmp_path):
+def test_an_empty_calibration_directory_leaves_attention_as_shipped(tmp_path):
     assert attention_fit.attention_params(tmp_path) == attention_fit.AttentionParams()
-    (tmp_path / attention_fit.THRESHOLDS_FILE).write_text(json.dumps(
-        {"verifier_last_look": {"value": 0.3}, "stall_look_threshold": {"value": 0.1}}))
-    params = attention_fit.attention_params(tmp_path)
-    assert (params.verifier_last_look, params.stall_look_threshold) == (0.3, 0.1)
+
+
+def test_the_shipped_verifier_read_from_a_calibration_directory_keeps_its_thresholds(tmp_path):
+    from impurity_attention.core.checkpoints import shipped_path
+    from impurity_attention.core.verifier import default_verifier
+
+    shipped = shipped_path("verifier.json")
+    (tmp_path / "verifier.json").write_text(shipped.read_text())
+    verifier = attention_fit.attention_params(tmp_path).verifier
+    assert verifier == default_verifier()
+    assert (verifier.threshold, verifier.last_look, verifier.stall_look) == \
+        tuple(json.loads(shipped.read_text())[name] for name in ("threshold", "last_look", "stall_look"))
 
 
 # ------------------------------------------------------------------------------------------- verdict
 BLUE = [[40, 120, 200]] * 40 + [[30, 90, 150]] * 40  # a product's first view: lit and shaded blue
 
 
-def grasp(rgb, truth, gone=1.0, holding=True, score=8.0):
-    return {"target": True, "region_rgb": rgb, "truth": truth, "gone_fraction": gone, "holding": holding,
-            "target_score": score}
+def grasp(rgb, truth, gone=1.0, holding=True):
+    return {"target": True, "region_rgb": rgb, "truth": truth, "gone_fraction": gone, "holding": holding}
 
 
 def verdict_episode(grasps, palette="blocks", seed=50_000):
@@ -154,10 +178,10 @@ def verdict_file(tmp_path):
 
 def test_a_lifted_product_agrees_with_the_truth_only_through_the_colour_test(verdict_file):
     rows = episodes.with_contrast(episodes.read_episodes([verdict_file]), 8.0)
-    assert episodes.agreement(rows, 0.0, 0.0)["false"] == 2  # every product lifted counts as an impurity
-    judged = episodes.agreement(rows, 0.0, 1.25)
+    assert episodes.agreement(rows, 0.0)["false"] == 2  # every product lifted counts as an impurity
+    judged = episodes.agreement(rows, 1.25)
     assert judged["agreement"] == 1.0 and judged["count_match"] == 1.0
-    assert not episodes.verdict_of(grasp([200, 30, 30], True, holding=False) | {"color_contrast": 9.0}, 0, 0)
+    assert not episodes.verdict_of(grasp([200, 30, 30], True, holding=False) | {"color_contrast": 9.0}, 0)
 
 
 def test_the_verdict_subcommand_chooses_from_recorded_episodes_and_writes_its_choice(verdict_file, tmp_path):
@@ -165,7 +189,8 @@ def test_the_verdict_subcommand_chooses_from_recorded_episodes_and_writes_its_ch
     assert main(["verdict", "--out", str(out), "--episodes", str(verdict_file), "--no-progress"]) == 0
     chosen = json.loads((out / "verdict.json").read_text())
     assert chosen["agreement"] == 1.0 and chosen["min_color_contrast"] > 0 and chosen["episodes"] == 2
-    assert {"min_target_score", "min_color_spread", "color_shading"} <= set(chosen)
+    assert {"min_color_spread", "color_shading"} <= set(chosen)
+    assert "min_target_score" not in chosen  # the verdict has no score threshold
 
 
 def test_the_verdict_subcommand_refuses_held_out_episodes(tmp_path, capsys):
@@ -213,8 +238,8 @@ def test_the_episode_end_subcommand_writes_the_chosen_height(tmp_path):
 # ------------------------------------------------------------------------------------------- --help
 @pytest.mark.parametrize("command, writes", [
     ("network", "OUT/impurity_net.pt"), ("verifier", "OUT/verifier.json"),
-    ("thresholds", "OUT/attention_thresholds.json"), ("verdict", "OUT/verdict.json"),
-    ("episode-end", "OUT/episode_end.json")])
+    ("verdict", "OUT/verdict.json"), ("episode-end", "OUT/episode_end.json"),
+    ("colour-reference", "OUT/colour_reference.json")])
 def test_each_subcommands_help_says_what_it_fits_on_which_data_and_what_it_writes(command, writes, capsys):
     with pytest.raises(SystemExit):
         main([command, "--help"])
@@ -222,3 +247,37 @@ def test_each_subcommands_help_says_what_it_fits_on_which_data_and_what_it_write
     assert "Fits on the tuning split only" in text
     assert "Refuses held-out palettes and evaluation seeds" in text
     assert "Writes OUT/" in text and writes in text
+
+
+# ---------------------------------------------------------------------------------- colour reference
+def test_the_colour_reference_is_the_lab_statistics_of_the_seen_cells(tmp_path, capsys):
+    from impurity_attention.core import evaluation
+    from impurity_attention.core.colour_adaptation import lab_statistics
+
+    color = np.zeros((8, 8, 3), np.uint8)
+    color[:, :4], color[:, 4:6] = (200, 40, 40), (40, 160, 60)  # columns 6, 7: unseen, black
+    labels = np.full((8, 8), -1, np.int32)
+    labels[:, :6] = 3
+    record = evaluation.SceneRecord("random", 20_000, 0, 5, color, np.zeros((8, 8), np.float32), labels, (),
+                                    (), "coal_slate")
+    views = tmp_path / "views.npz"
+    evaluation.save_records(views, [record])
+    assert main(["colour-reference", "--out", str(tmp_path / "c"), "--views", str(views)]) == 0
+    written = json.loads((tmp_path / "c" / "colour_reference.json").read_text())
+    expected = lab_statistics([color[:, :6]])
+    assert written["colour_reference_mean"] == [round(v, 2) for v in expected.mean]
+    assert written["colour_reference_std"] == [round(v, 2) for v in expected.std]
+    printed = capsys.readouterr().out
+    assert f"colour_reference_mean: {written['colour_reference_mean']}" in printed
+    assert "colour_adaptation: true" in printed
+
+
+def test_the_colour_reference_refuses_held_out_views(tmp_path):
+    from impurity_attention.core import evaluation
+
+    record = evaluation.SceneRecord("random", 20_000, 0, 5, np.zeros((4, 4, 3), np.uint8),
+                                    np.zeros((4, 4), np.float32), np.zeros((4, 4), np.int32), (), (),
+                                    "pla_flakes_pet")
+    evaluation.save_records(tmp_path / "views.npz", [record])
+    assert main(["colour-reference", "--out", str(tmp_path), "--views", str(tmp_path / "views.npz")]) == 2
+    assert not (tmp_path / "colour_reference.json").exists()

@@ -89,3 +89,19 @@ def test_the_decision_settings_digest_follows_the_attention_defaults(monkeypatch
         assert eval_cli.settings_digest() != shipped
     finally:
         eval_cli.settings_digest.cache_clear()
+
+
+def test_the_decision_settings_digest_follows_the_attention_model_files(tmp_path, monkeypatch):
+    files = {name: tmp_path / name for name in eval_cli.model_files()}
+    assert set(files) == {"verifier.json", "impurity_net.pt"}
+    for path in files.values():
+        path.write_bytes(b"model")
+    monkeypatch.setattr(eval_cli, "model_files", lambda: files)
+    eval_cli.settings_digest.cache_clear()
+    try:
+        before = eval_cli.settings_digest()
+        eval_cli.settings_digest.cache_clear()
+        files["verifier.json"].write_bytes(b"another model")
+        assert eval_cli.settings_digest() != before
+    finally:
+        eval_cli.settings_digest.cache_clear()

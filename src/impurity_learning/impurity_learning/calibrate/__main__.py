@@ -1,4 +1,4 @@
-"""python -m impurity_learning.calibrate {network,verifier,thresholds,verdict,episode-end} --out DIR
+"""python -m impurity_learning.calibrate {network,verifier,verdict,episode-end,colour-reference} --out DIR
 
 Fits the cell's learned parts and thresholds to a product and camera, on the tuning split only; see the
 package docstring and each subcommand's --help. Exit status 0 on success, 2 when the data is refused or
@@ -14,6 +14,8 @@ import sys
 
 from . import attention_fit, episodes, scenes
 from .scenes import CalibrationRefused
+
+COLOUR_REFERENCE_FILE = "colour_reference.json"
 
 TUNING_ONLY = ("Fits on the tuning split only (impurity_learning.splits): the default and tuning palettes\n"
                "(palettes.yaml's split field; random palettes of the tuning seed ranges) on tuning scene\n"
@@ -54,7 +56,7 @@ def run_network(args) -> int:
 
 
 def run_verifier(args) -> int:
-    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES
+    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES, write_verifier
 
     network = _network_option(args.network, args.out)
     records = scenes.scenes_of(args)
@@ -67,32 +69,31 @@ def run_verifier(args) -> int:
         if name in figures:
             print(f"{name.replace('_', ' ')}: {100 * figures[name]['found']:.1f} % found, "
                   f"{100 * figures[name]['false_target']:.1f} % false TARGET (threshold at "
-                  f"{100 * attention_fit.CAPS['verifier_threshold']:.0f} % of the clean scenes)")
-    attention_fit.write_verifier(verifier, args.out / attention_fit.VERIFIER_FILE)
-    print(f"wrote {args.out / attention_fit.VERIFIER_FILE}: threshold {verifier.threshold}")
+                  f"{100 * attention_fit.CAPS['threshold']:.0f} % of the clean scenes)")
+    for field, entry in figures["thresholds"].items():
+        print(f"{field} = {entry['value']}: lets {entry['clean_through']} of {entry['clean_scenes']} scenes "
+              f"without a visible impurity through (at most {100 * entry['cap']:.2f} %)")
+    path = args.out / attention_fit.VERIFIER_FILE
+    write_verifier(verifier, path)
+    print(f"wrote {path}")
     return 0
 
 
-def run_thresholds(args) -> int:
-    network = _network_option(args.network, args.out)
-    path = args.verifier or args.out / attention_fit.VERIFIER_FILE
-    if path.exists():
-        verifier = attention_fit.read_verifier(path)
-    else:
-        from impurity_attention.core.verifier import default_verifier
-        print(f"{path} not found: the shipped verifier")
-        verifier = default_verifier()
-    if verifier.reads_network and network is None:
-        raise CalibrationRefused("the verifier reads the impurity network: give --network (not none)")
-    best, visible = attention_fit.best_probabilities(scenes.scenes_of(args), verifier, network=network,
-                                                     progress=not args.no_progress)
-    if visible.all():
-        raise CalibrationRefused("no scene without a visible impurity: the thresholds need some")
-    chosen = attention_fit.choose_thresholds(best, visible)
-    for field, entry in chosen.items():
-        print(f"{field} = {entry['value']}: lets {entry['clean_through']} of {entry['clean_scenes']} scenes "
-              f"without a visible impurity through (at most {100 * entry['cap']:.2f} %)")
-    _write_json(args.out / attention_fit.THRESHOLDS_FILE, chosen)
+def run_colour_reference(args) -> int:
+    from impurity_attention.core.colour_adaptation import lab_statistics
+
+    records = scenes.scenes_of(args)
+    if not records:
+        raise ValueError("no scene to measure")
+    # a cell no camera ray reached is black in the colour heightmap, not a scene colour: left out
+    stats = lab_statistics([r.color for r in records], [r.labels != -1 for r in records])
+    mean, std = [round(v, 2) for v in stats.mean], [round(v, 2) for v in stats.std]
+    print(f"Lab statistics of {len(records)} rendered tuning scenes: mean {mean}, std {std}")
+    lines = ("heightmap:\n  ros__parameters:\n    colour_adaptation: true\n"
+             f"    colour_reference_mean: {mean}\n    colour_reference_std: {std}\n")
+    print(f"for the heightmap node's parameters (bringup/config/cell.yaml):\n{lines}", end="")
+    _write_json(args.out / COLOUR_REFERENCE_FILE,
+                {"colour_reference_mean": mean, "colour_reference_std": std, "scenes": len(records)})
     return 0
 
 
@@ -110,8 +111,8 @@ def run_verdict(args) -> int:
     rows = episodes.read_episodes(_episode_files(args, "verdict_episodes.jsonl"))
     episodes.check_episodes(rows)
     chosen = episodes.choose_verdict(rows)
-    print(f"{len(rows)} tuning episodes, {chosen['grasps']} grasps: min_target_score "
-          f"{chosen['min_target_score']}, min_color_contrast {chosen['min_color_contrast']} (least spread "
+    print(f"{len(rows)} tuning episodes, {chosen['grasps']} grasps: min_color_contrast "
+          f"{chosen['min_color_contrast']} (least spread "
           f"{chosen['min_color_spread']:.0f}, shading {chosen['color_shading']:.1f}): agreement "
           f"{100 * chosen['agreement']:.1f} %, count match {100 * chosen['count_match']:.1f} %")
     _write_json(args.out / "verdict.json", {**chosen, "episodes": len(rows)})
@@ -155,9 +156,10 @@ def _episode_options(parser, seeds: int, what: str) -> None:
 def parse_args(argv=None):
     parser = argparse.ArgumentParser(
         prog="python -m impurity_learning.calibrate",
-        description="Fit the cell to a product and camera, on the tuning split only. Run the subcommands in "
-                    "this order with the same --out: network, verifier, thresholds, verdict, episode-end; "
-                    "each reads what the earlier ones wrote there.")
+        description="Fit the cell to a product and camera, on the tuning split only. Run the subcommands "
+                    "in this order with the same --out: network, verifier, verdict, episode-end (and, for a "
+                    "real camera with colour adaptation, colour-reference); each reads what the earlier ones "
+                    "wrote there.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
     fmt = argparse.RawDescriptionHelpFormatter
 
@@ -170,7 +172,8 @@ def parse_args(argv=None):
     p = add("network", "fit the impurity network (per-cell impurity probability)",
             "Trains impurity_attention's impurity network on rendered tuning scenes (or --views), the\n"
             "simulator's truth the label, the exposure drawn in 0.5 ... 2.\n"
-            "Writes OUT/impurity_net.pt (read by verifier, thresholds, verdict, episode-end).")
+            "Writes OUT/impurity_net.pt (read by verifier, verdict, episode-end; the cell reads it as\n"
+            "impurity_attention/checkpoints/impurity_net.pt).")
     scenes.add_options(p)
     p.add_argument("--epochs", type=int, default=attention_fit.NETWORK_EPOCHS,
                    help=f"training epochs (default {attention_fit.NETWORK_EPOCHS})")
@@ -179,36 +182,31 @@ def parse_args(argv=None):
                         "impurity_net_training.POSITIVE_WEIGHT)")
     p.set_defaults(run=run_network)
 
-    p = add("verifier", "fit the region verifier (is this salient region an impurity?)",
+    p = add("verifier", "fit the region verifier and the thresholds attention reads from it",
             "Logistic regression over the features attention computes for the best salient regions of\n"
             "rendered tuning scenes (or --views), with the impurity network's features when a network is\n"
-            "given; threshold: at most 1 % of the scenes without a visible impurity let through.\n"
+            "given, and the three thresholds on its best-region probability per scene: each the least\n"
+            "probability letting through at most a fixed share of the scenes without a visible impurity:\n"
+            f"threshold {100 * attention_fit.CAPS['threshold']:.0f} %, last_look "
+            f"{100 * attention_fit.CAPS['last_look']:.2f} %, stall_look "
+            f"{100 * attention_fit.CAPS['stall_look']:.2f} %\n"
+            "(the shares the shipped values let through under the shipped verifier on its tuning scenes).\n"
+            "They are chosen here, not by a command of their own, because they read this model's\n"
+            "probabilities: a refitted model needs all three anew, and one file holds what attention reads.\n"
             "Prints palette-grouped cross-validation (with 5 palettes or more).\n"
-            "Writes OUT/verifier.json: feature names, weights (coef) and bias (intercept) over the\n"
-            "standardised features (mean, scale, clipped to low ... high), threshold.")
+            "Writes OUT/verifier.json in the shipped format (impurity_attention.core.verifier's\n"
+            "write_verifier: feature names, weights and bias over the standardised features, threshold,\n"
+            "last_look, stall_look); the cell reads it as impurity_attention/checkpoints/verifier.json.")
     scenes.add_options(p)
     p.add_argument("--network", default=None,
                    help="the impurity network: a weights file, 'shipped' or 'none' (default: "
                         "OUT/impurity_net.pt if there, else the shipped one)")
     p.set_defaults(run=run_verifier)
 
-    p = add("thresholds", "choose attention's verifier threshold, last look and stall look",
-            "Reads the verifier's best-region probability on rendered tuning scenes (or --views) and takes\n"
-            "for each threshold the least probability letting through at most a fixed share of the scenes\n"
-            "without a visible impurity: verifier_threshold 1 %, verifier_last_look 4.33 %,\n"
-            "stall_look_threshold 11.35 % (the shares the shipped values let through).\n"
-            "Writes OUT/attention_thresholds.json (AttentionParams field -> value and its figures).")
-    scenes.add_options(p)
-    p.add_argument("--verifier", type=pathlib.Path, default=None,
-                   help="the verifier JSON (default OUT/verifier.json, else the shipped verifier)")
-    p.add_argument("--network", default=None, help="as for verifier")
-    p.set_defaults(run=run_thresholds)
-
-    p = add("verdict", "choose the grasp verdict's thresholds (was an impurity picked?)",
+    p = add("verdict", "choose the grasp verdict's colour test (was an impurity picked?)",
             "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) without\n"
-            "the verdict's thresholds, then chooses min_target_score, min_color_contrast and the product\n"
-            "reference's least spread and shading by the agreement of the verdict with the simulator's\n"
-            "truth.\n"
+            "the verdict's colour test, then chooses min_color_contrast and the product reference's least\n"
+            "spread and shading by the agreement of the verdict with the simulator's truth.\n"
             "Writes OUT/verdict_episodes.jsonl (resumable) and OUT/verdict.json.")
     _episode_options(p, 12, "scenario and scene size")
     p.set_defaults(run=run_verdict)
@@ -223,6 +221,16 @@ def parse_args(argv=None):
                    help="min_cluster_height values tried, m (default "
                         f"{' '.join(f'{h:g}' for h in episodes.HEIGHTS)})")
     p.set_defaults(run=run_episode_end)
+
+    p = add("colour-reference", "measure the simulator's colour statistics for colour adaptation",
+            "Renders tuning scenes (or reads --views) and measures the mean and standard deviation of their\n"
+            "colour heightmaps in OpenCV float CIE Lab (L 0 ... 100, a and b about -127 ... 127; cells no\n"
+            "camera ray reached left out): the units of the heightmap node's colour_reference_mean and\n"
+            "colour_reference_std, the reference a real camera's colours are moved to when its\n"
+            "colour_adaptation is true. Prints the yaml lines to paste.\n"
+            f"Writes OUT/{COLOUR_REFERENCE_FILE} (colour_reference_mean, colour_reference_std).")
+    scenes.add_options(p)
+    p.set_defaults(run=run_colour_reference)
     return parser.parse_args(argv)
 
 

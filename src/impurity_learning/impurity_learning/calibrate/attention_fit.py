@@ -1,5 +1,5 @@
-"""Fits for the attention module on tuning scene records: the impurity network, the region verifier and
-the thresholds attention reads from the verifier's probability.
+"""Fits for the attention module on tuning scene records: the impurity network and the region verifier with
+the thresholds attention reads from its probability (RegionVerifier threshold, last_look, stall_look).
 
 Shapes: a record's colour heightmap (H, W, 3) uint8 and height map (H, W) m; verifier rows (N, F) over the
 feature names of impurity_attention.core.verifier (ALL_FEATURES with a network, else FEATURES).
@@ -8,7 +8,7 @@ feature names of impurity_attention.core.verifier (ALL_FEATURES with a network, 
 from __future__ import annotations
 
 import dataclasses
-import json
+import math
 import pathlib
 
 import numpy as np
@@ -16,13 +16,13 @@ import numpy as np
 from impurity_attention.core import evaluation
 from impurity_attention.core.attention import AttentionParams
 
-NETWORK_FILE, VERIFIER_FILE, THRESHOLDS_FILE = "impurity_net.pt", "verifier.json", "attention_thresholds.json"
+NETWORK_FILE, VERIFIER_FILE = "impurity_net.pt", "verifier.json"  # the names of the shipped files
 NETWORK_EPOCHS = 6
 VERIFIER_FOLDS = 5  # palette-grouped cross-validation folds (needs at least as many palettes)
-# The share of tuning scenes without a visible impurity that each threshold lets through as a TARGET: the
-# verifier's own threshold 1 %; the last look and the stall look the shares the shipped values let through
-# on the shipped verifier's tuning scenes (127 and 333 of 2933).
-CAPS = {"verifier_threshold": 0.01, "verifier_last_look": 127 / 2933, "stall_look_threshold": 333 / 2933}
+# Per RegionVerifier threshold field, the share of tuning scenes without a visible impurity it lets through
+# as a TARGET: threshold 1 %; last_look and stall_look the shares the shipped values (0.391, 0.134) let
+# through under the shipped verifier on its tuning scenes (127 and 333 of 2933).
+CAPS = {"threshold": 0.01, "last_look": 127 / 2933, "stall_look": 333 / 2933}
 
 
 def _progress(items, description: str, shown: bool):
@@ -125,13 +125,14 @@ def _predict(fitted, rows):
     return model.predict_proba(np.nan_to_num(scaler.transform(rows), nan=0.0))[:, 1]
 
 
-def fit_verifier(features, on, scene, group, visible, feature_names: tuple,
-                 cap: float = CAPS["verifier_threshold"], provenance: str = "") -> tuple:
+def fit_verifier(features, on, scene, group, visible, feature_names: tuple, caps: dict = CAPS,
+                 provenance: str = "") -> tuple:
     """Logistic regression (scikit-learn, standardised features, C = 1) of "this region lies on the
     impurity" over verifier_rows' rows, restricted to `feature_names` (names of verifier.ALL_FEATURES); its
-    threshold threshold_at(cap) of the scenes' best probabilities. Returns (RegionVerifier, figures):
-    figures holds found / false_target on the fitting scenes and, with at least VERIFIER_FOLDS palettes,
-    the same out of fold over palette-grouped folds (what a palette unseen by the model gets). ValueError
+    threshold, last_look and stall_look chosen by choose_thresholds(caps) on the fitting scenes' best
+    probabilities. Returns (RegionVerifier, figures): figures holds found / false_target at the threshold on
+    the fitting scenes and, with at least VERIFIER_FOLDS palettes, the same out of fold over palette-grouped
+    folds (what a palette unseen by the model gets), and "thresholds" (choose_thresholds' table). ValueError
     when the rows hold only one class."""
     from impurity_attention.core.verifier import ALL_FEATURES, RegionVerifier
 
@@ -139,6 +140,7 @@ def fit_verifier(features, on, scene, group, visible, feature_names: tuple,
         raise ValueError("the verifier needs regions on an impurity and regions off one: give more scenes")
     columns = features[:, [ALL_FEATURES.index(name) for name in feature_names]]
     count = len(visible)
+    cap = caps["threshold"]
 
     def rates(probability) -> dict:
         best, hit = scene_decisions(probability, on, scene, count)
@@ -158,58 +160,43 @@ def fit_verifier(features, on, scene, group, visible, feature_names: tuple,
     probability = _predict(fitted, columns)
     figures["fitted"] = rates(probability)
     best, _ = scene_decisions(probability, on, scene, count)
+    figures["thresholds"] = choose_thresholds(best, visible, caps)
     scaler, model = fitted
     verifier = RegionVerifier(
         mean=tuple(round(float(v), 6) for v in scaler.mean_),
         scale=tuple(round(float(v), 6) for v in scaler.scale_),
         coef=tuple(round(float(v), 6) for v in model.coef_[0]),
         intercept=round(float(model.intercept_[0]), 6),
-        threshold=round(min(max(threshold_at(best, visible, cap), 1e-6), 1 - 1e-6), 6),
+        **{field: entry["value"] for field, entry in figures["thresholds"].items()},
         low=tuple(round(float(v), 6) for v in np.nanmin(columns, axis=0)),
         high=tuple(round(float(v), 6) for v in np.nanmax(columns, axis=0)),
         provenance=provenance, features=tuple(feature_names))
     return verifier, figures
 
 
-def write_verifier(verifier, path: pathlib.Path) -> None:
-    """The verifier as JSON: its feature names, weights (coef) and bias (intercept) over the standardised
-    features (mean, scale, clipped to low..high) and its threshold; RegionVerifier.from_dict reads it."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(dataclasses.asdict(verifier), indent=1) + "\n")
-
-
-def read_verifier(path: pathlib.Path):
-    from impurity_attention.core.verifier import RegionVerifier
-    return RegionVerifier.from_dict(json.loads(pathlib.Path(path).read_text()))
-
-
-def best_probabilities(records: list, verifier, params: AttentionParams = AttentionParams(), network=None,
-                       progress: bool = True) -> tuple:
-    """(best region probability per scene (S,), visible impurity per scene (S,) bool) of the records under
-    `verifier` (network: the impurity network its NETWORK_FEATURES read)."""
-    features, on, scene, _, visible = verifier_rows(records, params, network, progress)
-    best, _ = scene_decisions(verifier.probability(features) if len(features) else [], on, scene,
-                              len(visible))
-    return best, visible
-
-
 def choose_thresholds(best, visible, caps: dict = CAPS) -> dict:
-    """Per AttentionParams field of `caps`: the least probability that lets at most that share of the scenes
-    without a visible impurity through (threshold_at), and how many it lets through."""
+    """Per RegionVerifier threshold field of `caps` (threshold, last_look, stall_look): the least probability
+    that lets at most that share of the scenes without a visible impurity through (threshold_at, rounded up
+    to 6 digits, so the rounding lets no more through, and kept inside (0, 1) as RegionVerifier requires),
+    and how many it lets through."""
     best, visible = np.asarray(best, float), np.asarray(visible, bool)
     chosen = {}
     for field, cap in caps.items():
-        threshold = threshold_at(best, visible, cap)
-        chosen[field] = {"value": round(threshold, 6), "cap": cap,
+        exact = threshold_at(best, visible, cap)
+        threshold = math.ceil(exact * 1e6) / 1e6
+        threshold = round(min(max(threshold + 1e-6 if threshold < exact else threshold, 1e-6), 1 - 1e-6), 6)
+        chosen[field] = {"value": threshold, "cap": cap,
                          "clean_through": int(np.sum(best[~visible] >= threshold)),
                          "clean_scenes": int(np.sum(~visible))}
     return chosen
 
 
 def attention_params(directory: pathlib.Path | None, network_path=None) -> AttentionParams:
-    """AttentionParams with what a calibration directory holds: its impurity network (or `network_path`),
-    verifier and thresholds; the shipped ones for whatever it does not hold."""
+    """AttentionParams with what a calibration directory holds: its impurity network (or `network_path`)
+    and its verifier (verifier.read_verifier, with its thresholds); the shipped ones for whatever it does not
+    hold."""
     from impurity_attention.core.impurity_net import read_network
+    from impurity_attention.core.verifier import read_verifier
 
     params = AttentionParams()
     directory = pathlib.Path(directory) if directory is not None else None
@@ -219,7 +206,4 @@ def attention_params(directory: pathlib.Path | None, network_path=None) -> Atten
         params = dataclasses.replace(params, impurity_net=read_network(network_path))
     if directory and (directory / VERIFIER_FILE).exists():
         params = dataclasses.replace(params, verifier=read_verifier(directory / VERIFIER_FILE))
-    if directory and (directory / THRESHOLDS_FILE).exists():
-        chosen = json.loads((directory / THRESHOLDS_FILE).read_text())
-        params = dataclasses.replace(params, **{field: entry["value"] for field, entry in chosen.items()})
     return params

@@ -1,5 +1,5 @@
 """Fits on fast-sim episodes counted as a real cell counts (evaluate.PerceptionSimCell: no target count,
-attention's NONE ends an episode, the policy with the `cell` rules decides): the grasp verdict's thresholds
+attention's NONE ends an episode, the policy with the `cell` rules decides): the grasp verdict's colour test
 and the height below which a dense cluster cannot hide anything.
 
 An episode file is JSON lines, one episode each, appended as episodes finish (a run that stops resumes).
@@ -29,7 +29,6 @@ VERDICT_SCENE_SIZES = {"random": [(1, 5, 15), (2, 10, 25)], "challenging": [(1, 
                        "invisible": [(1, 10, 45)]}
 SPREADS = (2, 4, 8, 12, 16, 20, 24, 32, 40, 48)  # least product colour spreads (RGB) tried
 SHADINGS = (0.0, 0.1, 0.2, 0.3, 0.4, 0.5)  # ProductReference shadings (share of the mean colour) tried
-TARGET_SCORES = np.round(np.arange(0.0, 12.01, 0.25), 2)  # min_target_score values tried
 COLOUR_CONTRASTS = np.round(np.arange(0.0, 6.01, 0.25), 2)  # min_color_contrast values tried
 
 
@@ -61,10 +60,10 @@ def verdict_jobs(palettes, seeds: int) -> list:
 
 def collect_verdict_episodes(jobs: list, out: pathlib.Path, checkpoint, params,
                              progress: bool = True) -> None:
-    """Run the jobs without the verdict's two thresholds and append each episode's grasps to `out` (jobs
-    already there are skipped): per grasp of an attended TARGET the features the verdict reads and the
-    simulator's truth; per episode the product reference's colours (every 8th), so the colour measure is
-    computed when reading."""
+    """Run the jobs without the verdict's colour test (min_color_contrast 0) and append each episode's
+    grasps to `out` (jobs already there are skipped): per grasp of an attended TARGET the features the
+    verdict reads and the simulator's truth; per episode the product reference's colours (every 8th), so
+    the colour measure is computed when reading."""
     from tqdm import tqdm
 
     from impurity_policy.core import picking
@@ -103,7 +102,7 @@ def collect_verdict_episodes(jobs: list, out: pathlib.Path, checkpoint, params,
         if out.exists() else set()
     world = CellWorld(mode="floating")
     agent = make_agent("ours", pathlib.Path(checkpoint), "cell")
-    limits = picking.EpisodeLimits(verdict=VerdictParams(min_target_score=0.0, min_color_contrast=0.0))
+    limits = picking.EpisodeLimits(verdict=VerdictParams(min_color_contrast=0.0))
     with out.open("a") as sink:
         for scenario, (targets, objects, max_actions), palette, seed in tqdm(jobs, desc="verdict episodes",
                                                                              disable=not progress):
@@ -121,8 +120,8 @@ def collect_verdict_episodes(jobs: list, out: pathlib.Path, checkpoint, params,
                                    "truth": bool(step.truth_target_grasped)})
                     return
                 grasps.append({
-                    "target": True, "step": step.step, "target_score": step.target_score,
-                    "gone_fraction": step.gone_fraction, "holding": bool(step.holding),
+                    "target": True, "step": step.step, "gone_fraction": step.gone_fraction,
+                    "holding": bool(step.holding),
                     "truth": bool(step.truth_target_grasped),
                     "color_distance": product_color_distance(view.color, view.height, view.target_mask),
                     "region_rgb": region_color(view.color, view.target_mask).round(1).tolist()})
@@ -154,26 +153,25 @@ def with_contrast(rows: list, min_spread: float, shading: float = 0.0) -> list:
     return rows
 
 
-def verdict_of(grasp: dict, min_score: float, min_contrast: float) -> bool:
-    """verdict.decide_picked on a recorded grasp at min_target_score = min_score and min_color_contrast =
-    min_contrast; a grasp without an attended target is never a pick."""
+def verdict_of(grasp: dict, min_contrast: float) -> bool:
+    """verdict.decide_picked on a recorded grasp at min_color_contrast = min_contrast; a grasp without an
+    attended target is never a pick."""
     from impurity_policy.core.verdict import VerdictParams, decide_picked
 
     if not grasp["target"]:
         return False
-    tried = dataclasses.replace(VerdictParams(), min_target_score=min_score, min_color_contrast=min_contrast)
-    return decide_picked(grasp["gone_fraction"], grasp["holding"], grasp["target_score"],
-                         grasp["color_contrast"], tried)[0]
+    tried = dataclasses.replace(VerdictParams(), min_color_contrast=min_contrast)
+    return decide_picked(grasp["gone_fraction"], grasp["holding"], grasp["color_contrast"], tried)[0]
 
 
-def agreement(rows: list, min_score: float, min_contrast: float) -> dict:
+def agreement(rows: list, min_contrast: float) -> dict:
     """Grasp verdicts agreeing with the truth (share; missed and false counts) and episodes whose picked
     count is the truth's."""
     checked = agreeing = episodes = matching = missed = false = 0
     for row in rows:
         picked = truth_picked = 0
         for grasp in row["grasps"]:
-            decided = verdict_of(grasp, min_score, min_contrast)
+            decided = verdict_of(grasp, min_contrast)
             checked += 1
             agreeing += decided == grasp["truth"]
             missed += grasp["truth"] and not decided
@@ -187,28 +185,27 @@ def agreement(rows: list, min_score: float, min_contrast: float) -> dict:
 
 
 def choose_verdict(rows: list) -> dict:
-    """The verdict's min_target_score, min_color_contrast, and its product reference's least spread and
-    shading, with the best agreement with the truth on the episodes; ties to the best episode count match,
-    then the lowest thresholds, the least spread and the least shading. Returns them with their figures.
-    ValueError when no grasp of a TARGET was recorded."""
+    """The verdict's min_color_contrast and its product reference's least spread and shading, with the best
+    agreement with the truth on the episodes; ties to the best episode count match, then the lowest
+    contrast, the least spread and the least shading. Returns them with their figures. ValueError when no
+    grasp of a TARGET was recorded."""
     if not any(g["target"] for r in rows for g in r["grasps"]):
         raise ValueError("no grasp of an attended TARGET in the episodes: run more episodes")
 
     def key(t):
-        spread, score, contrast, figures, shading = t
-        return (round(figures["agreement"], 4), round(figures["count_match"], 4), -score, -contrast, -spread,
+        spread, contrast, figures, shading = t
+        return (round(figures["agreement"], 4), round(figures["count_match"], 4), -contrast, -spread,
                 -shading)
 
     best = None
     for shading in SHADINGS:
         for spread in SPREADS:
             with_contrast(rows, spread, shading)
-            table = [(spread, s, c, agreement(rows, s, c), shading)
-                     for s in TARGET_SCORES for c in COLOUR_CONTRASTS]
+            table = [(spread, c, agreement(rows, c), shading) for c in COLOUR_CONTRASTS]
             candidate = max(table, key=key)
             best = candidate if best is None else max(best, candidate, key=key)
-    spread, score, contrast, figures, shading = best
-    return {"min_target_score": float(score), "min_color_contrast": float(contrast),
+    spread, contrast, figures, shading = best
+    return {"min_color_contrast": float(contrast),
             "min_color_spread": float(spread), "color_shading": float(shading), **figures}
 
 

@@ -117,7 +117,7 @@ def load_views(paths) -> list:
 
 
 def add_options(parser) -> None:
-    """The options choosing the scenes (network, verifier, thresholds)."""
+    """The options choosing the scenes (network, verifier, colour-reference)."""
     parser.add_argument("--palettes", nargs="+", default=None, metavar="NAME",
                         help="default and tuning palettes to render (default: the default palette, the named "
                              f"tuning palettes and random-0 ... random-{RANDOM_PALETTES - 1})")
