@@ -9,7 +9,7 @@ too (UnknownParameter: the name and the closest declared names), but for the nam
 and the camera pose the calibration file gives every node (ros_given).
 
     @dataclass(frozen=True)
-    class HeightmapParameters:
+    class HeightmapParams:
         resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005, high=0.05)
         workspace_x: tuple[float, ...] = param((0.276, 0.724), "[x_min, x_max] in base_link (m)",
                                                length=2, check=increasing)
@@ -20,7 +20,7 @@ and the camera pose the calibration file gives every node (ros_given).
     class HeightmapNode(Node):
         def __init__(self):
             super().__init__("heightmap")
-            self.params = declare_parameters(self, HeightmapParameters)  # self.params.resolution ...
+            self.params = declare_parameters(self, HeightmapParams)  # self.params.resolution ...
 
 Field types: float (ROS double), int (integer), bool, str, a str Enum (string, its values are the
 choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arrays; `length`,

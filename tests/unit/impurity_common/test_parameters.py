@@ -334,12 +334,12 @@ def test_a_long_description_is_wrapped_under_its_parameter():
 # ------------------------------------------------------------------------------------ the cell's nodes
 def node_parameter_classes():
     from impurity_attention.attention_node import AttentionNodeParameters
-    from impurity_attention.heightmap_node import HeightmapParameters
+    from impurity_attention.heightmap_node import HeightmapNodeParameters
     from impurity_bags.bag_recorder_node import BagRecorderParameters
     from impurity_bags.bag_replay_node import BagReplayParameters
     from ur5_driver_sim.sim_cell import SimCellParameters
 
-    return {"heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
+    return {"heightmap": HeightmapNodeParameters, "attention": AttentionNodeParameters,
             "sim_cell": SimCellParameters, "bag_recorder": BagRecorderParameters,
             "bag_replay": BagReplayParameters}
 
