@@ -44,6 +44,7 @@ from impurity_common.parameters import (
     InvalidParameter,
     camera_orientation_param,
     camera_position_param,
+    check_fields,
     increasing,
     param,
 )
@@ -99,6 +100,7 @@ class HeightmapParams:
                                                     "for colour adaptation", length=3, low=0.001, high=128.0)
 
     def __post_init__(self):
+        check_fields(self)
         extent = min(self.workspace_x[1] - self.workspace_x[0], self.workspace_y[1] - self.workspace_y[0])
         if self.resolution > extent:
             raise InvalidParameter("resolution", f"is larger than the workspace ({extent:g} m across)")
