@@ -26,7 +26,9 @@ Field types: float (ROS double), int (integer), bool, str, a str Enum (string, i
 choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arrays; `length`,
 `low`/`high` apply per element), and a nested parameters dataclass (names prefixed "<field>.", as
 `saliency: {center_sigma: 2.0}` in a yaml). Ranges are inclusive, as ROS's. Rules between fields go
-in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`.
+in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`,
+after `check_fields(self)`, which checks every field against its own limits, so that an instance built in
+code is checked as a node's values are (its refusal is an InvalidParameter of one line, as ParameterError's).
 A field that is no ROS parameter (a model object set in code) is declared `param(None, "...", ros=False)`:
 it is left out of the parameters and keeps its default.
 
