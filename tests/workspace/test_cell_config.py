@@ -37,7 +37,7 @@ NODE_NAMES = {"sim_cell": "sim_cell", "ur5_driver": "ur5_driver", "heightmap_nod
 PARAMETER_CLASSES = {
     "sim_cell": ("ur5_driver_sim.sim_cell", "SimCellParameters"),
     "ur5_driver": ("ur5_driver_rtde.ur5_driver_node", "Ur5DriverParameters"),
-    "heightmap": ("impurity_attention.heightmap_node", "HeightmapParameters"),
+    "heightmap": ("impurity_attention.heightmap_node", "HeightmapNodeParameters"),
     "attention": ("impurity_attention.attention_node", "AttentionNodeParameters"),
     "policy": ("impurity_policy.policy_node", "PolicyParameters"),
     "episode": ("impurity_policy.episode_node", "EpisodeParameters"),

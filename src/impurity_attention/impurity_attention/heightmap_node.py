@@ -24,17 +24,16 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
 from impurity_attention.core.heightmap import (
-    DEFAULT_DEPTH_SCALE,
     DEPTH_ENCODINGS,
     DepthFormatError,
+    HeightmapParams,
     ProjectorCache,
     depth_problem,
     depth_to_meters,
     exposure_problem,
-    pose_matrix,
 )
 from impurity_attention.core.sync import StampPairer, StreamWatch, UnpairedFrame
-from impurity_common import cell, names
+from impurity_common import names
 from impurity_common.conversions import (
     RGB_ENCODINGS,
     ImageFormatError,
@@ -43,79 +42,34 @@ from impurity_common.conversions import (
     numpy_to_image,
     time_to_ns,
 )
-from impurity_common.grid import MAX_HEIGHT, HeightmapGrid
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import (
-    InvalidParameter,
-    camera_orientation_param,
-    camera_position_param,
-    declare_parameters,
-    increasing,
-    param,
-)
+from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.msg import Heightmap
 
 COLOR_ENCODINGS = tuple(RGB_ENCODINGS)  # rgb8, bgr8, rgba8, bgra8: read as RGB, alpha dropped
 # Frames stamped further than this from the node's clock are on another clock (warned once).
 STAMP_OFFSET_WARNING = 1.0  # s
-# Lab statistics of the seen cells of sim-rendered heightmaps (70 tuning scenes): the reference of the
-# optional sim-to-real transfer. Re-measure with `python -m impurity_learning.calibrate colour-reference`
-# when the sim's look changes.
-SIM_LAB_MEAN = (60.21, 1.36, -8.57)
-SIM_LAB_STD = (9.35, 5.76, 19.01)
 
 
 @dataclass(frozen=True)
-class HeightmapParameters:
-    """Every parameter of the node (bringup/config/cell.yaml, section heightmap)."""
+class HeightmapNodeParameters(HeightmapParams):
+    """Every parameter of the node (bringup/config/cell.yaml, section heightmap): the heightmap's own
+    (core.heightmap.HeightmapParams) and the node's logging settings."""
 
-    camera_position: tuple[float, ...] = camera_position_param()
-    camera_orientation: tuple[float, ...] = camera_orientation_param()
-    workspace_x: tuple[float, ...] = param(cell.WORKSPACE_X, "[x_min, x_max] in base_link (m)",
-                                           length=2, low=-5.0, high=5.0, check=increasing)
-    workspace_y: tuple[float, ...] = param(cell.WORKSPACE_Y, "[y_min, y_max] in base_link (m)",
-                                           length=2, low=-5.0, high=5.0, check=increasing)
-    resolution: float = param(cell.HEIGHTMAP_RESOLUTION, "Heightmap cell size (m)", low=0.0005, high=0.05)
-    table_z: float = param(cell.TABLE_Z, "Table top height in base_link (m)", low=-5.0, high=5.0)
-    max_height: float = param(MAX_HEIGHT, "Points higher than this above the table are dropped (arm, "
-                              "gripper, noise) (m)", low=0.001, high=5.0)
-    sync_tolerance: float = param(0.0, "Largest stamp difference (s) for a colour and a depth frame to pair; "
-                                  "0.0 = automatic: half the frame period measured from the stamps (any "
-                                  "colour-depth offset of the driver below half a period)", low=0.0, high=1.0)
-    depth_scale: float = param(DEFAULT_DEPTH_SCALE, "Metres per unit of integer depth (16UC1, mono16); not "
-                               "on the topic: RealSense D4xx 0.001 (mm), D405 0.0001. 32FC1 is always metres",
-                               low=1e-7, high=1.0)
-    colour_adaptation: bool = param(False, "Reinhard Lab transfer of heightmap colours to the sim reference "
-                                    "statistics (real cameras)")
-    colour_reference_mean: tuple[float, ...] = param(SIM_LAB_MEAN, "Reference Lab mean [L, a, b] for colour "
-                                                     "adaptation", length=3, low=-128.0, high=128.0)
-    colour_reference_std: tuple[float, ...] = param(SIM_LAB_STD, "Reference Lab standard deviation [L, a, b] "
-                                                    "for colour adaptation", length=3, low=0.001, high=128.0)
     log_throttle: float = param(5.0, "s between repeated warnings about bad frames", low=0.0, high=3600.0)
     frame_timeout: float = param(5.0, "s without a message on a camera topic (colour, depth, camera_info) "
                                  "before the node warns, every frame_timeout s while it lasts; 0 = never",
                                  low=0.0, high=3600.0)
 
-    def __post_init__(self):
-        extent = min(self.workspace_x[1] - self.workspace_x[0], self.workspace_y[1] - self.workspace_y[0])
-        if self.resolution > extent:
-            raise InvalidParameter("resolution", f"is larger than the workspace ({extent:g} m across)")
-
-    def grid(self) -> HeightmapGrid:
-        (x_min, x_max), (y_min, y_max) = self.workspace_x, self.workspace_y
-        return HeightmapGrid(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, resolution=self.resolution,
-                             table_z=self.table_z, max_height=self.max_height)
-
 
 class HeightmapNode(Node):
     def __init__(self):
         super().__init__("heightmap")
-        params = self.params = declare_parameters(self, HeightmapParameters)
+        params = self.params = declare_parameters(self, HeightmapNodeParameters)
 
         self._grid = params.grid()
-        self._camera_pose = pose_matrix(params.camera_position, params.camera_orientation)
-        self._pairer = StampPairer(tolerance_ns=int(round(params.sync_tolerance * 1e9))
-                                   if params.sync_tolerance > 0 else None)
+        self._camera_pose = params.camera_pose()
+        self._pairer = StampPairer(tolerance_ns=params.pairing_tolerance_ns())
         self._warned_clock = False
         self._warned_footprint = None  # the projector the footprint warning was given for
         self._projectors = ProjectorCache()

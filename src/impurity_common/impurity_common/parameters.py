@@ -9,7 +9,7 @@ too (UnknownParameter: the name and the closest declared names), but for the nam
 and the camera pose the calibration file gives every node (ros_given).
 
     @dataclass(frozen=True)
-    class HeightmapParameters:
+    class HeightmapParams:
         resolution: float = param(0.002, "Heightmap cell size (m)", low=0.0005, high=0.05)
         workspace_x: tuple[float, ...] = param((0.276, 0.724), "[x_min, x_max] in base_link (m)",
                                                length=2, check=increasing)
@@ -20,13 +20,15 @@ and the camera pose the calibration file gives every node (ros_given).
     class HeightmapNode(Node):
         def __init__(self):
             super().__init__("heightmap")
-            self.params = declare_parameters(self, HeightmapParameters)  # self.params.resolution ...
+            self.params = declare_parameters(self, HeightmapParams)  # self.params.resolution ...
 
 Field types: float (ROS double), int (integer), bool, str, a str Enum (string, its values are the
 choices, returned as the member), tuple[float | int | str | bool, ...] (ROS arrays; `length`,
 `low`/`high` apply per element), and a nested parameters dataclass (names prefixed "<field>.", as
 `saliency: {center_sigma: 2.0}` in a yaml). Ranges are inclusive, as ROS's. Rules between fields go
-in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`.
+in the dataclass's __post_init__: `raise InvalidParameter("stop_layer", "must be >= start_layer (2)")`,
+after `check_fields(self)`, which checks every field against its own limits, so that an instance built in
+code is checked as a node's values are (its refusal is an InvalidParameter of one line, as ParameterError's).
 A field that is no ROS parameter (a model object set in code) is declared `param(None, "...", ros=False)`:
 it is left out of the parameters and keeps its default.
 
@@ -42,6 +44,7 @@ import dataclasses
 import difflib
 import enum
 import math
+import numbers
 import textwrap
 import typing
 from collections.abc import Callable, Iterable, Sequence
@@ -109,10 +112,15 @@ NOT_ROS = "not a ROS parameter"  # the metadata of a param(..., ros=False) field
 
 
 class InvalidParameter(ValueError):
-    """Raised by a parameters dataclass's __post_init__ for a rule between fields: names the field."""
+    """Raised by a parameters dataclass's __post_init__ (a rule between fields, or check_fields): names the
+    field. With `value` (check_fields), str() is one line as a ParameterError's without the node:
+    "heap_sigma_px:=-0.5 is out of range; expected a double in [0.0, 56.0]"."""
 
-    def __init__(self, field: str, problem: str):
-        super().__init__(f"{field} {problem}")
+    def __init__(self, field: str, problem: str, value=None, allowed: str | None = None):
+        line = f"{field} {problem}" if value is None else f"{field}:={format_value(value)} {problem}"
+        if allowed:
+            line += f"; expected {allowed}"
+        super().__init__(" ".join(line.split()))
         self.field, self.problem = field, problem
 
 
@@ -347,6 +355,14 @@ def _in_bounds(limits: Limits, value) -> bool:
     return not (limits.high is not None and value > limits.high + tolerance)
 
 
+def _in_range(limits: Limits, value) -> bool:
+    """Within the bounds; a non-finite double is out of any bound (NaN compares with nothing)."""
+    bounded = limits.low is not None or limits.high is not None
+    if bounded and isinstance(value, float) and not math.isfinite(value):
+        return False
+    return _in_bounds(limits, value)
+
+
 def check_value(spec: ParameterSpec, value) -> str | None:
     """None when `value` (as ROS gives it) is allowed, else what is wrong, e.g. "is out of range"."""
     limits = spec.limits
@@ -355,7 +371,7 @@ def check_value(spec: ParameterSpec, value) -> str | None:
             return f"is {_kind_of(value)}"
         if limits.length is not None and len(value) != limits.length:
             return f"has {len(value)} element{'s' if len(value) != 1 else ''}"
-        if spec.kind in ("double", "integer") and not all(_in_bounds(limits, v) for v in value):
+        if spec.kind in ("double", "integer") and not all(_in_range(limits, v) for v in value):
             return "has an element out of range"
     else:
         if not _is_kind(spec.kind, value):
@@ -363,10 +379,7 @@ def check_value(spec: ParameterSpec, value) -> str | None:
                 "integer", value) else ""
             return f"is {_kind_of(value)}{hint}"
         if spec.kind in ("double", "integer"):
-            if (isinstance(value, float) and not math.isfinite(value)
-                    and (limits.low is not None or limits.high is not None)):
-                return "is out of range"
-            if not _in_bounds(limits, value):
+            if not _in_range(limits, value):
                 return "is out of range"
             if limits.step and limits.low is not None:
                 steps = (value - limits.low) / limits.step
@@ -377,6 +390,52 @@ def check_value(spec: ParameterSpec, value) -> str | None:
     if limits.check is not None:
         return limits.check(tuple(value) if spec.array else value)
     return None
+
+
+def check_fields(instance) -> None:
+    """Check the parameter fields of a parameters dataclass instance against their param() limits (type,
+    range, step, choices, length, check), as a node's values are checked; call it first in __post_init__,
+    which keeps only the rules between fields. InvalidParameter (a ValueError, one line naming the field,
+    the value and what is allowed) for the first field that fails. A number of another numeric type than
+    the field's (an int or numpy scalar for a double, a numpy integer for an integer) is checked as the
+    field's type; nested parameters dataclasses check themselves when built, ros=False fields are skipped."""
+    for spec in _field_specs(type(instance)):
+        value = getattr(instance, spec.path[0])
+        problem = check_value(spec, _as_ros(spec, value))
+        if problem is not None:
+            raise InvalidParameter(spec.name, problem, value, allowed(spec))
+
+
+_FIELD_SPECS: dict[type, list[ParameterSpec]] = {}
+
+
+def _field_specs(cls) -> list[ParameterSpec]:
+    """The specs of `cls`'s own parameter fields (not those of nested groups), computed once per class."""
+    specs = _FIELD_SPECS.get(cls)
+    if specs is None:
+        specs = _FIELD_SPECS[cls] = [spec for spec in parameter_specs(cls) if len(spec.path) == 1]
+    return specs
+
+
+def _as_ros(spec: ParameterSpec, value):
+    """A field's Python value in the type ROS would give it (numbers to the field's kind, sequences such as
+    tuples or numpy vectors as lists, str enum members as their values), for check_value; anything else
+    unchanged (check_value names it)."""
+    if spec.array and not isinstance(value, str) and hasattr(value, "__len__") and hasattr(value, "__iter__"):
+        return [_as_ros_scalar(spec.kind, element) for element in value]
+    if isinstance(value, enum.Enum) and spec.enum_type is not None:
+        return value.value
+    return _as_ros_scalar(spec.kind, value)
+
+
+def _as_ros_scalar(kind: str, value):
+    if isinstance(value, bool):
+        return value
+    if kind == "double" and isinstance(value, numbers.Real):
+        return float(value)
+    if kind == "integer" and isinstance(value, numbers.Integral):
+        return int(value)
+    return value
 
 
 def error(node_name: str, spec: ParameterSpec, value, problem: str) -> ParameterError:

@@ -187,3 +187,36 @@ def test_clipped_channel_names_the_channel_most_often_at_the_ceiling_and_its_sha
     for bad in (np.full((3, 6), 255, np.uint8), np.full((6, 4), 255, np.uint8), colours / 255.0):
         with pytest.raises(ValueError, match=r"\(N, 3\) uint8"):  # channel-first, RGBA, float: refused
             hm.clipped_channel(bad)
+
+
+# ---- the heightmap's parameters ------------------------------------------------------------------------
+def test_the_default_parameters_give_the_cells_grid_and_camera():
+    params = hm.HeightmapParams()
+    assert params.grid() == GRID
+    assert np.array_equal(params.camera_pose(), hm.default_camera_pose())
+
+
+def test_a_grid_from_parameters_carries_every_grid_setting():
+    params = hm.HeightmapParams(workspace_x=(0.4, 0.6), workspace_y=(-0.1, 0.1), resolution=0.004,
+                                table_z=0.01, max_height=0.2)
+    assert params.grid() == hm.HeightmapGrid(x_min=0.4, x_max=0.6, y_min=-0.1, y_max=0.1, resolution=0.004,
+                                             table_z=0.01, max_height=0.2)
+
+
+def test_a_sync_tolerance_of_zero_leaves_pairing_automatic():
+    assert hm.HeightmapParams().pairing_tolerance_ns() is None
+    assert hm.HeightmapParams(sync_tolerance=0.004).pairing_tolerance_ns() == 4_000_000
+
+
+def test_a_resolution_coarser_than_the_workspace_is_refused_by_name():
+    with pytest.raises(ValueError, match="resolution"):
+        hm.HeightmapParams(workspace_x=(0.4, 0.41), resolution=0.02)
+
+
+def test_the_node_declares_the_heightmaps_parameters_and_only_its_logging_settings_besides():
+    from impurity_attention.heightmap_node import HeightmapNodeParameters
+    from impurity_common.parameters import parameter_specs
+
+    core = [spec.name for spec in parameter_specs(hm.HeightmapParams)]
+    assert [spec.name for spec in parameter_specs(HeightmapNodeParameters)] == [*core, "log_throttle",
+                                                                                 "frame_timeout"]

@@ -111,7 +111,7 @@ def test_a_module_with_no_parameters_dataclass_or_two_outermost_ones_gives_none(
 SPIN_NODE_NODES = {
     "ur5_driver_sim.sim_cell": ("SimCellNode", "SimCellParameters"),
     "ur5_driver_rtde.ur5_driver_node": ("Ur5DriverNode", "Ur5DriverParameters"),
-    "impurity_attention.heightmap_node": ("HeightmapNode", "HeightmapParameters"),
+    "impurity_attention.heightmap_node": ("HeightmapNode", "HeightmapNodeParameters"),
     "impurity_attention.attention_node": ("AttentionNode", "AttentionNodeParameters"),
     "impurity_policy.policy_node": ("PolicyNode", "PolicyParameters"),
     "impurity_policy.episode_node": ("EpisodeNode", "EpisodeParameters"),

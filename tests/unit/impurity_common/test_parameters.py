@@ -20,6 +20,7 @@ from impurity_common.parameters import (
     UnknownParameter,
     allowed,
     build,
+    check_fields,
     check_value,
     close_names,
     descriptor,
@@ -334,12 +335,12 @@ def test_a_long_description_is_wrapped_under_its_parameter():
 # ------------------------------------------------------------------------------------ the cell's nodes
 def node_parameter_classes():
     from impurity_attention.attention_node import AttentionNodeParameters
-    from impurity_attention.heightmap_node import HeightmapParameters
+    from impurity_attention.heightmap_node import HeightmapNodeParameters
     from impurity_bags.bag_recorder_node import BagRecorderParameters
     from impurity_bags.bag_replay_node import BagReplayParameters
     from ur5_driver_sim.sim_cell import SimCellParameters
 
-    return {"heightmap": HeightmapParameters, "attention": AttentionNodeParameters,
+    return {"heightmap": HeightmapNodeParameters, "attention": AttentionNodeParameters,
             "sim_cell": SimCellParameters, "bag_recorder": BagRecorderParameters,
             "bag_replay": BagReplayParameters}
 
@@ -393,3 +394,71 @@ def test_the_attention_nodes_defaults_build_attentions_own_defaults():
     built = build("attention", cls, {spec.name: spec.default for spec in parameter_specs(cls)})
     assert AttentionParams(**{f.name: getattr(built, f.name) for f in dataclasses.fields(AttentionParams)}) \
         == AttentionParams()
+
+
+# ------------------------------------------------------------------------------------ check_fields
+@dataclass(frozen=True)
+class Checked:
+    rate: float = param(1.0, "Rate (Hz)", low=0.1, high=10.0)
+    count: int = param(3, "Number of things", low=1)
+    crop: int = param(112, "Crop side (cells)", low=2, high=448, step=2)
+    mode: str = param("arm", "How to move", choices=("arm", "floating"))
+    colour: Colour = param(Colour.RED, "A str enum")
+    bounds: tuple[float, ...] = param((0.2, 0.7), "[min, max] (m)", length=2, low=-5.0, high=5.0,
+                                      check=increasing)
+    group: Group = Group()
+    model: object = param(None, "A model object set in code", ros=False)
+
+    def __post_init__(self):
+        check_fields(self)
+
+
+def test_check_fields_passes_the_defaults_and_allowed_values():
+    Checked()
+    Checked(rate=10.0, count=1, crop=2, mode="floating", colour=Colour.BLUE, bounds=(-5.0, 5.0))
+
+
+@pytest.mark.parametrize("field, value", [("rate", 0.05), ("rate", 11.0), ("rate", math.nan), ("count", 0),
+                                          ("crop", 111), ("mode", "legs"), ("colour", "green"),
+                                          ("bounds", (0.7, 0.2)), ("bounds", (0.2,)), ("bounds", (0.2, 6.0)),
+                                          ("bounds", (math.nan, 0.5))])
+def test_check_fields_refuses_a_value_its_param_limits_refuse_naming_the_field(field, value):
+    with pytest.raises(InvalidParameter, match=f"^{field}:=") as refused:
+        Checked(**{field: value})
+    assert refused.value.field == field
+
+
+def test_check_fields_refusal_is_a_value_error_of_one_line_with_the_value_and_what_is_allowed():
+    with pytest.raises(ValueError) as refused:
+        Checked(rate=20.0)
+    assert str(refused.value) == "rate:=20.0 is out of range; expected a double in [0.1, 10.0]"
+
+
+def test_check_fields_checks_numbers_of_another_numeric_type_as_the_fields_type():
+    import numpy as np
+
+    Checked(rate=2, count=np.int64(4), bounds=np.array([0.1, 0.3]))
+    with pytest.raises(InvalidParameter, match="rate"):
+        Checked(rate=np.float32(20.0))
+
+
+def test_check_fields_refuses_a_value_of_another_kind_by_its_type():
+    with pytest.raises(InvalidParameter, match="count:=2.5 is a double"):
+        Checked(count=2.5)
+    with pytest.raises(InvalidParameter, match="mode:=true is a bool"):
+        Checked(mode=True)
+
+
+def test_check_fields_leaves_nested_groups_and_fields_that_are_no_parameters_alone():
+    model = object()
+    assert Checked(model=model).model is model
+    with pytest.raises(InvalidParameter, match="high_sigma"):  # the group's own rule, when it is built
+        Group(low_sigma=5.0, high_sigma=4.0)
+
+
+def test_a_dataclass_whose_post_init_checks_its_fields_builds_from_ros_values_as_before():
+    built = build("node", Checked, {spec.name: spec.default for spec in parameter_specs(Checked)})
+    assert built == Checked()
+    with pytest.raises(ParameterError, match="^node: parameter rate:=20.0 is out of range; expected"):
+        build("node", Checked, {**{spec.name: spec.default for spec in parameter_specs(Checked)},
+                                "rate": 20.0})

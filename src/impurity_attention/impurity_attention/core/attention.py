@@ -37,7 +37,7 @@ from impurity_common.cell import crop_centered  # noqa: F401 (part of this modul
 from impurity_common.colour import ProductReference, mask_colour
 from impurity_common.enums import AttentionMode  # AttentionResult.MODE_* (re-exported)
 from impurity_common.grid import HeightmapGrid
-from impurity_common.parameters import InvalidParameter, param
+from impurity_common.parameters import check_fields, param
 
 from .density import Cluster, DensityParams, find_clusters, select_occluded_region
 from .saliency import (
@@ -97,20 +97,7 @@ class AttentionParams:
                                  "NETWORK_FEATURES runs; None: the shipped weights", ros=False)
 
     def __post_init__(self):
-        if self.crop_size < 2 or self.crop_size % 2:
-            raise InvalidParameter("crop_size", f"must be even and >= 2, got {self.crop_size}")
-        if not 0.0 < self.known_product_delta_e:
-            raise InvalidParameter("known_product_delta_e", f"must be > 0 (CIE76 dE), got "
-                                   f"{self.known_product_delta_e}")
-        if not 0.0 <= self.known_product_max_share < 1.0:
-            raise InvalidParameter("known_product_max_share", f"must be a share in [0, 1), got "
-                                   f"{self.known_product_max_share}")
-        if not 0.0 < self.lightness_weight <= 1.0:
-            raise InvalidParameter("lightness_weight", f"must be in (0, 1], got {self.lightness_weight}")
-        if not 0.0 < self.region_fraction < 1.0:
-            raise InvalidParameter("region_fraction", f"must be in (0, 1), got {self.region_fraction}")
-        if not self.mask_chroma_tolerance > 0.0:
-            raise InvalidParameter("mask_chroma_tolerance", f"must be > 0, got {self.mask_chroma_tolerance}")
+        check_fields(self)
 
 
 @dataclass

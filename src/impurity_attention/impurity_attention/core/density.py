@@ -30,7 +30,7 @@ import numpy as np
 from sklearn.cluster import DBSCAN
 
 from impurity_common import cell
-from impurity_common.parameters import param
+from impurity_common.parameters import check_fields, param
 
 
 @dataclass(frozen=True)
@@ -50,8 +50,7 @@ class DensityParams:
                                      low=0.0, high=100.0)
 
     def __post_init__(self):
-        if self.stride < 1 or self.eps <= 0 or self.min_samples < 1:
-            raise ValueError(f"need stride >= 1, eps > 0, min_samples >= 1, got {self}")
+        check_fields(self)
 
 
 @dataclass

@@ -20,6 +20,9 @@ table at all (`depth_problem` words the likely cause): integer depth in other un
 `depth_scale` says (a D405 publishes 0.1 mm), or a wrong camera pose, puts most points far from the
 table plane.
 
+`HeightmapParams` holds every setting of the projection (grid, camera pose, depth units), of pairing colour
+and depth frames and of the optional colour adaptation: the heightmap node's parameters of the same names.
+
 `exposure_problem` tells whether the colour heightmap's objects are lit and exposed so that colours can be
 compared at all: a channel at the camera's ceiling on most object cells, or objects nearly black.
 
@@ -36,7 +39,15 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.colour import SATURATED_SHARE
-from impurity_common.grid import HeightmapGrid
+from impurity_common.grid import MAX_HEIGHT, HeightmapGrid
+from impurity_common.parameters import (
+    InvalidParameter,
+    camera_orientation_param,
+    camera_position_param,
+    check_fields,
+    increasing,
+    param,
+)
 
 # Depth encodings the camera driver may publish: integer depth in `depth_scale` m per unit (realsense-ros
 # 16UC1, millimetres on a D4xx and 0.1 mm on a D405; some drivers say mono16), or 32FC1 metres (sims).
@@ -51,6 +62,63 @@ UNSEEN_LABEL = -1  # label of heightmap cells that no pixel reached
 FAR_BELOW_TABLE = 0.05  # m
 MOST = 0.5
 MIN_VALID_FRACTION = 0.1
+
+
+# Lab statistics (colour_adaptation.lab_statistics) of the seen cells of sim-rendered heightmaps of 70 tuning
+# scenes: the reference of the optional sim-to-real colour transfer. Re-measure with
+# `python -m impurity_learning.calibrate colour-reference` when the simulator's look changes.
+SIM_LAB_MEAN = (60.21, 1.36, -8.57)
+SIM_LAB_STD = (9.35, 5.76, 19.01)
+
+
+@dataclass(frozen=True)
+class HeightmapParams:
+    """The heightmap's settings: the grid (workspace, resolution, table, max_height), the camera pose and
+    depth units it projects with, how colour and depth frames pair, and the optional colour adaptation.
+    The heightmap node's parameters of the same names (bringup/config/cell.yaml, section heightmap)."""
+
+    camera_position: tuple[float, ...] = camera_position_param()
+    camera_orientation: tuple[float, ...] = camera_orientation_param()
+    workspace_x: tuple[float, ...] = param(cell.WORKSPACE_X, "[x_min, x_max] in base_link (m)",
+                                           length=2, low=-5.0, high=5.0, check=increasing)
+    workspace_y: tuple[float, ...] = param(cell.WORKSPACE_Y, "[y_min, y_max] in base_link (m)",
+                                           length=2, low=-5.0, high=5.0, check=increasing)
+    resolution: float = param(cell.HEIGHTMAP_RESOLUTION, "Heightmap cell size (m)", low=0.0005, high=0.05)
+    table_z: float = param(cell.TABLE_Z, "Table top height in base_link (m)", low=-5.0, high=5.0)
+    max_height: float = param(MAX_HEIGHT, "Points higher than this above the table are dropped (arm, "
+                              "gripper, noise) (m)", low=0.001, high=5.0)
+    sync_tolerance: float = param(0.0, "Largest stamp difference (s) for a colour and a depth frame to pair; "
+                                  "0.0 = automatic: half the frame period measured from the stamps (any "
+                                  "colour-depth offset of the driver below half a period)", low=0.0, high=1.0)
+    depth_scale: float = param(DEFAULT_DEPTH_SCALE, "Metres per unit of integer depth (16UC1, mono16); not "
+                               "on the topic: RealSense D4xx 0.001 (mm), D405 0.0001. 32FC1 is always metres",
+                               low=1e-7, high=1.0)
+    colour_adaptation: bool = param(False, "Reinhard Lab transfer of heightmap colours to the sim reference "
+                                    "statistics (real cameras)")
+    colour_reference_mean: tuple[float, ...] = param(SIM_LAB_MEAN, "Reference Lab mean [L, a, b] for colour "
+                                                     "adaptation", length=3, low=-128.0, high=128.0)
+    colour_reference_std: tuple[float, ...] = param(SIM_LAB_STD, "Reference Lab standard deviation [L, a, b] "
+                                                    "for colour adaptation", length=3, low=0.001, high=128.0)
+
+    def __post_init__(self):
+        check_fields(self)
+        extent = min(self.workspace_x[1] - self.workspace_x[0], self.workspace_y[1] - self.workspace_y[0])
+        if self.resolution > extent:
+            raise InvalidParameter("resolution", f"is larger than the workspace ({extent:g} m across)")
+
+    def grid(self) -> HeightmapGrid:
+        """The grid the maps are built on (workspace_x, workspace_y, resolution, table_z, max_height)."""
+        (x_min, x_max), (y_min, y_max) = self.workspace_x, self.workspace_y
+        return HeightmapGrid(x_min=x_min, x_max=x_max, y_min=y_min, y_max=y_max, resolution=self.resolution,
+                             table_z=self.table_z, max_height=self.max_height)
+
+    def camera_pose(self) -> np.ndarray:
+        """T_base_cameraoptical, 4x4 (camera_position, camera_orientation)."""
+        return pose_matrix(self.camera_position, self.camera_orientation)
+
+    def pairing_tolerance_ns(self) -> int | None:
+        """sync_tolerance in ns for core.sync.StampPairer; None (automatic) when it is 0."""
+        return int(round(self.sync_tolerance * 1e9)) if self.sync_tolerance > 0 else None
 
 
 class DepthFormatError(ValueError):

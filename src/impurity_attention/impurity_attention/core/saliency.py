@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import cv2
 import numpy as np
 
-from impurity_common.parameters import InvalidParameter, param
+from impurity_common.parameters import InvalidParameter, check_fields, param
 
 CHANNELS = ("I", "RG", "BY")
 MIN_CHANNEL_LEVEL = 1e-4  # a conspicuity map flatter than this over the objects is noise (a level's floor)
@@ -49,8 +49,7 @@ class SaliencyParams:
     stop_layer: int = param(4, "VOCUS2 last pyramid octave (each halves the image)", low=0, high=6)
 
     def __post_init__(self):
-        if not (0 < self.center_sigma and self.n_scales >= 1 and self.start_layer >= 0):
-            raise ValueError(f"need center_sigma > 0, n_scales >= 1 and start_layer >= 0, got {self}")
+        check_fields(self)
         if self.surround_sigma <= self.center_sigma:
             raise InvalidParameter("surround_sigma", f"is not above center_sigma ({self.center_sigma})")
         if self.stop_layer < self.start_layer:

@@ -72,7 +72,7 @@ from typing import Protocol
 import numpy as np
 
 from impurity_common.enums import AttentionMode
-from impurity_common.parameters import param
+from impurity_common.parameters import check_fields, param
 
 from .episode import (
     COUNTED_BY_PERCEPTION,
@@ -225,8 +225,7 @@ class EpisodeLimits:
                                   "it", low=1, high=1000)
 
     def __post_init__(self):
-        if self.stall_look_views < 1:
-            raise ValueError(f"stall_look_views must be >= 1, got {self.stall_look_views}")
+        check_fields(self)
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,

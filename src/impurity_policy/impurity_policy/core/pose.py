@@ -29,7 +29,7 @@ import numpy as np
 
 from impurity_common import cell
 from impurity_common.grid import HeightmapGrid
-from impurity_common.parameters import param
+from impurity_common.parameters import check_fields, param
 
 from .network import GRASP, PUSH
 
@@ -49,6 +49,9 @@ class PoseRules:
                                  "(2r+1)^2 window)", low=0, high=20)
     finger_overlap: float = param(0.015, "finger_clearance: the pads must reach this far below the local top "
                                   "at the grasp pixel (m)", low=0.0, high=0.1)
+
+    def __post_init__(self):
+        check_fields(self)
 
 
 @dataclass(frozen=True)

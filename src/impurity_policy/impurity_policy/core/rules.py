@@ -56,7 +56,7 @@ import numpy as np
 from impurity_common import cell
 from impurity_common.enums import AttentionMode
 from impurity_common.grid import HeightmapGrid
-from impurity_common.parameters import increasing, param
+from impurity_common.parameters import check_fields, increasing, param
 
 from .change import CHANGE_PIXELS_TAU, changed_pixels
 from .network import GRASP, PUSH, valid_action_mask
@@ -126,25 +126,7 @@ class RuleParams:
                                        low=0.0, high=45.0)
 
     def __post_init__(self):
-        low, high = self.occluded_push_start_band
-        if not 0.0 <= low < high <= 1.0:
-            raise ValueError(f"occluded_push_start_band must be 0 <= low < high <= 1, got {(low, high)}")
-        for name in ("tried_action_radius_px", "changed_pixels", "target_push_radius_px"):
-            if getattr(self, name) < 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        for name in ("failed_grasps_before_push", "occluded_push_radius_px"):
-            if getattr(self, name) < 1:
-                raise ValueError(f"{name} must be >= 1, got {getattr(self, name)}")
-        for name in ("heap_sigma_px", "push_end_margin", "occluded_push_edge_margin",
-                     "target_on_top_tolerance", "grasp_core_depth_px", "corner_max_slope"):
-            if not getattr(self, name) >= 0:
-                raise ValueError(f"{name} must be >= 0, got {getattr(self, name)}")
-        if not 0.0 <= self.face_min_fill <= 1.0:
-            raise ValueError(f"face_min_fill must be in [0, 1] (a share of the rectangle), got "
-                             f"{self.face_min_fill}")
-        if not 0.0 <= self.square_max_turn_deg <= 45.0:
-            raise ValueError(f"square_max_turn_deg must be in [0, 45] (deg of turn onto a face normal), got "
-                             f"{self.square_max_turn_deg}")
+        check_fields(self)
 
 
 class RuleContext:

@@ -38,7 +38,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from impurity_common.colour import ProductReference, region_contrast
-from impurity_common.parameters import param
+from impurity_common.parameters import check_fields, param
 
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
@@ -67,16 +67,7 @@ class VerdictParams:
                                      low=0.0, high=0.1)
 
     def __post_init__(self):
-        if not self.min_height_drop > 0:
-            raise ValueError(f"min_height_drop must be > 0 m (got {self.min_height_drop})")
-        if not self.min_color_change > 0:
-            raise ValueError(f"min_color_change must be > 0 (got {self.min_color_change})")
-        if not 0 < self.min_gone_fraction <= 1:
-            raise ValueError(f"min_gone_fraction must be in (0, 1] (got {self.min_gone_fraction})")
-        if not self.closed_opening >= 0:
-            raise ValueError(f"closed_opening must be >= 0 m (got {self.closed_opening})")
-        if not self.min_color_contrast >= 0:
-            raise ValueError(f"min_color_contrast must be >= 0 (got {self.min_color_contrast})")
+        check_fields(self)
 
 
 @dataclass(frozen=True)
