@@ -110,9 +110,9 @@ def main() -> None:
                              features=FEATURES)
     no_network = dataclasses.replace(params, verifier=without)
     p50 = {}
-    for name, tried in (("no network", no_network), ("shipped, network", params)):
-        output = attend(maps.color, maps.height, tried)
-        run = lambda t=tried: attend(maps.color, maps.height, t)  # noqa: E731
+    for name, variant in (("no network", no_network), ("shipped, network", params)):
+        output = attend(maps.color, maps.height, variant)
+        run = lambda t=variant: attend(maps.color, maps.height, t)  # noqa: E731
         p50[name] = report(f"attention 224x224, impurity, {name} [{output.mode.name[:8]}]",
                            timed(run, args.repeats), 30)
     print(f"{'':48s} shipped (network) / no network: {p50['shipped, network'] / p50['no network']:.2f}x "

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Draw docs/images/architecture.png: the simulated cell's node graph (bringup/cell_nodes.py), one box per
-node process, one arrow per topic (publisher -> subscriber), service (caller -> server) and action
+"""Draw docs/images/architecture.png: the simulated cell's node graph (impurity_bringup.cell_nodes), one box
+per node process, one arrow per topic (publisher -> subscriber), service (caller -> server) and action
 (client -> server). The edges are read from the node modules by scripts/node_reference.py, so the figure
 shows the names the code uses; only the boxes' places are set here.
 

@@ -310,7 +310,7 @@ CAMERA_QOS = QoSProfile(depth=100, reliability=ReliabilityPolicy.RELIABLE)
 
 
 def test_replay_of_the_camera_topics_beside_a_type_this_environment_lacks(ros_node, launch, tmp_path):
-    """The field report: a custom type and a tf2_msgs message beside the camera topics; replaying only
+    """A bag with a custom type and a tf2_msgs message beside the camera topics: replaying only
     the camera topics plays every frame, and a warning names the topics it leaves out for their types."""
     bag = tmp_path / "camera"
     written = write_camera_bag(bag)
@@ -353,7 +353,7 @@ def test_replay_of_every_topic_of_a_bag_with_a_missing_type(launch, tmp_path, al
 
 
 def test_replay_of_a_bag_whose_qos_text_was_edited_plays_every_message(ros_node, launch, tmp_path):
-    """The field report: offered_qos_profiles edited into garbage gave "played 0 message(s)" and exit 0."""
+    """offered_qos_profiles edited into garbage in metadata.yaml: every message is still played."""
     bag = tmp_path / "edited"
     offered = Qos(QosHistory.UNKNOWN, 0, QosReliability.RELIABLE, QosDurability.VOLATILE, QosTime(0, 0),
                   QosTime(0, 0), QosLiveliness.AUTOMATIC, QosTime(0, 0), False)

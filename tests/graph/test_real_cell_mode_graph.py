@@ -38,12 +38,12 @@ CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 PERCEPTION = [("impurity_attention", "heightmap_node"), ("impurity_attention", "attention_node"),
               ("impurity_policy", "policy_node")]
 REAL_CELL_EPISODE = {"use_ground_truth": False, "none_frames_to_finish": 3, "decision_timeout": 60.0}
-# (scenario, seed, num_targets, num_objects, max_actions): small scenes so that each can end by
-# perception (no impurity and no heap left) within its action limit; invisible needs two heaps of 5
-# blocks, which take more pushes to spread. The seeds are evaluation seeds (impurity_learning.splits), only
-# ever measured here: the verdict's thresholds (scripts/calibrate_verdict.py) and the height of a cluster
-# that can hide something and attention's colour floor (scripts/calibrate_episode_end.py) were chosen on
-# tuning seeds and palettes. A block of seeds is measured once per setting of those thresholds.
+# (scenario, seed, num_targets, num_objects, max_actions): small scenes so that each can end by perception (no
+# impurity and no heap left) within its action limit; invisible needs two heaps of 5 blocks, which take more
+# pushes to spread. The seeds are evaluation seeds (impurity_learning.splits), only ever measured here: the
+# verdict's thresholds (impurity_learning.calibrate verdict) and the height of a cluster that can hide
+# something and attention's colour floor (impurity_learning.calibrate episode-end) were chosen on tuning seeds
+# and palettes. A block of seeds is measured once per setting of those thresholds.
 FRESH = EVAL_SEED_BASE + 1_100_000
 EPISODES = [("random", FRESH + k, 1, 5, 15) for k in (1, 2, 3, 4)] + \
            [("challenging", FRESH + k, 1, 5, 15) for k in (1, 2, 3)] + \

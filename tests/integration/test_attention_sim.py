@@ -1,6 +1,6 @@
-"""Attention on scenes rendered by the PyBullet cell: a reduced version (15 scenes, ~20 s) of the
-acceptance run `python scripts/calibrate_attention.py evaluate --split acceptance` (138 scenes).
-Acceptance seeds (1000+) never overlap the tuning seeds (0-99) the thresholds were chosen on."""
+"""Attention on 15 scenes rendered by the PyBullet cell (~20 s), judged against the simulator's ground
+truth (impurity_attention.core.evaluation): visible impurities found, no TARGET in a clean scene, hidden
+ones inside the chosen heap."""
 
 import pytest
 

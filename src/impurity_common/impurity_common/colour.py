@@ -1,5 +1,5 @@
 """How far a colour stands apart from a product's colours: a Mahalanobis distance from the colours of the
-product's cells (issue 17: decisions relative to the scene, not to a palette). numpy and OpenCV (the L*a*b*
+product's cells (decisions relative to the scene, not to a palette). numpy and OpenCV (the L*a*b*
 conversion); no ROS.
 
 Used by attention (is the best salient region's colour unlike the other objects'?) and by the grasp
@@ -31,7 +31,7 @@ import numpy as np
 RIDGE_SHARE = 0.05
 REFERENCE_CELLS = 4096  # most product cells a ProductReference keeps (an even subsample)
 # A camera channel at its ceiling (a light product, a long exposure) reads 255 whatever the light: shading
-# no longer scales it, so a shaded face of a saturated product is not on the product's mean-colour axis.
+# does not scale it, so a shaded face of a saturated product is not on the product's mean-colour axis.
 # `saturation` leaves such channels out of the comparison: those in which at least SATURATED_SHARE of the
 # product's colours reach the level. When every channel is saturated all three are kept (no colour is left).
 SATURATED_SHARE = 0.5

@@ -22,8 +22,8 @@ ATTENTION_DEBUG_TOPIC = "/attention/debug_image"  # sensor_msgs/Image rgb8, the 
 # it (the known product, core/picking.py); an empty heightmap (no cells) at each episode's reset clears it
 KNOWN_PRODUCT_TOPIC = "/attention/known_product"
 # std_srvs/srv/SetBool: true - the attention node attends the frames that follow as a stall look (attend's
-# closer: AttentionParams.stall_look_threshold) until set false; the episode node asks for one
-# (impurity_policy/core/picking.py)
+# closer: the verifier model's stall_look, checkpoints/verifier.json) until set false; the episode node asks
+# for one (impurity_policy/core/picking.py)
 LOOK_CLOSER_SERVICE = "/attention/look_closer"
 
 # Decisions and episodes

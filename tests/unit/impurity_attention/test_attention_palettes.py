@@ -1,4 +1,4 @@
-"""Attention decides relative to the scene (issue 17): an impurity of any appearance is found, the clean
+"""Attention decides relative to the scene: an impurity of any appearance is found, the clean
 version of the same scene stays quiet, and the decision does not move with the image's brightness.
 
 Synthetic scenes (no simulator): product boxes of several shades of one palette, jittered per box,

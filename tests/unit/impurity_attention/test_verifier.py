@@ -257,7 +257,7 @@ def test_the_shipped_model_rates_a_colour_distinct_region_above_a_product_colour
 
 def test_the_shipped_model_says_where_it_comes_from():
     model = ver.default_verifier()
-    assert "verifier-fit" in model.provenance and "tuning" in model.provenance
+    assert "impurity_learning.calibrate verifier" in model.provenance and "tuning" in model.provenance
     assert 0.0 < model.threshold < 1.0
 
 

@@ -1,6 +1,6 @@
-"""Palettes (issue 17): validation names the bad field, names resolve or are refused with the list, random
-palettes are seeded and keep their impurities distinguishable, and a scene keeps its layout under
-every palette while the default palette renders the scenes of earlier releases."""
+"""Palettes: validation names the bad field, names resolve or are refused with the list, random palettes
+are seeded and keep their impurities distinguishable, and a scene keeps its layout under every palette
+while the default palette draws config.py's product and impurity colours."""
 
 import numpy as np
 import pytest
@@ -67,15 +67,15 @@ def test_random_palettes_are_seeded_and_keep_impurities_distinguishable():
         assert generated.min_impurity_delta_e() >= appearance.RANDOM_IMPURITY_DELTA_E[0] - 0.5
 
 
-def test_default_palette_draws_the_legacy_product_colours():
+def test_default_palette_draws_the_configured_product_colours():
     """Product blocks take base + uniform(-jitter, jitter) per channel from the layout generator."""
     colours = appearance.PALETTES["blocks"].colours(scene_seed=4)
     drawn = colours.product(np.random.default_rng(11))
-    legacy_rng = np.random.default_rng(11)
+    layout_rng = np.random.default_rng(11)
     jitter = config.PRODUCT_SHADE_JITTER
-    legacy = tuple(float(np.clip(c + legacy_rng.uniform(-jitter, jitter), 0.0, 1.0))
-                   for c in config.PRODUCT_COLOR)
-    assert drawn == legacy
+    expected = tuple(float(np.clip(c + layout_rng.uniform(-jitter, jitter), 0.0, 1.0))
+                     for c in config.PRODUCT_COLOR)
+    assert drawn == expected
     assert colours.impurity() == config.TARGET_COLOR
 
 

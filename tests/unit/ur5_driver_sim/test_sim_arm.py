@@ -94,8 +94,8 @@ def seeded_primitive(world, seed):
 
 
 def outcome_class(world, kind, outcome, before):
-    """Issue 3's comparison: grasped or not; for a push, the displacement class of the block that moved
-    most."""
+    """What arm and floating modes must agree on: grasped or not; for a push, the displacement class of the
+    block that moved most."""
     if kind == "grasp":
         return ("grasp", outcome.success)
     after = world.poses()

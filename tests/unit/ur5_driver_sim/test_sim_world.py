@@ -200,7 +200,7 @@ def test_mesh_shapes_face_outwards():
 
 
 def write_scene_with_a_target_outside(tmp_path):
-    """Issue 19 item 8's scene: one target inside the workspace, a second impurity at x = 0.74 m (outside
+    """A scene with one target inside the workspace, a second impurity at x = 0.74 m (outside
     x <= 0.724 and out of the camera's heightmap), a target near the +x edge and a product block."""
     blocks = [dict(shape="cube", dims=[0.04] * 3, position=[0.50, 0.0, 0.021], is_target=True),
               dict(shape="cube", dims=[0.03] * 3, position=[0.74, 0.0, 0.016], is_target=True),

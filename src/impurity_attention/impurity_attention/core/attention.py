@@ -73,10 +73,10 @@ class AttentionParams:
                                    "saliency", low=0.01, high=0.99)
     min_region_area: int = param(30, "Smallest salient region (cells of 2 mm): smaller ones are specks",
                                  low=1, high=cell.HEIGHTMAP_SIZE ** 2)
-    # scripts/calibrate_attention.py on tuning palettes: at 5 % false TARGET, 1.0 finds 88.4 %, 0.7 93.9 %
+    # chosen on rendered scenes of the tuning palettes: at 5 % false TARGET, 1.0 finds 88.4 %, 0.7 93.9 %
     lightness_weight: float = param(0.7, "Weight of the lightness conspicuity map against the chromatic ones "
                                     "(product shading is salient in lightness only)", low=0.01, high=1.0)
-    # scripts/calibrate_attention.py on tuning palettes: 93.5 % found at 3.2 % false TARGET
+    # chosen on rendered scenes of the tuning palettes: 93.5 % found at 3.2 % false TARGET
     min_relative_contrast: float = param(4.4, "A lone salient region with no other object in view (nothing "
                                          "for the verifier to compare it with) is a target from this mean "
                                          "relative saliency on", low=0.0)

@@ -6,20 +6,20 @@ coarser sub-grid (`stride`) so that DBSCAN sees at most (224 / stride)^2 points,
 A core point needs `min_samples` occupied points within `eps`:
 with eps = 15 mm on a 6 mm sub-grid (21 grid points in reach) that is ~60 % of its neighbourhood
 filled, i.e. objects packed close together; sparse, scattered objects are noise and form no cluster.
-Measured on the tuning scenes (scripts/calibrate_attention.py): the same choices as a 4 mm grid with
+Measured on rendered tuning scenes: the same choices as a 4 mm grid with
 eps = 12 mm, in half the time (~6 ms).
 
 "No hidden target can remain" (paper Fig. 5): a cluster whose height (the `height_percentile` of
 its cells, robust to a single spike) is below `min_cluster_height` is one layer of objects with
 nothing underneath, and one whose area is below `min_cluster_area` is too small to hide an object.
-`min_cluster_height` is 4 cm, above the tallest single object of the simulated scenes (the heaps' bars
-and pillars stand 3.2-3.6 cm), chosen by how episodes counted by perception end on tuning palettes
-(scripts/calibrate_episode_end.py: attention's NONE with no impurity left in 86.7 % of 30 episodes at
-4 cm, 33.3 % at 3 cm). On a real cell: the height of the tallest single product piece plus a margin.
-Among the clusters that pass both tests the one of the largest volume (the sum of its cells' heights) is
-chosen: hiding a target takes material on top of it (scripts/calibrate_attention.py sweep on tuning
-scenes: it held a hidden target in 17/18 invisible scenes, the largest area in 14/18); when none passes,
-there is no occluded region to explore.
+`min_cluster_height` is 4 cm, above the tallest single object of the simulated scenes (the heaps' bars and
+pillars stand 3.2-3.6 cm), chosen by how episodes counted by perception end on tuning palettes
+(`python -m impurity_learning.calibrate episode-end`: attention's NONE with no impurity left in 86.7 % of
+30 episodes at 4 cm, 33.3 % at 3 cm). On a real cell: the height of the tallest single product piece plus
+a margin. Among the clusters that pass both tests the one of the largest volume (the sum of its cells'
+heights) is chosen: hiding a target takes material on top of it (on rendered tuning scenes it held a hidden
+target in 17/18 invisible scenes, the largest area in 14/18); when none passes, there is no occluded region
+to explore.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Judging the attention module against simulator ground truth (issue 4 acceptance).
+"""Judging the attention module against simulator ground truth.
 
 A SceneRecord holds what the camera saw, projected to heightmaps, plus the ground truth carried into
 heightmap coordinates: the segmentation image goes through the same projection as the colour (so

@@ -19,8 +19,8 @@ means the same thing in every scene. `normalised()` gives the [0, 1] picture for
 
 Parameters (SaliencyParams): the original defaults are sigma_c = 3, sigma_s = 13, 2 scales per octave,
 layers 0..4; its authors recommend sigma_c = 2, sigma_s = 6 for cluttered robot scenes with many small
-objects. Our cell default is chosen on rendered scenes by scripts/calibrate_attention.py (see
-CELL_SALIENCY below for the values and why).
+objects. Our cell default is chosen on rendered scenes of the tuning palettes (see CELL_SALIENCY below
+for the values and why).
 """
 
 from __future__ import annotations
@@ -59,7 +59,7 @@ class SaliencyParams:
 VOCUS2_DEFAULTS = SaliencyParams()  # the CVPR 2015 defaults (MSRA-style images, large objects)
 VOCUS2_CLUTTER = SaliencyParams(center_sigma=2.0, surround_sigma=6.0)  # the authors' "cluttered scenes"
 # Cell default, on the 224 x 224 colour heightmap (2 mm/px; blocks are 13-50 px across): the CVPR 2015
-# defaults. scripts/calibrate_attention.py on tuning palettes, impurities found at 2.2 % false TARGET:
+# defaults. On rendered scenes of the tuning palettes, impurities found at 2.2 % false TARGET:
 # (3, 13) 97.7 %, (2, 10, 3 octaves) 96.8 %, (2, 6) 95.5 %.
 CELL_SALIENCY = VOCUS2_DEFAULTS
 

@@ -55,9 +55,9 @@ shipped one reads them all.
 
 The model is data: checkpoints/verifier.json beside the impurity network (read_verifier, write_verifier), its
 fields those of RegionVerifier, with the thresholds that go with its probabilities (threshold, last_look,
-stall_look). It is fitted by `scripts/calibrate_attention.py verifier-fit` on tuning palettes and tuning seeds
-only (first views and the picking loop's views after its pushes and grasps); its provenance field gives the
-figures. Pure numpy: no scikit-learn at run time.
+stall_look). It is fitted by `python -m impurity_learning.calibrate verifier` (its thresholds by
+`... thresholds`) on tuning palettes and tuning seeds only (first views and the picking loop's views after its
+pushes and grasps); its provenance field gives the figures. Pure numpy: no scikit-learn at run time.
 """
 
 from __future__ import annotations

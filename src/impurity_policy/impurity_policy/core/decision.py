@@ -68,7 +68,7 @@ def best_action(q: np.ndarray, masks: np.ndarray, primitives=(PUSH, GRASP)) -> D
         flat = int(np.argmax(values))
         rotation, row, col = np.unravel_index(flat, values.shape)
         value = float(values[rotation, row, col])
-        if value == -np.inf:  # every action of this primitive ruled out (TriedActionMemory, clearance)
+        if value == -np.inf:  # every action of this primitive ruled out (rules.TriedActions, clearance)
             continue
         if best is None or value > best.q_value:
             best = Decision(primitive, int(rotation), (int(row), int(col)), value)

@@ -79,7 +79,7 @@ def validate_request(request: EpisodeRequest) -> str | None:
     """None when the request can run, else the reason it is refused (one line, naming the field).
 
     The one check of an episode request: the episode node applies it to /episode/start and /episode/run
-    alike, and bringup/episode_client.py before it sends one. Refused: an unknown scenario; a numeric
+    alike, and impurity_bringup.episode_client before it sends one. Refused: an unknown scenario; a numeric
     field outside FIELD_RANGES; more targets than product blocks (num_targets > num_objects: a scene of
     impurities among a few blocks of product is not a sorting job; the scenario 'file' takes its counts
     from the file and is exempt); scenario 'file' without an existing scene_file (a path on the episode

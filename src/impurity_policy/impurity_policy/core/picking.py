@@ -36,7 +36,7 @@ sim's full-heightmap and no-occluded-region ablations) never gets a known produc
 The stall look (EpisodeLimits.stall_look_views): on the stall_look_views-th view in a row whose mode is
 OCCLUDED_REGION (pushes at heaps that have not shown an impurity), the loop asks the cell's
 look_closer() for the view to decide on: attention looks again with the verifier's threshold lowered to
-AttentionParams.stall_look_threshold (impurity_attention.core.attention.attend's closer), so a target it has
+the verifier model's stall_look (checkpoints/verifier.json; attend's closer), so a target it has
 been unsure of in a packed scene is grasped instead of pushed on for the rest of the episode. The count then
 starts over.
 

@@ -154,7 +154,7 @@ def q_maps_picture(q: np.ndarray, masks: np.ndarray, decision: Decision | None =
     colour scale for all, the chosen action circled."""
     rotations, _, size, _ = q.shape
     finite = q[np.broadcast_to(masks[None], q.shape)]
-    finite = finite[np.isfinite(finite)]  # TriedActionMemory rules actions out with -inf
+    finite = finite[np.isfinite(finite)]  # rules.TriedActions rules actions out with -inf
     low, high = (float(finite.min()), float(finite.max())) if finite.size else (0.0, 1.0)
     scale = max(high - low, 1e-6)
     picture = np.zeros((2 * tile, rotations * tile, 3), dtype=np.uint8)

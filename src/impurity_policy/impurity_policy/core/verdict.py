@@ -18,8 +18,8 @@ picked an impurity when all hold:
 Why test 3: once the last impurity is gone, attention's relative decision can still answer TARGET on the
 most salient product block left (one odd shade among a few blocks); grasping it passes tests 1 and 2. A
 tilted product block shows a darker face of the product's hue, which the first view's lit faces do not
-cover: the shading allowance keeps it product. The thresholds are chosen by `python
-scripts/calibrate_verdict.py sweep` on tuning episodes of the default and tuning palettes, counted by
+cover: the shading allowance keeps it product. The thresholds are chosen by `python -m
+impurity_learning.calibrate verdict` on tuning episodes of the default and tuning palettes, counted by
 perception in the fast simulator: 99.4 % of 346 verdicts on grasps of a TARGET agree with the simulator's
 truth.
 
@@ -42,8 +42,8 @@ from impurity_common.parameters import check_fields, param
 
 # m: a simulated or real parallel gripper closed on nothing reads about 0 (sim: CLOSED_OPENING 4 mm).
 DEFAULT_CLOSED_OPENING = 0.004
-# Test 3's threshold (module docstring): chosen with MIN_COLOR_SPREAD and COLOR_SHADING by `python
-# scripts/calibrate_verdict.py sweep` on tuning episodes: 99.4 % of 346 verdicts agree with the truth (the
+# Test 3's threshold (module docstring): chosen with MIN_COLOR_SPREAD and COLOR_SHADING by `python -m
+# impurity_learning.calibrate verdict` on tuning episodes: 99.4 % of 346 verdicts agree with the truth (the
 # lowest of the thresholds that tie there).
 DEFAULT_MIN_COLOR_CONTRAST = 0.75
 
@@ -155,7 +155,7 @@ def product_color_distance(color: np.ndarray, height: np.ndarray, target_mask: n
 # RGB standard deviation: the least colour spread granted to the product on every axis. The first view
 # often shows one face of every product block, evenly lit (heaps: a spread of 2-3); blocks seen later on
 # another face or in shade differ by 10-15 and are still product. Chosen with the verdict's thresholds by
-# `python scripts/calibrate_verdict.py sweep` on tuning episodes (agreement with the truth 99.4 % at 40).
+# `python -m impurity_learning.calibrate verdict` on tuning episodes (agreement with the truth 99.4 % at 40).
 MIN_COLOR_SPREAD = 40.0
 # Share of the product's mean colour granted as spread along its direction (ProductReference's shading:
 # a tilted block shows a darker face of the product's hue, which the first view's lit faces do not cover).
@@ -226,7 +226,7 @@ def decide_picked(gone: float, holding: bool, contrast: float | None,
     holding (gripper_holds), contrast (the region's colour contrast from the product,
     ProductReference.contrast; None when not measured or nothing to compare with). Picked = gone >=
     min_gone_fraction, holding and, where a contrast was measured, contrast >= min_color_contrast.
-    scripts/calibrate_verdict.py replays recorded grasps through it."""
+    `python -m impurity_learning.calibrate verdict` replays recorded grasps through it."""
     is_gone = gone >= params.min_gone_fraction
     if is_gone and holding and contrast is not None and contrast < params.min_color_contrast:
         return False, (f"not counted: the attended region's colour lies {contrast:.1f} from the product's "

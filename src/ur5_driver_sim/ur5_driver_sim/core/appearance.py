@@ -1,4 +1,4 @@
-"""What a simulated scene looks like: product and impurity colours, light and camera exposure (issue 17).
+"""What a simulated scene looks like: product and impurity colours, light and camera exposure.
 
 The cell's promise (paper sections 1 and 5.1.1) is that nobody tells it what the impurities look like,
 so the simulator renders the same layouts under many appearances:

@@ -57,7 +57,7 @@ CLOSED_OPENING = 0.004  # m: closer than this after closing -> nothing between t
 APPROACH_HEIGHT = cell.APPROACH_HEIGHT  # m above the primitive's z where grasps and pushes start and end
 SLOW_ZONE = cell.SLOW_ZONE  # m above z where descents slow down to CONTACT_SPEED
 LIFT_HEIGHT = cell.LIFT_HEIGHT  # m: grasps lift this far; success needs >= GRASP_LIFT_SUCCESS
-GRASP_LIFT_SUCCESS = cell.GRASP_LIFT_SUCCESS  # m, issue 3
+GRASP_LIFT_SUCCESS = cell.GRASP_LIFT_SUCCESS  # m: a grasp succeeded when the object rose this far
 MIN_TIP_HEIGHT = cell.MIN_TIP_HEIGHT  # m: fingertips never go below table + this (z is clamped up)
 FREE_SPEED = cell.FREE_SPEED  # m/s, moves in free space
 CONTACT_SPEED = cell.CONTACT_SPEED  # m/s, the last SLOW_ZONE of descents, and pushes
