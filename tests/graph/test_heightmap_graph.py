@@ -1,4 +1,4 @@
-"""Graph tests: heightmap_node (a real process) fed by cameras unlike the simulated one (issue 19):
+"""Graph tests: heightmap_node (a real process) fed by cameras unlike the simulated one:
 colour and depth stamped apart, depth in 0.1 mm, frames stamped on the camera's own clock, four-channel
 colour, pixels coarser than the cells. Each behaviour is seen on /heightmap or in the node's log."""
 
@@ -110,7 +110,7 @@ def logged(node, process, text, what=None):
 
 
 def test_frames_on_the_cameras_own_clock_are_warned_once(ros_node, heightmap_graph):
-    """Issue 19 item 4: frames stamped 1000 s before the nodes' clock."""
+    """Frames stamped 1000 s before the nodes' clock."""
     start, camera = heightmap_graph
     process, heightmaps = start()
     _, frame = scene()
@@ -125,13 +125,13 @@ def test_frames_on_the_cameras_own_clock_are_warned_once(ros_node, heightmap_gra
 
 
 def test_depth_stamped_20ms_after_colour_pairs_with_the_defaults(ros_node, heightmap_graph):
-    """Issue 19 item 2: a 15 Hz stream whose depth is stamped 20 ms after its colour."""
+    """A 15 Hz stream whose depth is stamped 20 ms after its colour."""
     start, camera = heightmap_graph
     process, heightmaps = start()
     _, frame = scene(width=320, height=240)
     # Streamed until 25 heightmaps came back (at most 300 frames): the best-effort camera topics lose the
     # frames sent before the node's subscriptions have discovered this publisher, and on a loaded machine
-    # that took more than 5 of a fixed 30 (CI, 2026-12-01). Every heightmap must come from a sent pair.
+    # that took more than 5 of a fixed 30. Every heightmap must come from a sent pair.
     stream = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=20_000_000, depth_units=0.001)
     stream.start((process,))
     received = heightmaps.wait_for(25, WAIT, processes=(process,))
@@ -152,7 +152,7 @@ def test_a_tolerance_below_the_offset_is_warned_with_the_offset_and_the_paramete
 
 
 def test_d405_depth_needs_depth_scale_and_says_so(ros_node, heightmap_graph):
-    """Issue 19 item 1: 16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value."""
+    """16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value."""
     start, camera = heightmap_graph
     process, heightmaps = start()
     _, frame = scene()
@@ -176,7 +176,7 @@ def test_d405_depth_with_depth_scale_gives_the_right_map(ros_node, heightmap_gra
 
 @pytest.mark.parametrize("encoding", ["bgra8", "rgba8"])
 def test_four_channel_colour_is_accepted(ros_node, heightmap_graph, encoding):
-    """Issue 19 item 9: a ZED-like camera publishing bgra8 / rgba8."""
+    """A ZED-like camera publishing bgra8 / rgba8."""
     start, camera = heightmap_graph
     process, heightmaps = start()
     boxes, frame = scene()
@@ -189,7 +189,7 @@ def test_four_channel_colour_is_accepted(ros_node, heightmap_graph, encoding):
 
 
 def test_a_camera_coarser_than_the_cells_is_warned_once_and_its_gaps_filled(ros_node, heightmap_graph):
-    """Issue 19 item 3: 640x480 at 1.5 m, 2.4 mm per pixel on 2 mm cells."""
+    """640x480 at 1.5 m, 2.4 mm per pixel on 2 mm cells."""
     start, camera = heightmap_graph
     process, heightmaps = start({"camera_position": [0.5, 0.0, 1.5]})
     boxes = random_boxes(11, num_product=15, num_impurities=1)

@@ -10,7 +10,7 @@ Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-che
 policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
 
-With palette groups (issue 17, generalisation.py), the same rows also run `--group-episodes` episodes per
+With palette groups (generalisation.py), the same rows also run `--group-episodes` episodes per
 scenario on the tuning and held-out palettes, and the attention module alone is measured on rendered
 scenes of every group: docs/generalisation.md, docs/images/generalisation.png and
 docs/images/generalisation_scenes.png.
@@ -20,7 +20,7 @@ docs/images/generalisation_scenes.png.
     python -m impurity_learning.eval_cli --methods ours --palette-groups default held_out --group-episodes 8
 
 Episodes run in this process (--jobs 1), in a local process pool (--jobs N, default 2) or on Ray
-(issue 20: --ray starts a local runtime, --ray-address ADDR joins a cluster; --jobs actors, 0 = one per
+(--ray starts a local runtime, --ray-address ADDR joins a cluster; --jobs actors, 0 = one per
 CPU of the cluster; ray_eval.py). All three call run_task, so the records are the same. Each record is
 appended to a journal (--journal, default the --json path with .partial.jsonl) as its episode ends; a
 run interrupted part-way and started again with the same arguments runs only the episodes missing

@@ -4,7 +4,7 @@ numbers count exactly as the episode node's.
 
     world = CellWorld(mode="floating")
     metrics = run_episode(world, make_agent("ours", checkpoint), EpisodeRequest("challenging", seed=7))
-    # As a real cell counts (issue 18): no target count; attention's NONE ends it, grasps are judged by
+    # As a real cell counts: no target count; attention's NONE ends it, grasps are judged by
     # perception (impurity_policy.core.verdict), the truth is recorded beside the verdicts.
     metrics = run_episode(world, agent, request, by_perception=True)
 
@@ -96,7 +96,7 @@ class SimCell:
 
 
 class PerceptionSimCell(SimCell):
-    """SimCell counted as a real cell counts (picking.run_episode's perception loop, issue 18): reset
+    """SimCell counted as a real cell counts (picking.run_episode's perception loop): reset
     gives no target count, each view carries the height map and, for TARGET, the attended target's mask
     (the crop mask placed in the full map, as ros_cell places AttentionResult.mask) and its saliency
     contrast; a motion reports what a real arm knows (gripper opening, holding). The simulator's truth

@@ -1,4 +1,4 @@
-"""The generalisation table (issue 17): how the cell does on appearances it was not tuned on.
+"""The generalisation table: how the cell does on appearances it was not tuned on.
 
 For each scenario x palette group ("default", "tuning", "held_out" of splits.py):
 - perception, measured on rendered scenes with the attention module alone (no policy): detection of

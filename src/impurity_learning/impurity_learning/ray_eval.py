@@ -1,4 +1,4 @@
-"""Evaluation episodes on Ray (issue 20): `eval_cli --ray` (a local runtime) or `--ray-address ADDR`
+"""Evaluation episodes on Ray: `eval_cli --ray` (a local runtime) or `--ray-address ADDR`
 (a cluster).
 
 Each episode is one call of eval_cli.run_task, the function the process pool and the one-process path

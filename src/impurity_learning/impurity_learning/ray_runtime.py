@@ -1,4 +1,4 @@
-"""The Ray runtime for evaluation and training beyond one machine (issue 20): start a local one or join a
+"""The Ray runtime for evaluation and training beyond one machine: start a local one or join a
 cluster, with clear errors, and measure what it costs (start-up seconds, resident memory of its
 processes).
 

@@ -1,4 +1,4 @@
-"""Actor-learner training on Ray (issue 20): `train_cli --actors N` (a local runtime; `--ray-address
+"""Actor-learner training on Ray: `train_cli --actors N` (a local runtime; `--ray-address
 ADDR` joins a cluster).
 
 N rollout actors (Ray actors, one CPU each) each hold a simulated cell and a copy of the network: a

@@ -1,4 +1,4 @@
-"""The split between what may be tuned on and what is only measured (issue 17).
+"""The split between what may be tuned on and what is only measured.
 
 Thresholds, rules and models are chosen on TUNING palettes and TUNING scene seeds only. HELD-OUT palettes
 and EVALUATION scene seeds are only measured (eval_cli, the generalisation table). Training draws its

@@ -5,7 +5,7 @@ One iteration: render -> heightmaps -> attention -> 32 Q maps -> epsilon-greedy 
 grasp -> reward (grasp: a target lifted; push: TCDD of the attended target rose by > delta) -> one DQN
 update on the new transition and `replay_per_step` rank-based replays.
 
-Scenes: random scenario only, each from a seeded scene index, under an appearance (issue 17): with
+Scenes: random scenario only, each from a seeded scene index, under an appearance: with
 `palettes = "training"` each scene draws a palette from splits.py's training set (the default palette,
 the tuning palettes or a random palette of the training seed range) and an exposure, so that the
 network learns to key on the target mask and the geometry, not on one colour; `"default"` keeps the
@@ -14,7 +14,7 @@ A scene is replaced when every target
 is picked, when attention finds nothing to act on, when the same primitive failed 3 times in a row
 (paper 6.3), or after `max_scene_actions` (a guard against endless shuffling).
 
-Two sides (issue 20): a Rollout (the simulated cell and a policy acting in it: scenes, sensing, the
+Two sides: a Rollout (the simulated cell and a policy acting in it: scenes, sensing, the
 epsilon-greedy decision, the action, the reward) and the learner (TrainingRun: the DQN updates, the
 prioritised replay, the log, checkpoints). TrainingRun drives one Rollout in its own process with the
 learner's network, exactly as one loop; ray_train.ActorLearnerRun drives N of them as Ray actors. Random

@@ -2,7 +2,7 @@
 fast sim, resumable (same --run-dir), with a progress bar, CSV log and success plot. Then
 `--export PATH` copies the trained network to the shipped checkpoint location.
 
-On Ray (issue 20, ray_train.py): `--actors N` rollout actors, each with its own simulated cell and a
+On Ray (ray_train.py): `--actors N` rollout actors, each with its own simulated cell and a
 copy of the network, feed this process's learner (replay, updates, log, checkpoints, plot, resume as
 above); `--ray-address ADDR` runs the actors on a cluster. `--actors 1 --lockstep --broadcast-every 1`
 is the one-process loop, row for row."""
@@ -49,7 +49,7 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--epsilon-start", type=float, default=TrainerConfig.epsilon_start,
                    help="exploration at iteration 0 (decays 0.9998^t to 0.1); lower when fine-tuning")
     p.add_argument("--no-progress", action="store_true")
-    ray = p.add_argument_group("Ray actor-learner (issue 20; any of these runs the actors on Ray)")
+    ray = p.add_argument_group("Ray actor-learner (any of these runs the actors on Ray)")
     ray.add_argument("--actors", type=int, default=None,
                      help="rollout actors, each with a simulated cell (default with --ray/--ray-address: 2)")
     ray.add_argument("--ray", action="store_true", help="a local Ray runtime (--actors CPUs)")

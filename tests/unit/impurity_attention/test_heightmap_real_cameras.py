@@ -1,4 +1,4 @@
-"""Heightmaps from cameras unlike the simulated one (issue 19): depth in other units than assumed, a
+"""Heightmaps from cameras unlike the simulated one: depth in other units than assumed, a
 camera pose that does not fit the depth, pixels coarser than the map's cells. No ROS, no simulator."""
 
 import cv2
@@ -46,7 +46,7 @@ def test_d405_depth_with_its_depth_scale_gives_the_right_map():
 
 
 def test_d405_depth_read_as_millimetres_is_flagged_naming_depth_scale():
-    """Issue 19 item 1: read as mm the table is 7.5 m away, 2.6 % of the cells are seen and nothing said."""
+    """Read as mm the table is 7.5 m away, 2.6 % of the cells are seen and nothing said."""
     frame, raw = d405_frame()
     projector = projector_of(frame)
     depth = hm.depth_to_meters(raw, "16UC1")  # the default, 0.001 m per unit
@@ -150,7 +150,7 @@ def test_gaps_inside_objects_are_filled_and_the_visible_impurity_found(camera):
 
 
 def test_the_coarse_camera_of_the_field_report_left_a_third_of_the_map_unseen():
-    """Issue 19 item 3, the instance: 640x480 at 1.5 m, 2.4 mm per pixel on 2 mm cells."""
+    """640x480 at 1.5 m, 2.4 mm per pixel on 2 mm cells."""
     intrinsics, pose = overhead_camera(1.5)
     boxes = random_boxes(4, num_product=20, num_impurities=1)
     frame = render_boxes(boxes, intrinsics=intrinsics, camera_pose=pose)
@@ -158,7 +158,7 @@ def test_the_coarse_camera_of_the_field_report_left_a_third_of_the_map_unseen():
     assert projector.footprint == pytest.approx(0.00242, abs=1e-5) and projector.gap_reach == 1
     raw = projector.project(frame.color, frame.depth, fill_gaps=False)
     assert np.mean(~raw.seen) > 0.3 and np.mean(~raw.seen[interior(footprint_labels(boxes))]) > 0.2
-    assert attend(raw.color, raw.height).mode == AttentionMode.NONE  # what the field report saw
+    assert attend(raw.color, raw.height).mode == AttentionMode.NONE  # unfilled, the impurity is lost
     filled = projector.project(frame.color, frame.depth)
     assert np.mean(~filled.known) < 0.05 and not (filled.seen & filled.filled).any()
     assert np.array_equal(filled.seen, raw.seen)  # seen stays what was measured

@@ -60,7 +60,7 @@ def feed(pairer: StampPairer, arrivals) -> list:
 
 @pytest.mark.parametrize("depth_first", [False, True])
 def test_depth_20ms_after_colour_at_15hz_pairs_every_frame_by_default(depth_first):
-    """Issue 19 item 2: a driver stamps depth 20 ms after its colour frame; a fixed 10 ms tolerance paired
+    """A driver stamps depth 20 ms after its colour frame; a fixed 10 ms tolerance paired
     none of 30. The default pairs within half the measured period (33 ms), each with its own partner."""
     pairer = StampPairer()
     pairs = feed(pairer, offset_stream(30, 20_000_000, depth_first))

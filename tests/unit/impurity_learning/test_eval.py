@@ -1,4 +1,4 @@
-"""Evaluation harness (issue 8): baselines' decisions, the paper's metrics, and `make eval`'s outputs."""
+"""Evaluation harness: baselines' decisions, the paper's metrics, and `make eval`'s outputs."""
 
 import json
 import math

@@ -1,4 +1,4 @@
-"""The evaluation journal (issue 20): every finished episode's record is kept as it ends, and a run
+"""The evaluation journal: every finished episode's record is kept as it ends, and a run
 started again runs only the episodes it lacks. The episodes here are stand-ins (no simulator): the
 journal does not care how a record was made."""
 

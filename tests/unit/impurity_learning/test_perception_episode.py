@@ -1,4 +1,4 @@
-"""Fast-sim episodes counted as a real cell counts (evaluate.run_episode(by_perception=True), issue 18):
+"""Fast-sim episodes counted as a real cell counts (evaluate.run_episode(by_perception=True)):
 no target count reaches the loop, attention's NONE ends the episode, every grasp is judged by perception,
 and the simulator's truth is only recorded beside the verdicts. `python -m impurity_learning.calibrate
 verdict` chooses the verdict's thresholds from such episodes."""

@@ -1,4 +1,4 @@
-"""Evaluation and training on a Ray cluster (issue 20), on a local cluster made with Ray's own test
+"""Evaluation and training on a Ray cluster, on a local cluster made with Ray's own test
 utilities: a head without CPUs and two worker nodes of one CPU each, shared by every test here."""
 
 import json
