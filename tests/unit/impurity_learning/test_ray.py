@@ -74,8 +74,7 @@ def short_run(run_dir, iterations: int) -> TrainConfig:
 
 
 # A hang guard, not a time limit: on a loaded machine (a make eval and a pytest sharing 2 cores) Ray's workers
-# start slowly, and the run twice passed the suite's 300 s guard (ninth and tenth sessions) while it takes
-# well under that on a quiet one.
+# start slowly and the run can pass the suite's 300 s guard, while it takes well under that on a quiet one.
 @pytest.mark.timeout(900)
 def test_two_actors_feed_one_learner_and_the_run_resumes_from_its_checkpoint(cluster, tmp_path):
     run = ActorLearnerRun(short_run(tmp_path / "run", 6), actors=2, broadcast_every=2,
