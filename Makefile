@@ -14,11 +14,12 @@ SOAK_EPISODES ?= 200
 # workers on two cores finish sooner; PYTEST_WORKERS=0 runs it in one process.
 PYTEST_WORKERS ?= 2
 
-.PHONY: setup test lint pytest demo train train-baselines eval bench soak test-bag clean help
+.PHONY: setup test test-fast lint pytest demo train train-baselines eval bench soak test-bag clean help
 
 help:
 	@echo "make demo   - set up if needed, start the node graph, run one picking episode"
 	@echo "make test   - set up if needed, lint (ruff, hadolint), run every test"
+	@echo "make test-fast - the same without the slow acceptance tier (pytest -m 'not acceptance')"
 	@echo "make train  - train the push-grasp policy in the fast sim (resumable)"
 	@echo "make train-baselines - VPG, No-TSD, No-OI, No-T at once (BASELINE_HOURS=1.3, resumable)"
 	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
@@ -35,12 +36,18 @@ setup:
 lint: setup
 	@$(ENV) ruff check src tests benchmarks scripts bringup
 	@$(ENV) hadolint Dockerfile
+	@$(ENV) python scripts/node_reference.py --check README.md
 	@echo "lint: ok"
 
 pytest: setup
 	@$(ENV) bash scripts/run_pytest.sh -n $(PYTEST_WORKERS) --dist loadfile tests
 
 test: lint pytest
+
+# Every test but the slow acceptance tier (pytest marker `acceptance`: real-cell-mode episodes, the Ray
+# cluster, attention on a rendered scene set).
+test-fast: lint
+	@$(ENV) bash scripts/run_pytest.sh -n $(PYTEST_WORKERS) --dist loadfile -m "not acceptance" tests
 
 demo: setup
 	@$(ENV) python -m impurity_bringup.demo

@@ -131,6 +131,7 @@ def print_figures(episodes) -> None:
                       f"{s['target_score']:.1f}: {s['verdict']}")
 
 
+@pytest.mark.acceptance
 def test_real_cell_mode_runs_without_counts_or_truth_and_records_the_truth_beside(real_cell_episodes):
     assert len(real_cell_episodes) >= 10
     assert {e.scenario for e in real_cell_episodes} == {"random", "challenging", "invisible"}
@@ -153,6 +154,7 @@ def test_real_cell_mode_runs_without_counts_or_truth_and_records_the_truth_besid
         assert e.summary["termination_reason"] == r.termination_reason
 
 
+@pytest.mark.acceptance
 def test_a_first_view_without_target_is_sent_to_attention_as_the_known_product(real_cell_episodes):
     """picking's known product through the graph: each reset clears it (an empty heightmap); an episode
     whose first decision came from a view without target sends that view's heightmap, once, and clears it
@@ -185,6 +187,7 @@ STRICT = ("acceptance, reported each run and not gating: met on this block in th
 SLACK = 1  # episodes (or grasps) the gating tests allow to miss: one run's chance, not a regression
 
 
+@pytest.mark.acceptance
 @pytest.mark.xfail(strict=False, reason=STRICT)
 def test_acceptance_verdicts_agree_with_the_truth(real_cell_episodes):
     """Acceptance: the verdict agrees with the truth on >= 95 % of grasps."""
@@ -193,6 +196,7 @@ def test_acceptance_verdicts_agree_with_the_truth(real_cell_episodes):
     assert grasps > 0 and agreeing / grasps >= MIN_VERDICT_AGREEMENT, f"{agreeing}/{grasps} grasps agree"
 
 
+@pytest.mark.acceptance
 def test_verdicts_disagree_with_the_truth_on_one_grasp_at_most(real_cell_episodes):
     """The verdict's gate: >= 95 % of grasps agree, or all but SLACK."""
     grasps = sum(e.result.verdicts_checked for e in real_cell_episodes)
@@ -202,6 +206,7 @@ def test_verdicts_disagree_with_the_truth_on_one_grasp_at_most(real_cell_episode
         f"{agreeing}/{grasps} grasps agree"
 
 
+@pytest.mark.acceptance
 def test_acceptance_picked_counts_match_the_truth(real_cell_episodes):
     """Acceptance: the picked count equals the truth in >= 90 % of episodes."""
     matching = sum(e.result.targets_picked == e.result.truth_targets_picked for e in real_cell_episodes)
@@ -215,6 +220,7 @@ def ended_otherwise(episodes) -> list:
             if e.result.termination_reason != TERMINATION_NOTHING_LEFT]
 
 
+@pytest.mark.acceptance
 @pytest.mark.xfail(strict=False, reason=STRICT)
 def test_acceptance_each_episode_ends_by_perception(real_cell_episodes):
     """Acceptance: each episode ends by perception (attention answered NONE on consecutive fresh
@@ -223,6 +229,7 @@ def test_acceptance_each_episode_ends_by_perception(real_cell_episodes):
         f"episodes that did not end by perception: {ended_otherwise(real_cell_episodes)}"
 
 
+@pytest.mark.acceptance
 def test_all_episodes_but_one_at_most_end_by_perception(real_cell_episodes):
     """The gate of ends: every episode but SLACK ends by perception."""
     assert len(ended_otherwise(real_cell_episodes)) <= SLACK, \

@@ -7,6 +7,7 @@ import pytest
 from impurity_attention.core.attention import attend
 from impurity_attention.core.evaluation import judge, record_from_world, summarize
 
+pytestmark = pytest.mark.acceptance
 world_module = pytest.importorskip("ur5_driver_sim.core.world")
 
 SCENES = ([("random", seed, 2) for seed in (1000, 1001, 1002)]

@@ -52,6 +52,7 @@ def evaluate(out, *options) -> dict:
     return json.loads((out / "r.json").read_text())["s_rgm"]["episodes"]
 
 
+@pytest.mark.acceptance
 def test_episodes_on_a_two_node_cluster_are_the_in_process_episodes_and_resume_from_the_journal(
         cluster, tmp_path):
     in_process = evaluate(tmp_path / "one", "--jobs", "1")
@@ -75,6 +76,7 @@ def short_run(run_dir, iterations: int) -> TrainConfig:
 
 # A hang guard, not a time limit: on a loaded machine (a make eval and a pytest sharing 2 cores) Ray's workers
 # start slowly and the run can pass the suite's 300 s guard, while it takes well under that on a quiet one.
+@pytest.mark.acceptance
 @pytest.mark.timeout(900)
 def test_two_actors_feed_one_learner_and_the_run_resumes_from_its_checkpoint(cluster, tmp_path):
     run = ActorLearnerRun(short_run(tmp_path / "run", 6), actors=2, broadcast_every=2,
@@ -98,6 +100,7 @@ def test_two_actors_feed_one_learner_and_the_run_resumes_from_its_checkpoint(clu
     assert load_network(shipped).config == NetworkConfig()
 
 
+@pytest.mark.acceptance
 def test_one_actor_in_lockstep_is_the_one_process_loop_row_for_row(cluster, tmp_path):
     local = TrainingRun(short_run(tmp_path / "local", 5))
     local.run()
