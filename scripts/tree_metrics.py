@@ -12,8 +12,9 @@ Figures (all read from the source with `ast`, nothing imported):
 - switched-off paths: fields there whose default is 0, 0.0 or False and whose comment or description says
   0 or False turns it off, choice tuples' members that are not the default and that no other line of src/
   names, and rules in no preset.
-- declarations per parameter: for each node parameter, the dataclass fields of that name in src/ plus the
-  keyword arguments `name=<obj>.name` that copy it by hand (1 = declared once).
+- declarations per parameter: for each node parameter, the dataclass fields of its name in its node module
+  and in the decision path's cores, plus the keyword arguments `name=<obj>.name` in the node module that
+  copy it by hand (1 = declared once).
 - files over 500 lines, functions over 60 lines: Python files tracked under src/, bringup/, scripts/,
   benchmarks/, tests/.
 """
@@ -166,20 +167,25 @@ def switched_off(root) -> list[str]:
     return out
 
 
-def declarations(root, names, files) -> dict[str, int]:
-    leaves = {n.split(".")[-1] for n in names}
-    count = dict.fromkeys(sorted(leaves), 0)
-    for path in files:
-        if "/tests/" in f"/{path.relative_to(root)}":
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            if isinstance(node, ast.ClassDef):
-                for f in fields(node):
-                    if f.target.id in count:
-                        count[f.target.id] += 1
-            if isinstance(node, ast.keyword) and node.arg in count and isinstance(node.value, ast.Attribute) \
-                    and node.value.attr == node.arg:
-                count[node.arg] += 1
+def declarations(root, params) -> dict[str, int]:
+    """{"<node module>:<parameter>": places it is declared}: dataclass fields of its name in the node module
+    and in the decision path's cores, plus keyword arguments in the node module that copy it by hand
+    (`name=<obj>.name`)."""
+    core = [ast.parse(f.read_text()) for d in CORE_DIRS for f in sorted((root / d).glob("*.py"))]
+    count = {}
+    for param in params:
+        module, name = param.split(":")
+        leaf = name.split(".")[-1]
+        node_tree = ast.parse(next(f for f in python_files(root, ("src",)) if f.stem == module).read_text())
+        n = 0
+        for tree in (node_tree, *core):
+            for node in ast.walk(tree):
+                if isinstance(node, ast.ClassDef) and \
+                        any("dataclass" in ast.unparse(d) for d in node.decorator_list):
+                    n += sum(f.target.id == leaf for f in fields(node))
+        n += sum(isinstance(node, ast.keyword) and node.arg == leaf and isinstance(node.value, ast.Attribute)
+                 and node.value.attr == leaf for node in ast.walk(node_tree))
+        count[param] = n
     return count
 
 
@@ -208,7 +214,7 @@ def main(argv=None) -> int:
         params += [f"{node_file.stem}:{n}" for n in node_parameters(cls, classes)] if cls else []
     knobs = numeric_knobs(root, classes)
     off = switched_off(root)
-    decl = declarations(root, [p.split(":")[1] for p in params], src_files)
+    decl = declarations(root, params)
     big = [f"{f.relative_to(root)} {len(f.read_text().splitlines())}" for f in files
            if len(f.read_text().splitlines()) > 500]
     longf = long_functions(files)
