@@ -54,7 +54,7 @@ from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.rules import PRESETS
 
-from . import generalisation, ray_runtime
+from . import generalisation, perception_figures, ray_runtime
 from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
 from .evaluate import EVAL_SEED_BASE, run_episode
 from .train_cli import BASELINE_CHECKPOINT_DIR
@@ -239,14 +239,20 @@ def update_readme(readme: pathlib.Path, table: str, markdown: pathlib.Path) -> b
 _WORKER: dict = {}  # per process: the sim world and each method's agent, built on first use
 
 
+# A task's counting: by truth; by perception; by perception on a clean scene (built with no impurity).
+COUNTS = ("truth", "perception", "clean")
+
+
 def run_task(task: tuple) -> dict:
     """One evaluation episode (row, checkpoint, scenario, seed, torch threads, device, palette group,
-    palette) -> its record; runs in the main process or in a pool worker. row: row_key(method, rules)."""
+    palette, count: one of COUNTS) -> its record; runs in the main process or in a pool worker. row:
+    row_key(method, rules). A record counted by perception also says whether its scene was clean
+    (clean_scene: built with no impurity)."""
     import torch
 
     from ur5_driver_sim.core.world import CellWorld
 
-    row, checkpoint, scenario, seed, threads, device, group, palette = task
+    row, checkpoint, scenario, seed, threads, device, group, palette, count = task
     method, _, rules = row.partition("@")
     if "world" not in _WORKER:
         torch.set_num_threads(threads)
@@ -255,7 +261,14 @@ def run_task(task: tuple) -> dict:
     if row not in agents:
         agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none",
                                  device)
-    metrics = run_episode(_WORKER["world"], agents[row], EpisodeRequest(scenario, seed=seed, palette=palette))
+    world, agent = _WORKER["world"], agents[row]
+    if count == "truth":
+        metrics = run_episode(world, agent, EpisodeRequest(scenario, seed=seed, palette=palette))
+    else:
+        request = EpisodeRequest(scenario, seed=seed, palette=palette)
+        if count == "clean":
+            request = dataclasses.replace(request, num_targets=0)
+        metrics = {**run_episode(world, agent, request, by_perception=True), "clean_scene": count == "clean"}
     return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, "group": group,
             "palette": palette, **metrics}
 
@@ -294,11 +307,11 @@ def settings_digest() -> str:
 
 def task_key(task: tuple, digests: dict) -> str:
     """What makes an episode's record: row, the checkpoint's bytes (digests: path -> sha256), the decision
-    settings (settings_digest), scenario, seed, device, group and palette (not the torch threads, not
-    where the checkpoint lies)."""
-    row, checkpoint, scenario, seed, _threads, device, group, palette = task
-    return json.dumps([row, digests.get(checkpoint, ""), settings_digest(), scenario, seed, device, group,
-                       palette])
+    settings (settings_digest), scenario, seed, device, group, palette and, unless by truth, the count (not
+    the torch threads, not where the checkpoint lies)."""
+    row, checkpoint, scenario, seed, _threads, device, group, palette, count = task
+    key = [row, digests.get(checkpoint, ""), settings_digest(), scenario, seed, device, group, palette]
+    return json.dumps(key if count == "truth" else [*key, count])
 
 
 def read_journal(path: pathlib.Path) -> dict:
@@ -416,6 +429,13 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="its chart (default: images/generalisation.png beside --markdown)")
     p.add_argument("--generalisation-scenes", default=None,
                    help="its scene pictures (default: images/generalisation_scenes.png beside --markdown)")
+    p.add_argument("--count", default="truth", choices=("truth", "perception", "both"),
+                   help="how the default group's episodes are counted: by the simulator's truth (the "
+                        "paper's table), by perception as a real cell counts (perception_figures.py; a "
+                        "section of its own), or both, on the same seeds (perception alone leaves the README "
+                        "block alone)")
+    p.add_argument("--clean-scenes", type=int, default=0, metavar="N",
+                   help="also N scenes per row and scenario with no impurity, counted by perception")
     p.add_argument("--no-progress", action="store_true")
     return generalisation_outputs(p.parse_args(argv))
 
@@ -459,9 +479,9 @@ def _main(argv=None) -> int:
 
     args = parse_args(argv)
     if (args.episodes < 1 or args.group_episodes < 0 or args.perception_scenes < 1
-            or args.group_palette_offset < 0):
-        print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes and "
-              "--group-palette-offset >= 0", file=sys.stderr)
+            or args.group_palette_offset < 0 or args.clean_scenes < 0):
+        print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes, "
+              "--group-palette-offset and --clean-scenes >= 0", file=sys.stderr)
         return 2
     torch.set_num_threads(args.threads)
     if args.ray or args.ray_address:
@@ -490,11 +510,12 @@ def _main(argv=None) -> int:
                         "episodes": []}
     started = time.perf_counter()
     groups = list(dict.fromkeys(args.palette_groups))
-    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, "default", "")
-             for scenario in args.scenarios for row, checkpoint in runnable.items()
-             for k in range(args.episodes)]
+    counts = {"truth": ["truth"], "perception": ["perception"], "both": ["truth", "perception"]}[args.count]
+    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, "default", "", count)
+             for count, n in [(c, args.episodes) for c in counts] + [("clean", args.clean_scenes)]
+             for scenario in args.scenarios for row, checkpoint in runnable.items() for k in range(n)]
     tasks += [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, group,
-               generalisation.palette_for(group, k + args.group_palette_offset))
+               generalisation.palette_for(group, k + args.group_palette_offset), "truth")
               for group in groups if group != "default" for scenario in args.scenarios
               for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
     journal = pathlib.Path(args.journal or pathlib.Path(args.json).with_suffix(".partial.jsonl"))
@@ -509,6 +530,8 @@ def _main(argv=None) -> int:
     episodes_seconds = time.perf_counter() - started
     episodes.sort(key=lambda e: (generalisation.GROUPS.index(e["group"]), args.scenarios.index(e["scenario"]),
                                  e["seed"]))
+    by_perception = [e for e in episodes if e.get("counted_by", "truth") != "truth"]
+    episodes = [e for e in episodes if e.get("counted_by", "truth") == "truth"]
     for row in runnable:
         results[row]["groups"] = {}
         for scenario in args.scenarios:
@@ -518,6 +541,9 @@ def _main(argv=None) -> int:
                 results[row]["groups"].setdefault(group, {})[scenario] = aggregate(
                     [e for e in mine if e["group"] == group])
             results[row]["episodes"] += mine
+        counted = [e for e in by_perception if e["row"] == row]
+        if counted:
+            results[row]["by_perception"] = perception_figures.by_scenario(counted, args.scenarios)
     perception_started = time.perf_counter()
     from ur5_driver_sim.core.world import CellWorld
 
@@ -539,7 +565,8 @@ def _main(argv=None) -> int:
                         "methods": args.methods, "rules": args.rules, "rows": rows,
                         "seconds": episodes_seconds,
                         "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs,
-                        "ray": args.ray_address or ("local" if args.ray else "")}
+                        "ray": args.ray_address or ("local" if args.ray else ""), "count": args.count,
+                        "clean_scenes": args.clean_scenes}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_learning.eval_cli " + " ".join(arguments)
     markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
@@ -548,16 +575,22 @@ def _main(argv=None) -> int:
     raw.write_text(json.dumps(results, indent=1, default=float) + "\n")
     plot_results(results, rows, args.scenarios, chart)
     write_markdown(results, rows, args.scenarios, markdown, chart, command.strip())
+    if by_perception:
+        section = perception_figures.perception_section(results, rows, args.scenarios, label)
+        with open(markdown, "a") as out:
+            out.write(f"\n{section}\n")
     gen_path, gen_chart = pathlib.Path(args.generalisation), pathlib.Path(args.generalisation_chart)
     generalisation.plot(results, rows, args.scenarios, groups, label, gen_chart)
     generalisation.write_markdown(results, rows, args.scenarios, groups, label, gen_path, gen_chart, pictures,
                                   command.strip())
     journal.unlink(missing_ok=True)  # every record is in the results now
     table = results_table(results, rows, args.scenarios)
-    if update_readme(pathlib.Path(args.readme), table, markdown):
+    if args.count != "perception" and update_readme(pathlib.Path(args.readme), table, markdown):
         print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
     print(table)
     print(generalisation.table(results, rows, args.scenarios, groups, label))
+    if by_perception:
+        print(perception_figures.perception_section(results, rows, args.scenarios, label))
     gen = results["_generalisation"]["seconds"]
     print(f"eval: wrote {markdown}, {chart}, {raw}, {gen_path}, {gen_chart}, {pictures}; episodes "
           f"{gen['episodes']:.0f} s, perception {gen['perception']:.0f} s", file=sys.stderr)

@@ -22,6 +22,7 @@ from impurity_policy.core import picking
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.verdict import full_mask
 
+from .perception_figures import product_lifted
 from .splits import EVAL_SEED_BASE  # noqa: F401 (re-exported: the split lives in splits.py)
 from .train import sense, sensed_from
 
@@ -140,7 +141,13 @@ def run_episode(world, agent, request: EpisodeRequest,
     """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
     loop's summary: the metrics (targets_outside among them) plus termination_reason and completed
     (every target picked). by_perception: counted as a real cell counts (PerceptionSimCell); the summary
-    then holds counted_by "perception" and the truth audit (picking.truth_audit)."""
+    then holds counted_by "perception", the truth audit (picking.truth_audit) and truth_product_lifted
+    (perception_figures.product_lifted: grasps that lifted something but no target)."""
     cell = (PerceptionSimCell if by_perception else SimCell)(world, agent)
-    return picking.run_episode(cell, request, f"{request.scenario}-{request.seed}", limits,
-                               recorder=recorder, on_error=_reraise)
+    steps: list = []
+    summary = picking.run_episode(cell, request, f"{request.scenario}-{request.seed}", limits,
+                                  recorder=recorder, on_error=_reraise,
+                                  on_step=steps.append if by_perception else None)
+    if by_perception:
+        summary["truth_product_lifted"] = product_lifted(steps)
+    return summary

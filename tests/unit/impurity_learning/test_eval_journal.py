@@ -14,7 +14,7 @@ ARGS = SimpleNamespace(ray=False, ray_address=None, jobs=1, threads=1, device="c
 
 
 def tasks(checkpoint: str = "") -> list:
-    return [("ours@cell", checkpoint, "random", seed, 1, "cpu", "default", "") for seed in SEEDS]
+    return [("ours@cell", checkpoint, "random", seed, 1, "cpu", "default", "", "truth") for seed in SEEDS]
 
 
 @pytest.fixture
@@ -28,7 +28,7 @@ def episodes(monkeypatch) -> SimpleNamespace:
             state.interrupt_at = None
             raise KeyboardInterrupt
         state.ran.append(task[3])
-        row, _, scenario, seed, _, _, group, palette = task
+        row, _, scenario, seed, _, _, group, palette, _ = task
         return {"row": row, "scenario": scenario, "seed": seed, "group": group, "palette": palette,
                 "actions": seed % 7}
 
