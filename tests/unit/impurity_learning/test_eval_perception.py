@@ -111,11 +111,13 @@ def test_the_section_names_the_interval_and_lists_each_row_and_scenario():
 def test_eval_cli_counts_the_same_episodes_by_truth_and_by_perception(tmp_path):
     out = tmp_path / "docs"
     assert main(["--count", "both", "--episodes", "1", "--scenarios", "random", "--methods", "ours",
-                 "--rules", "cell", "--palette-groups", "default", "--perception-scenes", "1",
+                 "--rules", "cell", "--clean-scenes", "1", "--palette-groups", "default",
+                 "--perception-scenes", "1",
                  "--markdown", str(out / "results.md"), "--no-progress", "--jobs", "1"]) == 0
     records = json.loads((out / "results.json").read_text())
     (truth,) = records["ours@cell"]["episodes"]
-    (counted,) = records["ours@cell"]["by_perception"]["episodes"]
+    by_perception = records["ours@cell"]["by_perception"]["episodes"]
+    (counted,), (clean,) = ([e for e in by_perception if e["clean_scene"] == c] for c in (False, True))
     assert truth["counted_by"] == "truth" and counted["counted_by"] == "perception"
     assert (truth["seed"], truth["scenario"]) == (counted["seed"], counted["scenario"])
     assert (truth["seed"], truth["scenario"]) == (900_000_000, "random")
@@ -123,5 +125,9 @@ def test_eval_cli_counts_the_same_episodes_by_truth_and_by_perception(tmp_path):
     figures = records["ours@cell"]["by_perception"]["scenarios"]["random"]
     assert figures["episodes"] == 1 and sum(figures["ended"].values()) == 1
     assert records["ours@cell"]["scenarios"]["random"]["episodes"] == 1  # the truth table: its own episode
+    assert clean["counted_by"] == "perception" and clean["seed"] == 900_000_000
+    assert clean["truth_targets_total"] == clean["truth_targets_picked"] == 0
+    assert records["ours@cell"]["by_perception"]["clean_scenes"]["random"]["episodes"] == 1
     markdown = (out / "results.md").read_text()
     assert "## Counted by perception" in markdown and "| Ours [rules: cell] | random | 1 |" in markdown
+    assert "Clean scenes" in markdown
