@@ -6,6 +6,15 @@ picked / grasp attempts, action efficiency = targets picked / actions; also comp
 picked) and false rejects (non-targets removed). Writes the table (docs/results.md), a Fig. 10-style
 bar chart (docs/images/results.png) and every episode's record with its seed (docs/results.json).
 
+--count perception (or both) also counts the same episodes as a real cell counts
+(evaluate.run_episode(by_perception=True)): impurities picked and left, product lifted, actions and
+efficiency by the truth recorded beside, with 95 % t intervals and how the episodes ended, in a section
+of their own (perception_figures.py); --clean-scenes N adds N scenes per row and scenario with no
+impurity. The default (--count truth) is the paper's table alone; --count perception leaves the README
+block alone.
+
+    python -m impurity_learning.eval_cli --count both --clean-scenes 4 --episodes 20
+
 Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped
 policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
