@@ -61,7 +61,8 @@ def test_episodes_on_a_two_node_cluster_are_the_in_process_episodes_and_resume_f
     journal = tmp_path / "ray" / "r.partial.jsonl"
     journal.parent.mkdir()
     first = dict(in_process[0], from_the_journal=True)
-    key = eval_cli.task_key(("s_rgm", "", first["scenario"], first["seed"], 1, "cpu", "default", ""), {})
+    task = ("s_rgm", "", first["scenario"], first["seed"], 1, "cpu", "default", "", "truth")
+    key = eval_cli.task_key(task, {})
     journal.write_text(json.dumps({"key": key, "record": first}) + "\n")
     on_ray = evaluate(tmp_path / "ray", "--ray-address", cluster.address, "--jobs", "2")
     assert [e.pop("from_the_journal", False) for e in on_ray] == [True, False, False, False]
