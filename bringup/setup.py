@@ -13,6 +13,7 @@ setup(
         ("share/" + package_name, ["package.xml"]),
         ("share/" + package_name + "/launch", sorted(glob("launch/*.launch.py"))),
         ("share/" + package_name + "/config", sorted(glob("config/*.yaml"))),
+        ("share/" + package_name + "/config/sros2", sorted(glob("config/sros2/*.xml"))),
     ],
     install_requires=["setuptools"],
     zip_safe=True,

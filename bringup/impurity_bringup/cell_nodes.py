@@ -77,6 +77,27 @@ CELLS = {
 CELL_NODES = list(CELLS["sim"])  # the simulated cell's nodes (make demo, the graph tests)
 
 
+# SROS2 (docs/real_cell.md, "Security (SROS2)"): every process runs in its own enclave,
+# ENCLAVE_ROOT/<executable>, whose permissions are config/sros2/policy.xml's.
+ENCLAVE_ROOT = "/impurity_cell"
+SECURITY_POLICY_NAME = "sros2/policy.xml"  # under config_dir()
+
+
+def enclave(executable: str) -> str:
+    """The SROS2 enclave `executable` runs in (`--ros-args --enclave <it>`): ENCLAVE_ROOT/<executable>."""
+    return f"{ENCLAVE_ROOT}/{executable}"
+
+
+def security_environment(keystore: str | pathlib.Path) -> dict[str, str]:
+    """The environment of a node with SROS2 enforced: the keystore that `ros2 security generate_artifacts`
+    made from the policy, security on, and Enforce (a node without valid security files fails to start,
+    rather than running unsecured). ValueError when `keystore` is empty."""
+    if not str(keystore):
+        raise ValueError("security needs a keystore: pass keystore:=<dir> or set ROS_SECURITY_KEYSTORE")
+    return {"ROS_SECURITY_KEYSTORE": str(keystore), "ROS_SECURITY_ENABLE": "true",
+            "ROS_SECURITY_STRATEGY": "Enforce"}
+
+
 def nodes_of(cell: str) -> tuple[tuple[str, str], ...]:
     """The (package, executable) pairs of `cell` ("sim" or "real"); ValueError names the cells."""
     if cell not in CELLS:

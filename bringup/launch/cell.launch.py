@@ -1,31 +1,47 @@
 """ROS installs: the whole cell,
 
     ros2 launch impurity_bringup cell.launch.py [cell:=sim|real] [config:=...] [calibration:=...]
+                                                [security:=true keystore:=DIR]
 
 cell:=sim (default): the PyBullet cell with config/cell.yaml. cell:=real: the UR5 driver on
 ur-rtde instead of the simulator, with config/real_cell.yaml read over cell.yaml; start the
 camera driver apart (README, "Running on a real cell"). Every node reads the cell's files (`config`
 replaces the cell's own; '' its default), then `calibration` (the camera pose; '' none). The files are
 impurity_bringup's installed share/impurity_bringup/config/*.yaml.
+security:=true runs every node in its SROS2 enclave (--enclave /impurity_cell/<executable>) with security
+enforced and the keystore made from config/sros2/policy.xml (keystore:=, default $ROS_SECURITY_KEYSTORE):
+docs/real_cell.md, "Security (SROS2)".
 The pip environment (no launch/launch_ros wheels) uses `launch_cell` (impurity_bringup.launch_cell) with
 the same node lists and parameter files (impurity_bringup.cell_nodes).
 """
+
+import os
 
 from launch import LaunchDescription
 from launch.actions import DeclareLaunchArgument, OpaqueFunction
 from launch.substitutions import LaunchConfiguration
 from launch_ros.actions import Node
 
-from impurity_bringup.cell_nodes import CELLS, calibration_file, nodes_of, parameter_files
+from impurity_bringup.cell_nodes import (
+    CELLS,
+    calibration_file,
+    enclave,
+    nodes_of,
+    parameter_files,
+    security_environment,
+)
 
 
 def cell_nodes(context):
     """The nodes of the chosen cell, each with the cell's parameter files (cell_nodes.parameter_files) and
-    then the calibration."""
+    then the calibration; with security:=true each in its enclave, with the keystore's environment."""
     cell = LaunchConfiguration("cell").perform(context)
     files = [str(path) for path in parameter_files(cell, LaunchConfiguration("config").perform(context),
                                                    LaunchConfiguration("calibration").perform(context))]
-    return [Node(package=package, executable=executable, parameters=files, output="screen")
+    secure = LaunchConfiguration("security").perform(context).lower() == "true"
+    env = security_environment(LaunchConfiguration("keystore").perform(context)) if secure else None
+    return [Node(package=package, executable=executable, parameters=files, output="screen",
+                 ros_arguments=["--enclave", enclave(executable)] if secure else None, additional_env=env)
             for package, executable in nodes_of(cell)]
 
 
@@ -38,5 +54,11 @@ def generate_launch_description():
                               "config/real_cell.yaml, read over config/cell.yaml, for cell:=real)"),
         DeclareLaunchArgument("calibration", default_value=str(calibration_file()),
                               description="Camera calibration (camera pose), read after config"),
+        DeclareLaunchArgument("security", default_value="false", choices=["true", "false"],
+                              description="true: SROS2, each node in its enclave "
+                              "/impurity_cell/<executable>"),
+        DeclareLaunchArgument("keystore", default_value=os.environ.get("ROS_SECURITY_KEYSTORE", ""),
+                              description="The SROS2 keystore made from config/sros2/policy.xml "
+                              "(security:=true)"),
         OpaqueFunction(function=cell_nodes),
     ])

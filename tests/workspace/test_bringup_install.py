@@ -106,7 +106,7 @@ def test_the_installed_launch_file_loads_and_declares_the_cells_arguments(tmp_pa
     done = run_outside_the_checkout(code, tmp_path)
     assert done.returncode == 0, done.stderr
     calibration = SHARE / "config" / "camera_calibration.yaml"
-    assert done.stdout.splitlines() == ["cell config calibration", str(calibration)]
+    assert done.stdout.splitlines() == ["cell config calibration security keystore", str(calibration)]
 
 
 def test_the_pip_launcher_runs_as_a_module_from_anywhere(tmp_path):
