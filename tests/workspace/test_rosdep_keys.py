@@ -113,44 +113,44 @@ def declared(package: str, *tags: str) -> set[str]:
     return {element.text.strip() for tag in tags for element in root.iter(tag)}
 
 
-def run_keys(package: str) -> set[str]:
+def declared_run_keys(package: str) -> set[str]:
     return declared(package, "depend", "exec_depend")
 
 
-def build_keys(package: str) -> set[str]:
+def declared_build_keys(package: str) -> set[str]:
     return declared(package, "depend", "build_depend", "buildtool_depend")
 
 
-def test_keys(package: str) -> set[str]:
+def declared_test_keys(package: str) -> set[str]:
     return declared(package, "test_depend")
 
 
 @pytest.mark.parametrize("package", PYTHON_PACKAGES)
 def test_package_xml_declares_what_its_modules_import_as_run_dependencies(package):
-    assert needed_at_run_time(package) - run_keys(package) == set()
+    assert needed_at_run_time(package) - declared_run_keys(package) == set()
 
 
 @pytest.mark.parametrize("package", PYTHON_PACKAGES)
 def test_package_xml_declares_what_its_setup_py_imports_as_build_dependencies(package):
-    assert needed_to_build(package) - build_keys(package) == set()
+    assert needed_to_build(package) - declared_build_keys(package) == set()
 
 
 @pytest.mark.parametrize("package", PYTHON_PACKAGES)
 def test_package_xml_declares_what_only_its_unit_tests_import_as_test_dependencies(package):
-    assert needed_by_tests_only(package) - test_keys(package) == set()
+    assert needed_by_tests_only(package) - declared_test_keys(package) == set()
 
 
 @pytest.mark.parametrize("package", PYTHON_PACKAGES)
 def test_package_xml_declares_no_run_dependency_on_a_python_key_or_ros_package_its_modules_do_not_import(
         package):
     ros_packages_and_python_keys = {key for key in ROSDEP_KEYS.values() if key}
-    assert (run_keys(package) & ros_packages_and_python_keys) - needed_at_run_time(package) == set()
+    assert (declared_run_keys(package) & ros_packages_and_python_keys) - needed_at_run_time(package) == set()
 
 
 @pytest.mark.parametrize("package", sorted(CELL_PACKAGES))
 def test_package_xml_declares_no_python_build_or_test_key_that_nothing_needs(package):
-    assert (build_keys(package) & PYTHON_KEYS) - needed_to_build(package) == set()
-    assert (test_keys(package) & PYTHON_KEYS) - needed_by_tests_only(package) == set()
+    assert (declared_build_keys(package) & PYTHON_KEYS) - needed_to_build(package) == set()
+    assert (declared_test_keys(package) & PYTHON_KEYS) - needed_by_tests_only(package) == set()
 
 
 @pytest.mark.parametrize("package", RUNTIME_PACKAGES)
