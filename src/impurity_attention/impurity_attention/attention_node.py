@@ -1,7 +1,8 @@
 """Attention node: /heightmap -> /attention/result (paper Algorithm 1) and /attention/debug_image.
 
 Thin shell around impurity_attention.core.attention.attend: one AttentionResult per heightmap, with the
-heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line. A heightmap on
+heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line, and every heightmap while
+`use_sim_time` is true and no /clock has arrived (said once: impurity_common.sim_time). A heightmap on
 /attention/known_product (transient local; the episode node sends the episode's first view when it showed no
 target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
 cells, sent at each episode's reset) clears it. /attention/look_closer (std_srvs/SetBool; the episode
@@ -26,6 +27,7 @@ from impurity_common import names
 from impurity_common.conversions import ImageFormatError, grid_from_heightmap, image_to_numpy, numpy_to_image
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
+from impurity_common.sim_time import StoppedClockGate
 from impurity_interfaces.msg import AttentionResult, Heightmap
 
 
@@ -51,6 +53,7 @@ class AttentionNode(Node):
                                  QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE,
                                             durability=DurabilityPolicy.TRANSIENT_LOCAL))
         self._closer = False  # heightmaps are attended as a stall look (/attention/look_closer)
+        self._stopped_clock = StoppedClockGate(self)
         self.create_service(SetBool, names.LOOK_CLOSER_SERVICE, self._on_look_closer)
         self.create_subscription(Heightmap, names.HEIGHTMAP_TOPIC, self._on_heightmap,
                                  QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
@@ -104,6 +107,8 @@ class AttentionNode(Node):
         return response
 
     def _on_heightmap(self, msg: Heightmap) -> None:
+        if self._stopped_clock.stopped():
+            return
         try:
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))

@@ -11,7 +11,8 @@ and the parameter to change: frames that go unpaired (rate-limited, with the mea
 `camera_position`, `camera_orientation`), pixels coarser than the cells (once: the gaps between
 samples are filled), frames stamped on another clock than the node's (once: `use_sim_time`, the
 driver's timestamp setting), a camera topic with no message for `frame_timeout` s (rate-limited, naming the
-topics: the camera driver is not running or publishes other names).
+topics: the camera driver is not running or publishes other names). With `use_sim_time:=true` and no /clock,
+frames are dropped and that is said once (impurity_common.sim_time).
 """
 
 import time
@@ -44,6 +45,7 @@ from impurity_common.conversions import (
 )
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
+from impurity_common.sim_time import StoppedClockGate
 from impurity_interfaces.msg import Heightmap
 
 COLOR_ENCODINGS = tuple(RGB_ENCODINGS)  # rgb8, bgr8, rgba8, bgra8: read as RGB, alpha dropped
@@ -71,6 +73,7 @@ class HeightmapNode(Node):
         self._camera_pose = params.camera_pose()
         self._pairer = StampPairer(tolerance_ns=params.pairing_tolerance_ns())
         self._warned_clock = False
+        self._stopped_clock = StoppedClockGate(self)
         self._warned_footprint = None  # the projector the footprint warning was given for
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
@@ -177,9 +180,11 @@ class HeightmapNode(Node):
             "every check of an input's age downstream (the policy's max_age, the episode's waits) will "
             "misjudge it. Put the camera and the nodes on one clock: the driver's timestamp setting "
             "(realsense-ros: global_time_enabled:=true), or use_sim_time:=true for every node when a /clock "
-            "is published (bag replays, simulation). (Said once.)")
+            "is published (bag_replay -p clock:=true, simulation). (Said once.)")
 
     def _process(self, color_msg: Image, depth_msg: Image) -> None:
+        if self._stopped_clock.stopped():
+            return
         try:
             heightmap = self._make_heightmap(color_msg, depth_msg)
         except (ImageFormatError, DepthFormatError, ValueError) as error:

@@ -14,6 +14,13 @@ the ack_before message before it, and is not waited for itself: what the live gr
 decision (the picking loop's /attention/known_product after an episode's first view) reaches the
 subscribers after the replayed decision, and before the next frame, as it did live.
 
+Replay time: with `clock` true the node publishes /clock (rosgraph_msgs/Clock; best effort, depth 1,
+as `ros2 bag play --clock`) with the replayed bag time (bags.with_clock): from the bag's first time (after
+`start_offset`) on, `rate` times as fast as wall time, `clock_frequency` times a wall second, and each
+message's bag timestamp just before the message is published; as fast as possible (or paced by
+`ack_topic`) it steps from message to message and holds between them. Nodes started with
+`use_sim_time:=true` then judge input ages on the bag's time.
+
 Big images: Fast DDS's default shared-memory segment (512 KB) cannot hold a 640x480 frame; such a
 message falls back to UDP fragments, which a best-effort subscriber (the heightmap node's camera
 subscriptions) loses in bursts. Unless a Fast DDS profile or transport is chosen in the environment,
@@ -32,6 +39,7 @@ missing subscribers, or a pass that played fewer messages than the topics hold (
 and why); 2 with one line for a bad parameter; every wait is bounded.
 
   bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
+  bag_replay --ros-args -p bag:=tests/data/episode_bag -p clock:=true   # nodes with use_sim_time:=true
 """
 
 import hashlib
@@ -48,6 +56,7 @@ from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from rosbags.interfaces import QosDurability
+from rosgraph_msgs.msg import Clock
 
 from impurity_bags.bags import (
     BagError,
@@ -61,7 +70,9 @@ from impurity_bags.bags import (
     ros_message_class,
     run_replay,
     select_topics,
+    with_clock,
 )
+from impurity_common.conversions import ns_to_time
 from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
@@ -107,6 +118,11 @@ def use_large_shm_segment() -> None:
     os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(path)
 
 
+CLOCK_TOPIC = "/clock"
+# rclcpp::ClockQoS, what ros2 bag play publishes /clock with and every node's time source subscribes with
+CLOCK_QOS = QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT,
+                       durability=DurabilityPolicy.VOLATILE)
+
 
 @dataclass(frozen=True)
 class BagReplayParameters:
@@ -136,6 +152,12 @@ class BagReplayParameters:
     ack_timeout: float = param(5.0, "s to wait for one acknowledgement", low=0.001, high=3600.0)
     ack_retries: int = param(3, "Re-publications of a group that got no answer", low=0, high=1000)
     qos_depth: int = param(100, "Publisher queue depth", low=1, high=100000)
+    clock: bool = param(False, "Publish /clock with the replayed bag time (for nodes with "
+                        "use_sim_time:=true): from the bag's first time on, rate times as fast as wall time, "
+                        "and each message's bag timestamp before the message")
+    clock_frequency: float = param(40.0, "Hz (of wall time) of /clock between messages (0: only at each "
+                                   "message); the clock is also held at its value this often while the "
+                                   "replay waits", low=0.0, high=1000.0)
 
 
 class BagReplayNode(Node):
@@ -158,9 +180,14 @@ class BagReplayNode(Node):
         self._ack_before = params.ack_before
         self._ack_after = {topic for topic in params.ack_after if topic}
         self._pacing = bool(params.ack_topic)
+        self._clock_publisher = None
+        self._replay_time_ns = self.timing.first_ns(self.reader.start_ns)  # the last /clock value
+        self._replay_time_sent = -float("inf")  # time.monotonic() it was last published at
         try:
             self._select_topics()
             self._topic_publishers = {topic: self._publisher(topic) for topic in self.topics}
+            if params.clock:
+                self._publish_clock_topic()
             if self._pacing:
                 self._subscribe_acks(params.ack_topic)
         except BaseException:
@@ -188,6 +215,25 @@ class BagReplayNode(Node):
                          durability=durability)
         return self.create_publisher(ros_message_class(info.msgtype, topic), topic, qos)
 
+    def _publish_clock_topic(self) -> None:
+        """/clock's publisher; while the replay waits (subscribers, delay, acknowledgements), the last value
+        is published again every 1 / clock_frequency s."""
+        if CLOCK_TOPIC in self.topics:
+            raise BagError(f"clock is true and the bag's own {CLOCK_TOPIC} is played: leave it out (topics) "
+                           "or set clock:=false")
+        self._clock_publisher = self.create_publisher(Clock, CLOCK_TOPIC, CLOCK_QOS)
+        if self.params.clock_frequency > 0:
+            self.create_timer(1.0 / self.params.clock_frequency, self._hold_clock)
+
+    def _publish_clock(self, time_ns: int) -> None:
+        self._replay_time_ns = time_ns
+        self._replay_time_sent = time.monotonic()
+        self._clock_publisher.publish(Clock(clock=ns_to_time(time_ns)))
+
+    def _hold_clock(self) -> None:
+        if time.monotonic() - self._replay_time_sent >= 1.0 / self.params.clock_frequency:
+            self._publish_clock(self._replay_time_ns)
+
     def _subscribe_acks(self, topic: str) -> None:
         """The acknowledging topic's type comes from the graph (its publisher must be up)."""
         if self._ack_before not in self.topics:
@@ -213,13 +259,18 @@ class BagReplayNode(Node):
         """Everything runs in the caller's thread: waiting is spinning (`spin_once(timeout)`)."""
         self._spin_once = spin_once
         self._should_stop = should_stop
+        if self._clock_publisher is not None:
+            self._publish_clock(self._replay_time_ns)
         self._wait_for_subscribers(should_stop)
         deadline = time.monotonic() + self.params.delay
         while not should_stop() and (remaining := deadline - time.monotonic()) > 0:
             spin_once(min(remaining, 0.05))
         counter = PassCounter(lambda start_ns: self.reader.messages(self.topics, start_ns))
         plan = replay_plan(counter, self.reader.start_ns, self.timing)
-        count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once)
+        if self._clock_publisher is not None:
+            plan = with_clock(plan, self.reader.start_ns, self.timing, self.params.clock_frequency)
+        count = run_replay(plan, self._publish, should_stop=should_stop, sleep=spin_once,
+                           tick=self._publish_clock)
         if self._pacing and not should_stop():
             self._settle_group()
         for publisher in self._topic_publishers.values():  # reliable subscribers get the last messages too

@@ -20,7 +20,9 @@ and replay nodes (it never imports rclpy):
 - `replay_plan()` / `run_replay()`: when each message is due (original timing with a rate factor,
   start offset and loop, or as fast as possible) and the loop that publishes them, with an injectable
   clock so the timing is tested without ROS; `PassCounter` and `BagReader.replay_shortfall()` tell
-  whether a finished pass played every message the selected topics hold.
+  whether a finished pass played every message the selected topics hold;
+- `with_clock()`: the /clock values of a replay (`ClockTick`s interleaved into its plan): the replayed
+  bag time, at a given frequency and at each message's timestamp before the message.
 """
 
 from __future__ import annotations
@@ -713,11 +715,55 @@ class PassCounter:
         self.first_pass_done = True
 
 
-def run_replay(plan: Iterable[tuple[float, BagMessage]], publish: Callable[[BagMessage], None],
+class ClockTick(NamedTuple):
+    """A /clock value in a replay plan: the replayed bag time, ns since the epoch."""
+
+    time_ns: int
+
+
+def with_clock(plan: Iterable[tuple[float, BagMessage]], bag_start_ns: int, timing: ReplayTiming,
+               frequency: float) -> Iterator[tuple[float, BagMessage | ClockTick]]:
+    """`plan` (replay_plan's, same timing) with the /clock values of the replay interleaved, in due order.
+
+    The clock starts at the replay's first time (`timing.first_ns(bag_start_ns)`) at due 0 and advances
+    `timing.rate` s of bag time per s of replay from the last message's timestamp, a tick every
+    1 / `frequency` s of replay (none between messages when `frequency` is 0; never past the next
+    message's timestamp); each message is preceded by a tick of its own timestamp, so a node on this
+    clock has reached a message's time when the message arrives. As fast as possible (every message
+    due at 0, acknowledgements setting the pace) the clock thus steps from message to message; a
+    loop's next pass takes it back to the pass's first timestamp, as `ros2 bag play --clock --loop`.
+    A value equal to the tick before it is not repeated.
+    """
+    if not frequency >= 0:
+        raise ValueError(f"clock frequency must be >= 0 Hz, got {frequency}")
+    period = 1.0 / frequency if frequency > 0 else float("inf")
+    last_due, last_ns = 0.0, timing.first_ns(bag_start_ns)
+    yield 0.0, ClockTick(last_ns)
+    ticked_ns = last_ns
+    index = 1  # of the next periodic tick, due at index * period
+    for due, message in plan:
+        while index * period < due:
+            value = last_ns + round((index * period - last_due) * timing.rate * 1e9)
+            if message.timestamp_ns >= last_ns:
+                value = min(value, message.timestamp_ns)
+            if value != ticked_ns:
+                yield index * period, ClockTick(value)
+                ticked_ns = value
+            index += 1
+        if message.timestamp_ns != ticked_ns:
+            yield due, ClockTick(message.timestamp_ns)
+            ticked_ns = message.timestamp_ns
+        yield due, message
+        last_due, last_ns = due, message.timestamp_ns
+
+
+def run_replay(plan: Iterable[tuple[float, BagMessage | ClockTick]], publish: Callable[[BagMessage], None],
                should_stop: Callable[[], bool] = lambda: False, clock: Callable[[], float] = time.monotonic,
-               sleep: Callable[[float], None] = time.sleep, max_sleep: float = 0.05) -> int:
-    """Publish each planned message when it is due; returns how many were published. Sleeps in
-    slices of at most `max_sleep` so that a stop request is seen promptly."""
+               sleep: Callable[[float], None] = time.sleep, max_sleep: float = 0.05,
+               tick: Callable[[int], None] | None = None) -> int:
+    """Publish each planned message when it is due, and give each `ClockTick` (with_clock's) to `tick`
+    (its time in ns); returns how many messages were published. Sleeps in slices of at most
+    `max_sleep` so that a stop request is seen promptly."""
     started = clock()
     published = 0
     for due, message in plan:
@@ -728,6 +774,11 @@ def run_replay(plan: Iterable[tuple[float, BagMessage]], publish: Callable[[BagM
             sleep(min(remaining, max_sleep))
         if should_stop():
             break
+        if isinstance(message, ClockTick):
+            if tick is None:
+                raise ValueError("a plan with clock ticks needs `tick`")
+            tick(message.time_ns)
+            continue
         publish(message)
         published += 1
     return published

@@ -3,7 +3,8 @@
 Thin shell around impurity_policy.core.policy.Policy: it decodes the attention crops, runs the 32 Q
 maps, and publishes the best primitive in base_link with the attention result's stamp. Stale input
 (older than `max_age` or older than what was already answered), a wrong frame, malformed images and
-NONE results get one log line and no decision, never a crash.
+NONE results get one log line and no decision, never a crash. With `use_sim_time:=true` and no /clock yet
+(a clock at 0 would pass every max_age check) no result is answered, said once (impurity_common.sim_time).
 """
 
 import pathlib
@@ -26,6 +27,7 @@ from impurity_common.conversions import (
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import ParameterError, declare_parameters, param
+from impurity_common.sim_time import StoppedClockGate
 from impurity_interfaces.msg import AttentionResult, EpisodeStep, Primitive
 from impurity_policy.core.checkpoint import CheckpointError, load_network
 from impurity_policy.core.network import GRASP, PUSH, QNetwork
@@ -96,6 +98,7 @@ class PolicyNode(Node):
         self._last_warning = {}
         self._memory_episode = ""
         self._decided_on = {}  # stamp (ns) of an answered attention result -> its full height map
+        self._stopped_clock = StoppedClockGate(self)
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         self._primitive_pub = self.create_publisher(Primitive, names.PRIMITIVE_TOPIC, reliable)
@@ -179,6 +182,8 @@ class PolicyNode(Node):
 
     # ---- decision ------------------------------------------------------------------------------
     def _on_attention(self, msg: AttentionResult) -> None:
+        if self._stopped_clock.stopped():
+            return
         reason = self._rejection(msg)
         if reason is not None:
             self._warn(reason.split(":")[0], f"no decision: {reason}")

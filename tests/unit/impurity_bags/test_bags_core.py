@@ -34,6 +34,7 @@ from impurity_bags.bags import (
     BagMessage,
     BagReader,
     BagWriter,
+    ClockTick,
     PassCounter,
     ReplayTiming,
     cell_typestore,
@@ -46,6 +47,7 @@ from impurity_bags.bags import (
     select_topics,
     subscription_request,
     weakened_request,
+    with_clock,
 )
 
 
@@ -299,6 +301,98 @@ def test_run_replay_stops_promptly_when_asked():
     count = run_replay(plan, published.append, should_stop=lambda: clock.now > 100.5,
                        clock=clock, sleep=clock.sleep, max_sleep=0.05)
     assert count == 2 and clock.now < 100.6
+
+
+# ---------------------------------------------------------------------------------------- /clock
+SECOND = 1_000_000_000
+BAG_START = SECOND  # stamped()'s first time
+
+
+def clock_schedule(messages, timing, frequency, limit=100):
+    """with_clock's plan as (due s, "clock", bag time ns offset from BAG_START) and (due s, "message",
+    its timestamp offset from BAG_START)."""
+    out = []
+    plan = with_clock(replay_plan(reader_of(messages), messages[0].timestamp_ns, timing),
+                      messages[0].timestamp_ns, timing, frequency)
+    for due, item in plan:
+        if isinstance(item, ClockTick):
+            out.append((round(due, 6), "clock", item.time_ns - BAG_START))
+        else:
+            out.append((round(due, 6), "message", item.timestamp_ns - BAG_START))
+        if len(out) >= limit:
+            break
+    return out
+
+
+def test_the_clock_starts_at_the_bags_time_and_runs_rate_times_as_fast_as_the_replay():
+    ms = 1_000_000
+    schedule = clock_schedule(stamped(0, 100, 300), ReplayTiming(rate=2.0), frequency=20.0)
+    assert schedule == [
+        (0.0, "clock", 0), (0.0, "message", 0),
+        (0.05, "clock", 100 * ms), (0.05, "message", 100 * ms),
+        (0.1, "clock", 200 * ms),  # 0.05 s of replay after the message at 100 ms: 100 ms of bag time
+        (0.15, "clock", 300 * ms), (0.15, "message", 300 * ms),
+    ]
+
+
+def test_every_clock_value_is_the_replayed_bag_time_and_never_goes_back():
+    messages = stamped(0, 130, 170, 420, 1000)
+    schedule = clock_schedule(messages, ReplayTiming(rate=0.5), frequency=100.0, limit=1000)
+    ticks = [(due, value) for due, kind, value in schedule if kind == "clock"]
+    assert len(ticks) > 150  # 2 s of replay at 100 Hz
+    for due, value in ticks:
+        assert value == pytest.approx(due * 0.5 * SECOND, abs=1000)
+    values = [value for _, value in ticks]
+    assert values == sorted(values) and len(set(values)) == len(values)
+
+
+def test_each_message_is_preceded_by_a_tick_of_its_own_timestamp():
+    schedule = clock_schedule(stamped(0, 130, 170, 420), ReplayTiming(rate=3.0), frequency=7.0)
+    for index, (_, kind, value) in enumerate(schedule):
+        if kind == "message":
+            clock_before = [v for _, k, v in schedule[:index] if k == "clock"][-1]
+            assert clock_before == value
+
+
+def test_the_clock_starts_at_the_start_offset():
+    schedule = clock_schedule(stamped(0, 100, 300), ReplayTiming(start_offset=0.05), frequency=0.0)
+    assert schedule[0] == (0.0, "clock", 50_000_000)
+    assert schedule[1] == (0.05, "clock", 100_000_000)  # the first message played
+
+
+def test_as_fast_as_possible_the_clock_steps_to_each_message_before_it():
+    ms = 1_000_000
+    schedule = clock_schedule(stamped(0, 100, 300), ReplayTiming(as_fast_as_possible=True), frequency=40.0)
+    assert schedule == [(0.0, "clock", 0), (0.0, "message", 0),
+                        (0.0, "clock", 100 * ms), (0.0, "message", 100 * ms),
+                        (0.0, "clock", 300 * ms), (0.0, "message", 300 * ms)]
+
+
+def test_without_a_frequency_the_clock_ticks_only_at_the_messages():
+    schedule = clock_schedule(stamped(0, 100, 300), ReplayTiming(), frequency=0.0)
+    assert [kind for _, kind, _ in schedule] == ["clock", "message"] * 3
+
+
+def test_a_looped_pass_takes_the_clock_back_to_its_first_timestamp():
+    schedule = clock_schedule(stamped(0, 100), ReplayTiming(loop=True), frequency=0.0, limit=8)
+    assert [value for _, kind, value in schedule if kind == "clock"] == [0, 100_000_000, 0, 100_000_000]
+
+
+def test_a_negative_clock_frequency_is_refused():
+    with pytest.raises(ValueError):
+        list(clock_schedule(stamped(0, 100), ReplayTiming(), frequency=-1.0))
+
+
+def test_run_replay_gives_the_ticks_to_the_clock_and_counts_only_messages():
+    clock = FakeClock()
+    published, ticks = [], []
+    messages = stamped(0, 100)
+    timing = ReplayTiming()
+    plan = with_clock(replay_plan(reader_of(messages), BAG_START, timing), BAG_START, timing, 20.0)
+    count = run_replay(plan, published.append, clock=clock, sleep=clock.sleep,
+                       tick=lambda ns: ticks.append((round(clock.now - 100.0, 6), ns - BAG_START)))
+    assert count == 2 and published == messages
+    assert ticks == [(0.0, 0), (0.05, 50_000_000), (0.1, 100_000_000)]
 
 
 def test_header_stamp_is_read_from_the_cdr_bytes(typestore):
