@@ -45,6 +45,7 @@ ROSDEP_KEYS = {
     "sensor_msgs": "sensor_msgs",
     "visualization_msgs": "visualization_msgs",
     "tf2_msgs": "tf2_msgs",
+    "rosgraph_msgs": "rosgraph_msgs",
     # Python packages (rosdep/python.yaml)
     "numpy": "python3-numpy",
     "scipy": "python3-scipy",
