@@ -14,6 +14,7 @@ import sys
 import pytest
 import rclpy
 import yaml
+from launch_stubs import launched_nodes
 from parameter_files import as_declared, flatten
 
 from impurity_bringup.cell_nodes import CELLS, config_dir, parameter_files, ros_arguments, share_dir
@@ -211,55 +212,15 @@ def test_the_launcher_runs_from_the_command_line():
 
 # ------------------------------------------------------------------------------------ the ROS launch file
 class FakeLaunch:
-    """Stand-ins for the launch and launch_ros modules (not among the PyPI wheels): each action records
-    its arguments, LaunchConfiguration performs to the launch arguments given."""
+    """cell.launch.py (installed) run on stand-ins for the launch modules (launch_stubs) with `arguments`."""
 
     def __init__(self, arguments: dict):
         self.arguments = arguments
 
-    def modules(self) -> dict:
-        import types
-
-        def recorder(kind):
-            return lambda *args, **kwargs: (kind, args, kwargs)
-
-        class LaunchConfiguration:
-            def __init__(self, name):
-                self.name = name
-
-            def perform(self, context):
-                return context[self.name]
-
-        launch = types.ModuleType("launch")
-        launch.LaunchDescription = recorder("LaunchDescription")
-        actions = types.ModuleType("launch.actions")
-        actions.DeclareLaunchArgument = recorder("DeclareLaunchArgument")
-        actions.OpaqueFunction = recorder("OpaqueFunction")
-        substitutions = types.ModuleType("launch.substitutions")
-        substitutions.LaunchConfiguration = LaunchConfiguration
-        launch_ros = types.ModuleType("launch_ros")
-        ros_actions = types.ModuleType("launch_ros.actions")
-        ros_actions.Node = recorder("Node")
-        return {"launch": launch, "launch.actions": actions, "launch.substitutions": substitutions,
-                "launch_ros": launch_ros, "launch_ros.actions": ros_actions}
-
     def nodes(self, monkeypatch) -> list[tuple[str, str, list[str]]]:
         """(package, executable, parameter files) of every Node the launch file starts."""
-        import importlib.util
-
-        for name, module in self.modules().items():
-            monkeypatch.setitem(sys.modules, name, module)
-        launch_file = share_dir() / "launch" / "cell.launch.py"
-        spec = importlib.util.spec_from_file_location("cell_launch", launch_file)
-        module = importlib.util.module_from_spec(spec)
-        spec.loader.exec_module(module)
-        _, (actions,), _ = module.generate_launch_description()
-        declared = {args[0]: kwargs["default_value"] for kind, args, kwargs in actions
-                    if kind == "DeclareLaunchArgument"}
-        context = {**declared, **self.arguments}
-        (function,) = [kwargs["function"] for kind, _, kwargs in actions if kind == "OpaqueFunction"]
-        return [(kwargs["package"], kwargs["executable"], kwargs["parameters"])
-                for _, _, kwargs in function(context)]
+        return [(kwargs["package"], kwargs["executable"], kwargs["parameters"]) for kwargs in
+                launched_nodes(monkeypatch, share_dir() / "launch" / "cell.launch.py", self.arguments)]
 
 
 @pytest.mark.parametrize("arguments,cell,configs", [({}, "sim", [SIM_CONFIG]),

@@ -8,11 +8,10 @@ security (the PyPI Fast DDS is built without it)."""
 import dataclasses
 import importlib.util
 import pathlib
-import sys
-import types
 import xml.etree.ElementTree as ET
 
 import pytest
+from launch_stubs import launched_nodes
 
 from impurity_bringup.cell_nodes import CELLS, SECURITY_POLICY_NAME, config_dir, enclave
 from impurity_common import names
@@ -200,41 +199,10 @@ def test_the_policy_is_installed_in_impurity_bringups_share():
 
 
 # ------------------------------------------------------------------------------------------- the launch file
-def launched_nodes(monkeypatch, arguments: dict) -> list[dict]:
-    """The keyword arguments of every Node cell.launch.py starts with `arguments`, through stand-ins for the
-    launch and launch_ros modules (not among the PyPI wheels)."""
-    def recorder(kind):
-        return lambda *args, **kwargs: (kind, args, kwargs)
-
-    class LaunchConfiguration:
-        def __init__(self, name):
-            self.name = name
-
-        def perform(self, context):
-            return context[self.name]
-
-    modules = {name: types.ModuleType(name) for name in
-               ("launch", "launch.actions", "launch.substitutions", "launch_ros", "launch_ros.actions")}
-    modules["launch"].LaunchDescription = recorder("LaunchDescription")
-    modules["launch.actions"].DeclareLaunchArgument = recorder("DeclareLaunchArgument")
-    modules["launch.actions"].OpaqueFunction = recorder("OpaqueFunction")
-    modules["launch.substitutions"].LaunchConfiguration = LaunchConfiguration
-    modules["launch_ros.actions"].Node = recorder("Node")
-    for name, module in modules.items():
-        monkeypatch.setitem(sys.modules, name, module)
-    spec = importlib.util.spec_from_file_location("cell_launch", LAUNCH_FILE)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    _, (actions,), _ = module.generate_launch_description()
-    declared = {args[0]: kwargs["default_value"] for kind, args, kwargs in actions
-                if kind == "DeclareLaunchArgument"}
-    (function,) = [kwargs["function"] for kind, _, kwargs in actions if kind == "OpaqueFunction"]
-    return [kwargs for _, _, kwargs in function({**declared, **arguments})]
-
-
 @pytest.mark.parametrize("cell", sorted(CELLS))
 def test_with_security_the_launch_runs_every_node_in_its_enclave_of_the_policy(monkeypatch, cell):
-    nodes = launched_nodes(monkeypatch, {"cell": cell, "security": "true", "keystore": "/cell/keystore"})
+    nodes = launched_nodes(monkeypatch, LAUNCH_FILE,
+                           {"cell": cell, "security": "true", "keystore": "/cell/keystore"})
     assert [node["ros_arguments"] for node in nodes] == \
         [["--enclave", enclave(executable)] for _, executable in CELLS[cell]]
     assert {node["ros_arguments"][1] for node in nodes} <= set(profiles())
@@ -244,10 +212,10 @@ def test_with_security_the_launch_runs_every_node_in_its_enclave_of_the_policy(m
 
 
 def test_without_security_the_launch_adds_no_enclave_and_no_environment(monkeypatch):
-    nodes = launched_nodes(monkeypatch, {})
+    nodes = launched_nodes(monkeypatch, LAUNCH_FILE, {})
     assert all(node["ros_arguments"] is None and node["additional_env"] is None for node in nodes)
 
 
 def test_security_without_a_keystore_is_refused(monkeypatch):
     with pytest.raises(ValueError, match="keystore"):
-        launched_nodes(monkeypatch, {"security": "true", "keystore": ""})
+        launched_nodes(monkeypatch, LAUNCH_FILE, {"security": "true", "keystore": ""})
