@@ -292,9 +292,10 @@ def model_files() -> dict:
     """The attention model files an episode reads besides the policy checkpoint (whose bytes task_key holds):
     name -> path of the shipped verifier.json and impurity_net.pt (impurity_attention's checkpoints dir)."""
     from impurity_attention.core.checkpoints import shipped_path
+    from impurity_attention.core.impurity_net import SHIPPED_NETWORK
     from impurity_attention.core.verifier import SHIPPED_VERIFIER
 
-    return {name: shipped_path(name) for name in (SHIPPED_VERIFIER, "impurity_net.pt")}
+    return {name: shipped_path(name) for name in (SHIPPED_VERIFIER, SHIPPED_NETWORK.name)}
 
 
 @functools.cache

@@ -25,11 +25,6 @@ VERIFIER_FOLDS = 5  # palette-grouped cross-validation folds (needs at least as 
 CAPS = {"threshold": 0.01, "last_look": 127 / 2933, "stall_look": 333 / 2933}
 
 
-def _progress(items, description: str, shown: bool):
-    from tqdm import tqdm
-    return tqdm(items, desc=description, unit="scene", disable=not shown)
-
-
 def fit_network(records: list, epochs: int = NETWORK_EPOCHS, positive_weight: float | None = None,
                 params: AttentionParams = AttentionParams(), progress: bool = True) -> tuple:
     """Train the impurity network (impurity_learning.impurity_net_training) on the records' visible
@@ -65,11 +60,13 @@ def verifier_rows(records: list, params: AttentionParams = AttentionParams(), ne
     (verifier.candidate_features; network: the impurity network NETWORK_FEATURES read, else they are NaN).
     Returns (features (N, len(ALL_FEATURES)), on an impurity (N,) bool, scene index (N,), palette (N,),
     visible per scene (S,) bool); a scene without a scored region has no row."""
+    from tqdm import tqdm
+
     from impurity_attention.core.attention import salient_regions, scene_maps
     from impurity_attention.core.verifier import candidate_features
 
     rows, on, scene, group, visible = [], [], [], [], []
-    for record in _progress(records, "verifier features", progress):
+    for record in tqdm(records, desc="verifier features", unit="scene", disable=not progress):
         category = record.category()
         if category not in evaluation.CATEGORIES:
             continue
