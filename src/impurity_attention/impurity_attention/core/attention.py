@@ -492,8 +492,3 @@ def reason_summary(reason: str) -> str:
     if len(first) <= REASON_CHARS:
         return first
     return "..." + first[-(REASON_CHARS - 3):]  # the end holds the figures that decided
-
-
-def target_opponent_colour(color: np.ndarray, region: SalientRegion) -> np.ndarray:
-    """Mean (I, RG, BY) of a region: what made it stand out (for logs and calibration)."""
-    return opponent_colour(color)[region.mask].mean(axis=0)
