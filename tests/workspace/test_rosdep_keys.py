@@ -46,6 +46,8 @@ ROSDEP_KEYS = {
     "visualization_msgs": "visualization_msgs",
     "tf2_msgs": "tf2_msgs",
     "rosgraph_msgs": "rosgraph_msgs",
+    "diagnostic_msgs": "diagnostic_msgs",
+    "lifecycle_msgs": "lifecycle_msgs",
     # Python packages (rosdep/python.yaml)
     "numpy": "python3-numpy",
     "scipy": "python3-scipy",

@@ -25,6 +25,7 @@ from impurity_attention.core.product_memory import known_product
 from impurity_attention.core.verifier import default_verifier
 from impurity_common import names
 from impurity_common.conversions import ImageFormatError, grid_from_heightmap, image_to_numpy, numpy_to_image
+from impurity_common.diagnostics import OK, WARN, Diagnostics, RateMeter, Status
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
 from impurity_common.sim_time import StoppedClockGate
@@ -60,6 +61,8 @@ class AttentionNode(Node):
         self._result_pub = self.create_publisher(AttentionResult, names.ATTENTION_TOPIC, reliable)
         self._debug_pub = self.create_publisher(Image, names.ATTENTION_DEBUG_TOPIC,
                                                 QoSProfile(depth=1, reliability=ReliabilityPolicy.RELIABLE))
+        self._attended = RateMeter()
+        self.diagnostics = Diagnostics(self, self._status)
         model = self.params.verifier or default_verifier()
         decided = (f"verifier threshold {model.threshold:.2f}, last look {model.last_look:.2f}, stall look "
                    f"{model.stall_look:.2f}")
@@ -69,6 +72,14 @@ class AttentionNode(Node):
             decided += f", impurity network ({network.provenance or 'no provenance'})"
         self.get_logger().info(f"ready: {names.HEIGHTMAP_TOPIC} -> {names.ATTENTION_TOPIC}; {decided} (every "
                                f"setting: ros2 param dump /{self.get_name()})")
+
+    def _status(self) -> Status:
+        """Heightmaps attended per second; WARN until a heightmap has been attended."""
+        values = {"attention rate (Hz)": self._attended.rate(), "heightmaps attended": self._attended.count,
+                  "known product": self._known_product is not None, "stall look": self._closer}
+        if self._attended.count == 0:
+            return Status(WARN, f"no heightmap attended yet (waiting for {names.HEIGHTMAP_TOPIC})", values)
+        return Status(OK, f"{values['attention rate (Hz)']:.1f} heightmaps attended/s", values)
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"heightmap dropped: {reason}",
@@ -119,6 +130,7 @@ class AttentionNode(Node):
             self._drop(str(error))
             return
         self._result_pub.publish(to_message(msg, output))
+        self._attended.tick()
         if self.params.publish_debug_image and self._debug_pub.get_subscription_count() > 0:
             self._debug_pub.publish(numpy_to_image(debug_image(color, output), "rgb8", msg.header))
 

@@ -43,6 +43,7 @@ from impurity_common.conversions import (
     numpy_to_image,
     time_to_ns,
 )
+from impurity_common.diagnostics import OK, WARN, Diagnostics, RateMeter, Status
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
 from impurity_common.sim_time import StoppedClockGate
@@ -90,11 +91,26 @@ class HeightmapNode(Node):
             self.create_timer(params.frame_timeout, self._check_streams)
         self._publisher = self.create_publisher(
             Heightmap, names.HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
+        self._frame_rate, self._heightmap_rate = RateMeter(), RateMeter()
+        self.diagnostics = Diagnostics(self, self._status)
         grid = self._grid
         self.get_logger().info(
             f"ready: {grid.rows}x{grid.cols} cells of {grid.resolution * 1000:.1f} mm over "
             f"x {grid.x_min:.3f}..{grid.x_max:.3f}, y {grid.y_min:.3f}..{grid.y_max:.3f}; "
             f"camera at {list(params.camera_position)}")
+
+    def _status(self) -> Status:
+        """Camera frame rate (colour frames received), heightmap rate, pairs dropped; WARN while a camera
+        topic is silent for frame_timeout s."""
+        frames, heightmaps = self._frame_rate, self._heightmap_rate
+        values = {"frame rate (Hz)": frames.rate(), "heightmap rate (Hz)": heightmaps.rate(),
+                  "frames received": frames.count, "heightmaps published": heightmaps.count,
+                  "pairs dropped": self._pairer.dropped}
+        timeout = self.params.frame_timeout or 5.0
+        silent = self._watch.silent(time.monotonic(), timeout)
+        if silent:
+            return Status(WARN, "no camera messages on " + ", ".join(silent), values)
+        return Status(OK, f"{values['heightmap rate (Hz)']:.1f} heightmaps/s", values)
 
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"frame dropped: {reason}",
@@ -118,6 +134,7 @@ class HeightmapNode(Node):
 
     def _on_color(self, msg: Image) -> None:
         self._watch.seen(names.COLOR_TOPIC, time.monotonic())
+        self._frame_rate.tick()
         stamp = time_to_ns(msg.header.stamp)
         self._check_clock(stamp)
         self._pairs(self._pairer.add_color(stamp, msg))
@@ -192,6 +209,7 @@ class HeightmapNode(Node):
             return
         if heightmap is not None:
             self._publisher.publish(heightmap)
+            self._heightmap_rate.tick()
 
     def _make_heightmap(self, color_msg: Image, depth_msg: Image) -> Heightmap | None:
         info = self._camera_info

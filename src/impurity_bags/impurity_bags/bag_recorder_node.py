@@ -40,6 +40,7 @@ from impurity_bags.bags import (
     weakened_request,
 )
 from impurity_common import names
+from impurity_common.diagnostics import ERROR, OK, WARN, Diagnostics, Status
 from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
@@ -98,11 +99,22 @@ class BagRecorderNode(Node):
         self._depth = params.qos_depth
         self.writer = BagWriter(output, cell_typestore(), split_duration_ns=int(params.split_duration * 1e9))
         self.create_timer(params.discovery_period, self._look_at_graph)
+        self.diagnostics = Diagnostics(self, self._status)
         self._look_at_graph()
         waiting = f"; waiting for a publisher of {self._pending}" if self._pending else ""
         refused = f"; not recording {self._refused} (see the errors above)" if self._refused else ""
         self.get_logger().info(f"recording {len(self._wanted)} topic(s) to {self.writer.path}: "
                                f"{len(self._recorded)} subscribed{waiting}{refused}")
+
+    def _status(self) -> Status:
+        """Messages written; WARN while a topic has no publisher yet, ERROR for a topic it cannot record."""
+        values = {"bag": str(self.writer.path), "messages": self.writer.message_count,
+                  "topics recorded": len(self._recorded), "topics waiting": len(self._pending)}
+        if self._refused:
+            return Status(ERROR, f"not recording {', '.join(self._refused)} (see the log)", values)
+        if self._pending:
+            return Status(WARN, f"waiting for a publisher of {', '.join(self._pending)}", values)
+        return Status(OK, f"recording {len(self._recorded)} topic(s)", values)
 
     def _look_at_graph(self) -> None:
         for topic in list(self._pending):

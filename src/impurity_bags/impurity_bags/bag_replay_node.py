@@ -73,6 +73,7 @@ from impurity_bags.bags import (
     with_clock,
 )
 from impurity_common.conversions import ns_to_time
+from impurity_common.diagnostics import OK, Diagnostics, Status
 from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_with_stop_event
 from impurity_common.parameters import PARAMETER_ERROR_EXIT_CODE, ParameterError, declare_parameters, param
 
@@ -183,6 +184,7 @@ class BagReplayNode(Node):
         self._clock_publisher = None
         self._replay_time_ns = self.timing.first_ns(self.reader.start_ns)  # the last /clock value
         self._replay_time_sent = -float("inf")  # time.monotonic() it was last published at
+        self._published = 0
         try:
             self._select_topics()
             self._topic_publishers = {topic: self._publisher(topic) for topic in self.topics}
@@ -190,6 +192,8 @@ class BagReplayNode(Node):
                 self._publish_clock_topic()
             if self._pacing:
                 self._subscribe_acks(params.ack_topic)
+            self.diagnostics = Diagnostics(self, lambda: Status(OK, f"replaying {self.reader.path}", {
+                "bag": str(self.reader.path), "messages": self._published, "topics": len(self.topics)}))
         except BaseException:
             self.reader.close()
             raise
@@ -313,6 +317,7 @@ class BagReplayNode(Node):
                 self._settle_group()
             self._unanswered.append(message)
         self._topic_publishers[message.topic].publish(message.data)
+        self._published += 1
 
     def _settle_group(self) -> None:
         """Wait for the answer to the pending stamp, re-publishing its frame when none comes."""

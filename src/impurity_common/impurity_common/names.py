@@ -45,6 +45,9 @@ TF_STATIC_TOPIC = "/tf_static"  # tf2_msgs/TFMessage, transient local: fixed joi
 ROBOT_DESCRIPTION_TOPIC = "/robot_description"  # std_msgs/String URDF, transient local
 MARKERS_TOPIC = "/cell/markers"  # visualization_msgs/MarkerArray: chosen push/grasp, attended region
 
+# Every node's status, once a second (impurity_common/diagnostics.py)
+DIAGNOSTICS_TOPIC = "/diagnostics"  # diagnostic_msgs/DiagnosticArray
+
 # Simulator only
 RESET_SCENE_SERVICE = "/cell/reset_scene"  # impurity_interfaces/srv/ResetScene
 GROUND_TRUTH_SERVICE = "/cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth

@@ -31,6 +31,7 @@ from std_srvs.srv import Trigger
 
 from impurity_common import names
 from impurity_common.conversions import ns_to_time
+from impurity_common.diagnostics import OK, WARN, Diagnostics, Status
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.action import RunEpisode
@@ -108,7 +109,20 @@ class EpisodeNode(Node):
             self, RunEpisode, names.RUN_EPISODE_ACTION, execute_callback=self._execute_goal,
             goal_callback=self._on_goal, cancel_callback=lambda _: CancelResponse.ACCEPT,
             callback_group=group)
+        self.diagnostics = Diagnostics(self, self._status)
         self.get_logger().info(f"ready; records go to {self.record_dir}")
+
+    def _status(self) -> Status:
+        """The running episode, or idle; WARN when no episode could start (/episode/status's reason)."""
+        running = self._running
+        values = {"episode": running.episode_id if running is not None else "none",
+                  "use ground truth": self.params.use_ground_truth, "record dir": str(self.record_dir)}
+        if running is not None:
+            return Status(OK, f"running episode {running.episode_id} (started by {running.route})", values)
+        reason = self._state_refusal()
+        if reason is not None:
+            return Status(WARN, reason, values)
+        return Status(OK, "idle: ready for an episode", values)
 
     # ---- requests -----------------------------------------------------------------------------
     @staticmethod

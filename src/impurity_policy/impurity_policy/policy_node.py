@@ -24,6 +24,7 @@ from impurity_common.conversions import (
     numpy_to_image,
     time_to_ns,
 )
+from impurity_common.diagnostics import OK, WARN, Diagnostics, LatencyMeter, Status
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import ParameterError, declare_parameters, param
@@ -99,6 +100,8 @@ class PolicyNode(Node):
         self._memory_episode = ""
         self._decided_on = {}  # stamp (ns) of an answered attention result -> its full height map
         self._stopped_clock = StoppedClockGate(self)
+        self._latency = LatencyMeter()  # s from an attention result's arrival to the primitive's publication
+        self.diagnostics = Diagnostics(self, self._status)
 
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         self._primitive_pub = self.create_publisher(Primitive, names.PRIMITIVE_TOPIC, reliable)
@@ -109,6 +112,17 @@ class PolicyNode(Node):
             self.create_subscription(EpisodeStep, names.EPISODE_STEPS_TOPIC, self._on_episode_step, 10)
         self.get_logger().info(f"ready: {names.ATTENTION_TOPIC} -> {names.PRIMITIVE_TOPIC}; rules "
                                f"'{self.params.rules}': {', '.join(self.policy.rules.names) or 'none'}")
+
+    def _status(self) -> Status:
+        """Decision latency (the last, the mean and the largest of the last 10 s, in s) and the decisions
+        made; WARN until the first decision."""
+        latency = self._latency
+        values = {"decisions": latency.count, "decision latency (s)": "none yet" if latency.last is None
+                  else latency.last, "mean decision latency (s)": latency.mean() or 0.0,
+                  "largest decision latency (s)": latency.largest() or 0.0, "rules": self.params.rules}
+        if latency.last is None:
+            return Status(WARN, f"no decision yet (waiting for {names.ATTENTION_TOPIC})", values)
+        return Status(OK, f"last decision in {latency.last * 1000:.0f} ms", values)
 
     def _network(self) -> QNetwork:
         """The checkpoint's network; a missing or incompatible one ends the node with one line naming
@@ -210,6 +224,7 @@ class PolicyNode(Node):
         out.rotation_index = int(pose.rotation)
         out.pixel_row, out.pixel_col = (int(v) for v in pose.heightmap_pixel)
         self._primitive_pub.publish(out)
+        self._latency.add(time.perf_counter() - started)
         self._last_answered_ns = time_to_ns(msg.header.stamp)
         self._decided_on[self._last_answered_ns] = obs.height
         while len(self._decided_on) > DECISIONS_KEPT:

@@ -28,6 +28,7 @@ from tf2_msgs.msg import TFMessage
 
 from impurity_common import names
 from impurity_common.conversions import time_to_ns
+from impurity_common.diagnostics import OK, WARN, Diagnostics, RateMeter, Status
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import (
     camera_orientation_param,
@@ -86,6 +87,9 @@ class CellStatePublisher(Node):
                                                               params.camera_orientation), stamp))
         self._static_pub.publish(TFMessage(transforms=static))
         self._description_pub.publish(String(data=self._description))
+        self._joint_states = RateMeter()
+        self._static_count = len(static)
+        self.diagnostics = Diagnostics(self, self._status)
         camera = (f"camera at {list(params.camera_position)}" if params.publish_camera_transform
                   else "no camera")
         self.get_logger().info(
@@ -94,7 +98,18 @@ class CellStatePublisher(Node):
             f"{len(static)} static transforms ({camera}) on {names.TF_STATIC_TOPIC}; URDF of "
             f"{len(self._tree.links)} links on {names.ROBOT_DESCRIPTION_TOPIC}")
 
+    def _status(self) -> Status:
+        """Joint states received per second (each becomes /tf); WARN while none arrives."""
+        rate = self._joint_states.rate()
+        values = {"joint state rate (Hz)": rate, "joint states": self._joint_states.count,
+                  "static transforms": self._static_count}
+        if rate == 0.0:
+            return Status(WARN, f"no joint states on {names.JOINT_STATES_TOPIC}: /tf shows no arm motion",
+                          values)
+        return Status(OK, f"{values['joint state rate (Hz)']:.0f} joint states/s", values)
+
     def _on_joint_states(self, msg: JointState) -> None:
+        self._joint_states.tick()
         self._latest = msg
 
     def _publish_tf(self) -> None:

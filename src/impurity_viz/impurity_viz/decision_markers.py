@@ -17,6 +17,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from visualization_msgs.msg import MarkerArray
 
 from impurity_common import names
+from impurity_common.diagnostics import OK, Diagnostics, Status
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.msg import AttentionResult, Primitive
@@ -47,6 +48,11 @@ class DecisionMarkers(Node):
         self.create_subscription(Primitive, names.PRIMITIVE_TOPIC, self._on_primitive, reliable)
         self.create_subscription(AttentionResult, names.ATTENTION_TOPIC, self._on_attention,
                                  QoSProfile(depth=2, reliability=ReliabilityPolicy.RELIABLE))
+        self._drawn = 0
+        self.diagnostics = Diagnostics(self, lambda: Status(
+            OK, f"{self._drawn} marker array(s) drawn",
+            {"marker arrays": self._drawn, "primitive markers": len(self._primitive),
+             "attention markers": len(self._attention)}))
         self.get_logger().info(
             f"ready: {names.PRIMITIVE_TOPIC} + {names.ATTENTION_TOPIC} -> {names.MARKERS_TOPIC}")
 
@@ -73,6 +79,7 @@ class DecisionMarkers(Node):
 
     def _publish(self) -> None:
         self._pub.publish(MarkerArray(markers=[*self._primitive, *self._attention]))
+        self._drawn += 1
 
 
 def main(args=None):

@@ -3,6 +3,14 @@
     action  /ur5/execute_primitive  (impurity_interfaces/ExecutePrimitive)  the motion plan of
             ur5_motion.motion, the same the simulated arm executes (core/executor.py)
     topic   /joint_states           (sensor_msgs/JointState, UR joint names, measured)
+    topic   /diagnostics            (diagnostic_msgs/DiagnosticArray: lifecycle state, robot mode, safety
+                                     mode, gripper state)
+
+A lifecycle node (rclpy.lifecycle; the launchers configure and activate it): configure connects to the
+controller and the gripper, or fails (FAILURE, the reason in the log and on /diagnostics, the node stays
+unconfigured and configure can be tried again); activate lets goals in; deactivate refuses them again and
+cancels a running primitive; cleanup and shutdown stop the arm and disconnect. Joint states are published
+while connected (inactive or active); goals are refused unless active.
 
 dry_run (the default): no robot is contacted; a recording stand-in for ur-rtde and the gripper logs every
 command the driver would send (to the ROS log and, with dry_run_log, a JSONL file) and simulates success.
@@ -21,21 +29,24 @@ from dataclasses import dataclass
 from rclpy.action import ActionServer, CancelResponse, GoalResponse
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import MultiThreadedExecutor
-from rclpy.node import Node
+from rclpy.lifecycle import LifecycleNode, LifecycleState, TransitionCallbackReturn
 from sensor_msgs.msg import JointState
 
 from impurity_common import cell, names
+from impurity_common.diagnostics import ERROR, OK, WARN, Diagnostics, Status
 from impurity_common.enums import PrimitiveKind
 from impurity_common.node_main import spin_node
-from impurity_common.parameters import ParameterError, declare_parameters, param
+from impurity_common.parameters import declare_parameters, param
 from impurity_interfaces.action import ExecutePrimitive
-from ur5_driver_rtde.core.arm import DriverLost, UrArm
+from ur5_driver_rtde.core.arm import ROBOT_MODES, SAFETY_MODES, DriverLost, UrArm
 from ur5_driver_rtde.core.executor import BIN_POSITION, PlanExecutor
 from ur5_driver_rtde.core.gripper import URCAP_PORT, GripperError, Robotiq2F85
 from ur5_driver_rtde.core.recording import CommandLog, DryRunGripper, DryRunRobot
 from ur5_motion import motion, ur5_kinematics
 
 GRIPPERS = ("robotiq_2f85", "dry_run")
+# the lifecycle states (lifecycle_msgs/State labels)
+UNCONFIGURED, INACTIVE, ACTIVE, FINALIZED = "unconfigured", "inactive", "active", "finalized"
 
 
 @dataclass(frozen=True)
@@ -72,23 +83,42 @@ class Ur5DriverParameters:
                                     low=0.1, high=500.0)
 
 
-class Ur5DriverNode(Node):
-    def __init__(self):
-        super().__init__("ur5_driver")
+class ConnectionFailed(RuntimeError):
+    """The controller or the gripper could not be reached; str() says which, why, and the parameter."""
+
+
+def _rtde_interfaces(robot_ip: str, frequency: float):
+    """(control, receive): ur-rtde's interfaces to the controller at robot_ip (RuntimeError when it does
+    not answer)."""
+    import rtde_control  # ur-rtde (requirements.txt); only a real cell needs it
+    import rtde_receive
+
+    control = rtde_control.RTDEControlInterface(robot_ip, frequency)
+    try:
+        return control, rtde_receive.RTDEReceiveInterface(robot_ip, frequency)
+    except RuntimeError:
+        control.disconnect()
+        raise
+
+
+class Ur5DriverNode(LifecycleNode):
+    """The driver as a lifecycle node: configure connects (ur-rtde and the gripper, or the dry run's
+    stand-ins), activate lets goals in, deactivate refuses them again (and cancels a running one),
+    cleanup and shutdown disconnect. `rtde_interfaces(robot_ip, frequency) -> (control, receive)` and
+    `gripper_factory(host, port)` are ur-rtde's and Robotiq2F85 unless a test passes stand-ins;
+    `node_options` go to rclpy's Node (context, parameter_overrides)."""
+
+    def __init__(self, rtde_interfaces=_rtde_interfaces, gripper_factory=Robotiq2F85, **node_options):
+        super().__init__("ur5_driver", **node_options)
         params = self.params = declare_parameters(self, Ur5DriverParameters)
+        self._rtde_interfaces, self._gripper_factory = rtde_interfaces, gripper_factory
         self._log = CommandLog(params.dry_run_log or None,
                                echo=self.get_logger().info if params.dry_run else None)
-        control, receive, gripper = self._connect(params)
-        self._arm = UrArm(control, receive, joint_speed=params.joint_speed,
-                          force_threshold_check=params.force_threshold_check,
-                          flange_to_tcp=params.flange_to_tcp)
-        self._gripper = gripper
-        try:
-            self._arm.prepare()
-        except DriverLost as error:
-            raise ParameterError(self.get_name(), f"the controller does not answer: {error}", "robot_ip",
-                                 params.robot_ip) from None
-        self._executor = PlanExecutor(self._arm, gripper, self._log, params.speed_scale, params.bin_position)
+        self._arm: UrArm | None = None
+        self._gripper = None
+        self._executor: PlanExecutor | None = None
+        self.state = UNCONFIGURED  # the lifecycle state this node is in
+        self.failure: str | None = None  # why the last transition failed (the log and /diagnostics say it)
         self._claim = motion.ArmClaim()  # one primitive at a time
         self._goals = 0
         self._lost_reported = False
@@ -100,56 +130,167 @@ class Ur5DriverNode(Node):
             self, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION, execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
             callback_group=ReentrantCallbackGroup())
+        self.diagnostics = Diagnostics(self, self._status, hardware_id="dry_run" if params.dry_run
+                                       else params.robot_ip, callback_group=MutuallyExclusiveCallbackGroup())
+        target = "the dry run's stand-ins" if params.dry_run else f"the UR5 at {params.robot_ip}"
+        self.get_logger().info(f"unconfigured: configure connects to {target}, activate accepts goals "
+                               "(docs/real_cell.md, \"Lifecycle and diagnostics\")")
+
+    # ------------------------------------------------------------------------------------ lifecycle
+    def on_configure(self, state: LifecycleState) -> TransitionCallbackReturn:
+        """Connect to the arm and the gripper; FAILURE, with the reason logged and on /diagnostics, when
+        either cannot be reached (the node stays unconfigured; configure may be tried again)."""
+        try:
+            self._connect(self.params)
+        except ConnectionFailed as error:
+            return self._failed("configure", str(error))
+        self.failure = None
+        self.state = INACTIVE
+        params = self.params
         mode = "DRY RUN (nothing is sent to a robot)" if params.dry_run else f"UR5 at {params.robot_ip}"
         logged = params.dry_run and params.dry_run_log
         where = f", commands appended to {params.dry_run_log}" if logged else ""
-        self.get_logger().info(f"ready: {mode}, gripper {params.gripper if not params.dry_run else 'dry run'}"
-                               f", speed scale {params.speed_scale:g}{where}")
+        gripper = params.gripper if not params.dry_run else "dry run"
+        self.get_logger().info(f"configured: {mode}, gripper {gripper}, speed scale "
+                               f"{params.speed_scale:g}{where}; goals refused until activated")
+        return TransitionCallbackReturn.SUCCESS
 
-    def _connect(self, params: Ur5DriverParameters):
-        """(control, receive, gripper): recording stand-ins in a dry run, else ur-rtde and the gripper."""
+    def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        if not self._arm.connected():
+            return self._failed("activate", "the UR controller does not answer")
+        self.state = ACTIVE
+        self.get_logger().info("active: accepting goals")
+        return super().on_activate(state)
+
+    def on_deactivate(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self.state = INACTIVE  # a running primitive sees it as a cancel
+        self.get_logger().info("inactive: goals refused until activated")
+        return super().on_deactivate(state)
+
+    def on_cleanup(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._disconnect()
+        self.state = UNCONFIGURED
+        self.get_logger().info("unconfigured: disconnected")
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_shutdown(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._disconnect()
+        self.state = FINALIZED
+        return TransitionCallbackReturn.SUCCESS
+
+    def on_error(self, state: LifecycleState) -> TransitionCallbackReturn:
+        self._disconnect()
+        self.state = UNCONFIGURED
+        return TransitionCallbackReturn.SUCCESS
+
+    def _failed(self, transition: str, reason: str) -> TransitionCallbackReturn:
+        self.failure = f"{transition} failed: {reason}"
+        self.get_logger().error(self.failure)
+        return TransitionCallbackReturn.FAILURE
+
+    def _connect(self, params: Ur5DriverParameters) -> None:
+        """Recording stand-ins in a dry run, else ur-rtde and the gripper; the TCP offset zeroed.
+        ConnectionFailed names what could not be reached and the parameter to check; nothing stays
+        connected then."""
         if params.dry_run:
             robot = DryRunRobot(self._log, drop_after=None if params.dry_run_drop_after < 0
                                 else params.dry_run_drop_after, held_width=params.dry_run_held_width,
                                 contact_height=None if params.dry_run_contact_height < 0
                                 else params.dry_run_contact_height, flange_to_tcp=params.flange_to_tcp)
-            return robot.control, robot.receive, robot.gripper
-        import rtde_control  # ur-rtde (requirements.txt); only a real cell needs it
-        import rtde_receive
+            control, receive, gripper = robot.control, robot.receive, robot.gripper
+        else:
+            try:
+                control, receive = self._rtde_interfaces(params.robot_ip, params.rtde_frequency)
+            except RuntimeError as error:
+                raise ConnectionFailed(f"cannot connect to the UR controller at {params.robot_ip}: {error} "
+                                       "(check robot_ip, and that the controller is on and in remote "
+                                       "control)") from None
+            if params.gripper == "dry_run":
+                gripper = DryRunGripper(CommandLog(echo=self.get_logger().info))
+            else:
+                try:
+                    gripper = self._gripper_factory(params.robot_ip, params.gripper_port)
+                    gripper.activate()
+                except GripperError as error:
+                    if "gripper" in locals():
+                        gripper.disconnect()
+                    _close(control, receive)
+                    raise ConnectionFailed(f"gripper: {error} (check gripper and gripper_port)") from None
+        arm = UrArm(control, receive, joint_speed=params.joint_speed,
+                    force_threshold_check=params.force_threshold_check, flange_to_tcp=params.flange_to_tcp)
         try:
-            control = rtde_control.RTDEControlInterface(params.robot_ip, params.rtde_frequency)
-            receive = rtde_receive.RTDEReceiveInterface(params.robot_ip, params.rtde_frequency)
-        except RuntimeError as error:
-            raise ParameterError(self.get_name(), f"cannot connect to the UR controller: {error}", "robot_ip",
-                                 params.robot_ip) from None
-        if params.gripper == "dry_run":
-            return control, receive, DryRunGripper(CommandLog(echo=self.get_logger().info))
-        try:
-            gripper = Robotiq2F85(params.robot_ip, params.gripper_port)
-            gripper.activate()
-        except GripperError as error:
-            raise ParameterError(self.get_name(), f"gripper: {error}", "gripper", params.gripper) from None
-        return control, receive, gripper
+            arm.prepare()
+        except DriverLost as error:
+            gripper.disconnect()
+            _close(control, receive)
+            raise ConnectionFailed(f"the controller does not answer: {error} (check robot_ip)") from None
+        self._arm, self._gripper = arm, gripper
+        self._executor = PlanExecutor(arm, gripper, self._log, params.speed_scale, params.bin_position)
 
-    def destroy_node(self):
-        self._log.echo = None  # rosout may already be gone; the JSONL file still gets every record
-        self._arm.stop()
-        for close in (self._gripper.disconnect, self._arm.control.disconnect, self._log.close):
+    def _disconnect(self) -> None:
+        """Stop the arm and close the gripper's and the controller's connections (when connected)."""
+        arm, gripper = self._arm, self._gripper
+        self._arm = self._gripper = self._executor = None
+        if arm is None:
+            return
+        arm.stop()
+        for close in (gripper.disconnect, arm.control.disconnect, arm.receive.disconnect):
             try:
                 close()
             except RuntimeError as error:
-                self.get_logger().warning(f"shutdown: {error}")
+                self.get_logger().warning(f"disconnect: {error}")
+
+    def destroy_node(self):
+        self._log.echo = None  # rosout may already be gone; the JSONL file still gets every record
+        self._disconnect()
+        self._log.close()
         return super().destroy_node()
+
+    # ------------------------------------------------------------------------------------ diagnostics
+    def _status(self) -> Status:
+        """Lifecycle state, robot and safety modes, the gripper's state: OK while active and able to move."""
+        values = {"lifecycle state": self.state, "robot mode": "unknown (not connected)",
+                  "safety mode": "unknown (not connected)",
+                  "gripper": "dry_run" if self.params.dry_run else self.params.gripper,
+                  "gripper state": "not connected", "goals": self._goals}
+        arm, gripper = self._arm, self._gripper
+        if arm is None:
+            if self.failure is not None:
+                return Status(ERROR, f"{self.state}: {self.failure}", values)
+            return Status(WARN, f"{self.state}: not connected (configure and activate the driver)", values)
+        problems = []
+        try:
+            safety, robot = arm.modes()
+            values["safety mode"] = f"{safety} {SAFETY_MODES.get(safety, 'UNKNOWN')}"
+            values["robot mode"] = f"{robot} {ROBOT_MODES.get(robot, 'UNKNOWN')}"
+            problem = arm.unavailable()
+            if problem is not None:
+                problems.append(problem)
+        except DriverLost as error:
+            problems.append(f"driver_lost: {error}")
+        try:
+            holding, opening = gripper.holding(), gripper.width()
+            values["gripper state"] = "holding an object" if holding else "empty"
+            values["gripper opening (m)"] = float(opening)
+        except GripperError as error:
+            values["gripper state"] = f"cannot be read: {error}"
+            problems.append(f"gripper: {error}")
+        if problems:
+            return Status(ERROR, f"{self.state}: " + "; ".join(problems), values)
+        if self.state != ACTIVE:
+            return Status(WARN, f"{self.state}: connected, goals refused until activated", values)
+        return Status(OK, "active: accepting goals", values)
 
     # ------------------------------------------------------------------------------------ joint states
     def _publish_joints(self) -> None:
         """Measured joints, UR names; skipped (reported once) while the controller does not answer."""
-        if not self.context.ok():
+        arm = self._arm
+        if not self.context.ok() or arm is None:  # unconfigured: nothing to read
             return
         try:
-            if not self._arm.connected():
+            if not arm.connected():
                 raise DriverLost("not connected")
-            positions = self._arm.joint_positions()
+            positions = arm.joint_positions()
         except DriverLost as error:
             if not self._lost_reported:
                 self.get_logger().error(f"joint states stopped: {error}")
@@ -162,15 +303,24 @@ class Ur5DriverNode(Node):
 
     # ------------------------------------------------------------------------------------ action
     def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:
-        """Accept one valid primitive at a time; reject anything else with its reason in the log."""
+        """Accept one valid primitive at a time while active; reject anything else with its reason in
+        the log."""
         primitive = goal.primitive
         p = primitive.position
         reason = self._claim.refuse_or_claim(primitive.kind, p.x, p.y, p.z, primitive.yaw,
-                                             primitive.header.frame_id, self._arm.unavailable)
+                                             primitive.header.frame_id, self.unavailable)
         if reason is not None:
             self.get_logger().warning(f"goal rejected: {reason}")
             return GoalResponse.REJECT
         return GoalResponse.ACCEPT
+
+    def unavailable(self) -> str | None:
+        """Why no goal can start now: the driver is not active, or the arm cannot move (UrArm.unavailable)."""
+        arm = self._arm
+        if self.state != ACTIVE or arm is None:
+            return (f"the driver is {self.state}, not active: goals are accepted once it is configured and "
+                    "activated (docs/real_cell.md, \"Lifecycle and diagnostics\")")
+        return arm.unavailable()
 
     def _execute(self, goal_handle) -> ExecutePrimitive.Result:
         """Run the primitive's plan; the result holds what the arm and gripper report."""
@@ -184,11 +334,17 @@ class Ur5DriverNode(Node):
             if self.context.ok():
                 goal_handle.publish_feedback(feedback)
 
+        executor = self._executor
         try:
+            if executor is None:  # cleaned up between the goal's acceptance and its start
+                goal_handle.abort()
+                return ExecutePrimitive.Result(success=False,
+                                               message=f"driver_lost: the driver is {self.state}")
             self._goals += 1
             plan = motion.plan_primitive(kind, p.x, p.y, p.z, float(primitive.yaw))
-            outcome = self._executor.execute(plan, self._goals, phase,
-                                             lambda: goal_handle.is_cancel_requested)
+            # deactivating the driver stops a running primitive as a cancel does
+            outcome = executor.execute(plan, self._goals, phase,
+                                        lambda: goal_handle.is_cancel_requested or self.state != ACTIVE)
         finally:
             self._claim.release()
         result = ExecutePrimitive.Result(
@@ -209,8 +365,16 @@ class Ur5DriverNode(Node):
         return result
 
 
+def _close(control, receive) -> None:
+    for close in (control.disconnect, receive.disconnect):
+        try:
+            close()
+        except RuntimeError:
+            pass
+
+
 def main(args=None):
-    spin_node(Ur5DriverNode, args=args, executor_factory=lambda: MultiThreadedExecutor(num_threads=3))
+    spin_node(Ur5DriverNode, args=args, executor_factory=lambda: MultiThreadedExecutor(num_threads=4))
 
 
 if __name__ == "__main__":

@@ -30,6 +30,7 @@ from std_msgs.msg import Header
 
 from impurity_common import cell, names
 from impurity_common.conversions import numpy_to_image
+from impurity_common.diagnostics import OK, Diagnostics, RateMeter, Status
 from impurity_common.enums import PrimitiveKind, Scenario
 from impurity_common.node_main import spin_node
 from impurity_common.parameters import (
@@ -147,6 +148,11 @@ class SimCellNode(Node):
             self, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION, execute_callback=self._execute,
             goal_callback=self._on_goal, cancel_callback=lambda _goal: CancelResponse.ACCEPT,
             callback_group=ReentrantCallbackGroup())
+        self._frames = RateMeter()
+        self.diagnostics = Diagnostics(self, lambda: Status(
+            OK, f"simulated cell ({mode}): camera at {self._frames.rate():.1f} Hz",
+            {"mode": mode, "frame rate (Hz)": self._frames.rate(), "frames published": self._frames.count}),
+            hardware_id="pybullet", callback_group=MutuallyExclusiveCallbackGroup())
         self.get_logger().info(
             f"ready: mode {mode}, {scenario} scene seed {info.seed} ({info.num_targets} targets, "
             f"{info.num_objects} blocks), camera {rate:g} Hz {self._depth_encoding}")
@@ -205,6 +211,7 @@ class SimCellNode(Node):
         self._depth_pub.publish(numpy_to_image(depth_image(frame.depth, self._depth_encoding),
                                                self._depth_encoding, header))
         self._info_pub.publish(camera_info_msg(self._world.camera, header))
+        self._frames.tick()
 
     # ------------------------------------------------------------------------------------ driver
     def _on_goal(self, goal: ExecutePrimitive.Goal) -> GoalResponse:

@@ -109,12 +109,18 @@ class UrArm:
         if not self.connected():
             raise DriverLost(f"connection to the controller lost ({what})")
 
+    def modes(self) -> tuple[int, int]:
+        """(safety mode, robot mode) as the receive interface reads them (SAFETY_MODES, ROBOT_MODES);
+        DriverLost when it does not answer."""
+        safety = int(self._call("getSafetyMode", self.receive.getSafetyMode))
+        robot = int(self._call("getRobotMode", self.receive.getRobotMode))
+        return safety, robot
+
     def mode_problem(self, when: str = "") -> str | None:
         """None while the arm may move (safety mode NORMAL or REDUCED and robot mode RUNNING), else what
         stops it, `when` and both modes, e.g. "protective stop during moveL (safety mode 3
         PROTECTIVE_STOP, robot mode 7 RUNNING)". DriverLost when the receive interface does not answer."""
-        safety = int(self._call("getSafetyMode", self.receive.getSafetyMode))
-        robot = int(self._call("getRobotMode", self.receive.getRobotMode))
+        safety, robot = self.modes()
         if safety in MOVING_SAFETY_MODES and robot == ROBOT_RUNNING:
             return None
         what = SAFETY_STOPS.get(safety, "safety stop")

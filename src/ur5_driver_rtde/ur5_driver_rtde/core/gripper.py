@@ -31,6 +31,7 @@ Tested here against a fake URCap server only (tests/unit/ur5_driver_rtde), never
 from __future__ import annotations
 
 import socket
+import threading
 import time
 from typing import Protocol
 
@@ -79,6 +80,7 @@ class Robotiq2F85:
             raise GripperError(f"cannot reach the Robotiq URCap at {host}:{port}: {error}") from error
         self._buffer = b""
         self._requested = self.open_count
+        self._exchange = threading.Lock()  # one request and its reply at a time (diagnostics read too)
 
     # ------------------------------------------------------------------------------------ protocol
     def _receive(self) -> None:
@@ -106,11 +108,12 @@ class Robotiq2F85:
             self._receive()
 
     def _send(self, text: str, complete) -> str:
-        try:
-            self._socket.sendall((text + "\n").encode("ascii"))
-        except OSError as error:
-            raise GripperError(f"gripper socket: {error}") from error
-        return self._reply(complete)
+        with self._exchange:
+            try:
+                self._socket.sendall((text + "\n").encode("ascii"))
+            except OSError as error:
+                raise GripperError(f"gripper socket: {error}") from error
+            return self._reply(complete)
 
     def set(self, **values: int) -> None:
         """SET VAR value ... in one line; the URCap answers `ack`."""
