@@ -75,6 +75,9 @@ CELLS = {
     "real": (("ur5_driver_rtde", "ur5_driver"), *COMMON_NODES),
 }
 CELL_NODES = list(CELLS["sim"])  # the simulated cell's nodes (make demo, the graph tests)
+# executable -> node name of the lifecycle nodes among them: the launchers configure and then activate
+# each once its process runs (ur5_driver connects to the arm on configure and takes goals once active)
+LIFECYCLE_NODES = {"ur5_driver": "ur5_driver"}
 
 
 # SROS2 (docs/real_cell.md, "Security (SROS2)"): every process runs in its own enclave,

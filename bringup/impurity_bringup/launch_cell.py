@@ -11,6 +11,10 @@ the cell's own), then `--calibration`, then its `--param` overrides. `--print` l
 and starts nothing. The files and executables are the installed ones (share/impurity_bringup/config,
 lib/<package>/<executable> of each package's install prefix, found through the ament index).
 
+The lifecycle nodes among them (cell_nodes.LIFECYCLE_NODES: the UR5 driver) are configured and then
+activated once their process runs (impurity_bringup.lifecycle); a transition that fails stops the cell,
+naming the node and its reason.
+
 Ctrl-C (SIGINT) or SIGTERM stops all of them; if any node dies, the others are stopped and the
 launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node.
 """
@@ -29,6 +33,7 @@ from ament_index_python.packages import PackageNotFoundError, get_package_prefix
 
 from impurity_bringup.cell_nodes import (
     CELLS,
+    LIFECYCLE_NODES,
     NotInstalledError,
     calibration_file,
     parameter_files,
@@ -116,6 +121,37 @@ class CellProcesses:
                     pass
 
 
+def bring_up_lifecycle_nodes(executables: list[str], failed: list[str], stop: threading.Event) -> None:
+    """Configure and activate the lifecycle nodes among `executables` (in a thread of the launcher, with a
+    ROS node of its own); a failure is appended to `failed` and sets `stop`."""
+    import rclpy
+    from rclpy.signals import SignalHandlerOptions
+
+    from impurity_bringup.lifecycle import LifecycleFailed, bring_to_active
+
+    managed = [LIFECYCLE_NODES[name] for name in executables if name in LIFECYCLE_NODES]
+    if not managed:
+        return
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    node = rclpy.create_node("launch_cell", context=context)
+    executor = rclpy.executors.SingleThreadedExecutor(context=context)
+    executor.add_node(node)
+    try:
+        for name in managed:
+            try:
+                bring_to_active(node, f"/{name}", should_stop=stop.is_set, spin_once=executor.spin_once)
+                print(f"launch_cell: {name} is active", flush=True)
+            except LifecycleFailed as error:
+                failed.append(str(error))
+                stop.set()
+                return
+    finally:
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=context)
+
+
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cell", choices=tuple(CELLS), default="sim",
@@ -170,6 +206,9 @@ def main(argv=None) -> int:
     for sig in (signal.SIGINT, signal.SIGTERM):
         signal.signal(sig, lambda *_: stop_requested.set())
     cell = CellProcesses(commands, args.log_dir, args.quiet)
+    lifecycle_failures: list[str] = []
+    threading.Thread(target=bring_up_lifecycle_nodes, args=([n for _, n in nodes], lifecycle_failures,
+                                                            stop_requested), daemon=True).start()
     print(f"launch_cell: started the {args.cell} cell: {', '.join(n for _, n in nodes)} (ROS_DOMAIN_ID="
           f"{os.environ.get('ROS_DOMAIN_ID', '0')}); Ctrl-C stops all", flush=True)
     exit_code = 0
@@ -180,6 +219,9 @@ def main(argv=None) -> int:
                   file=sys.stderr, flush=True)
             exit_code = 1
             break
+    for failure in lifecycle_failures:
+        print(f"launch_cell: {failure}; stopping the cell", file=sys.stderr, flush=True)
+        exit_code = 1
     cell.stop()
     print("launch_cell: all nodes stopped", flush=True)
     return exit_code

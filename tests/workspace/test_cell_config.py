@@ -14,10 +14,18 @@ import sys
 import pytest
 import rclpy
 import yaml
-from launch_stubs import launched_nodes
+from launch_stubs import launched_actions, launched_nodes
+from lifecycle_msgs.msg import Transition
 from parameter_files import as_declared, flatten
 
-from impurity_bringup.cell_nodes import CELLS, config_dir, parameter_files, ros_arguments, share_dir
+from impurity_bringup.cell_nodes import (
+    CELLS,
+    LIFECYCLE_NODES,
+    config_dir,
+    parameter_files,
+    ros_arguments,
+    share_dir,
+)
 from impurity_bringup.launch_cell import main as launch_cell_main
 from impurity_calibration.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
@@ -237,3 +245,26 @@ def test_the_launch_file_takes_another_config_and_calibration(monkeypatch):
                        ).nodes(monkeypatch)
     expected = (str(SIM_CONFIG), "/cells/a.yaml", "/cells/a_cal.yaml")  # its own file, over cell.yaml
     assert {tuple(files) for _, _, files in nodes} == {expected}
+
+
+def test_the_launch_file_configures_the_real_driver_at_its_start_and_activates_it_once_inactive(monkeypatch):
+    actions = launched_actions(monkeypatch, share_dir() / "launch" / "cell.launch.py", {"cell": "real"})
+    (driver,) = [action for action in actions if action[0] == "LifecycleNode"]
+    assert (driver[2]["executable"], driver[2]["name"]) == ("ur5_driver", LIFECYCLE_NODES["ur5_driver"])
+    assert [kwargs["executable"] for kind, _, kwargs in actions if kind == "Node"] == [
+        executable for _, executable in CELLS["real"] if executable not in LIFECYCLE_NODES]
+    matches_driver = ("matches_action", (driver,), {})
+    # (the stand-ins record each action as (kind, args, kwargs))
+    (configure,) = [kwargs["event"][2] for kind, _, kwargs in actions if kind == "EmitEvent"]
+    assert configure == {"lifecycle_node_matcher": matches_driver,
+                         "transition_id": Transition.TRANSITION_CONFIGURE}
+    (handler,) = [args[0][2] for kind, args, _ in actions if kind == "RegisterEventHandler"]
+    assert handler["target_lifecycle_node"] == driver and handler["goal_state"] == "inactive"
+    (activate,) = handler["entities"]
+    assert activate[2]["event"][2] == {"lifecycle_node_matcher": matches_driver,
+                                       "transition_id": Transition.TRANSITION_ACTIVATE}
+
+
+def test_the_simulated_cell_has_no_lifecycle_node(monkeypatch):
+    actions = launched_actions(monkeypatch, share_dir() / "launch" / "cell.launch.py", {})
+    assert {kind for kind, _, _ in actions} == {"Node"}

@@ -103,15 +103,27 @@ def node_name(module: str) -> str:
     return found.pop()
 
 
+# What a lifecycle node (rclpy.lifecycle.LifecycleNode) creates besides: its lifecycle services and
+# transition events (rcl_lifecycle).
+LIFECYCLE_GRANTS = {("reply", f"~/{service}") for service in (
+    "change_state", "get_available_states", "get_available_transitions", "get_state",
+    "get_transition_graph")} | {("publish", "~/transition_event")}
+
+
 def code_grants(executable: str) -> set[tuple[str, str]]:
     """{(permission, name)} of what `executable`'s code creates under the names of impurity_common.names:
     its modules' publishers, subscriptions, service servers and clients, action servers and clients; the
     topics bag_recorder records by default (its `topics` parameter); the services episode_client calls and
-    the action it sends goals to (the names it imports)."""
+    the action it sends goals to (the names it imports); /diagnostics for a node that reports its status
+    (impurity_common.diagnostics.Diagnostics) and the lifecycle services of a LifecycleNode."""
     found = set()
     for module in MODULES[executable]:
         for role, ros_names in node_reference.interfaces(module).items():
             found |= {(PERMISSION_OF_ROLE[role], name) for name in ros_names}
+        if "Diagnostics(self" in module_source(module):
+            found.add(("publish", names.DIAGNOSTICS_TOPIC))
+        if "(LifecycleNode)" in module_source(module):
+            found |= LIFECYCLE_GRANTS
     if executable == "bag_recorder":
         parameters = node_reference.parameters_class(MODULES[executable][0])
         (topics,) = [field.default for field in dataclasses.fields(parameters) if field.name == "topics"]
