@@ -225,6 +225,20 @@ class TopicRecorder:
         self.node.destroy_subscription(self.subscription)
 
 
+def activate(node: Node, target: str, timeout: float = 60.0, processes=()) -> None:
+    """Configure, then activate, the lifecycle node `target` (e.g. "/ur5_driver") as the launchers do
+    (impurity_bringup.lifecycle.bring_to_active; LifecycleFailed names a failed transition and its reason)."""
+    from impurity_bringup.lifecycle import bring_to_active
+
+    def dead() -> bool:
+        for proc in processes:
+            if not proc.alive:
+                raise ProcessDied(f"{proc.name} died while being activated:\n{proc.output()[-3000:]}")
+        return False
+
+    bring_to_active(node, target, timeout, should_stop=dead)
+
+
 def wait_for_subscribers(node: Node, publisher, count: int = 1, timeout: float = 30.0, processes=()):
     spin_until(node, lambda: publisher.get_subscription_count() >= count, timeout,
                f"{count} subscriber(s) on {publisher.topic_name}", processes)

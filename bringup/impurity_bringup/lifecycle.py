@@ -3,8 +3,9 @@
 once the driver's process runs. (The ROS launch file does the same with launch_ros's LifecycleNode and
 lifecycle events.)
 
-A transition that fails is reported with the reason the node gives on /diagnostics (its status message,
-e.g. "unconfigured: configure failed: cannot connect to the UR controller at 192.168.1.10: ...").
+A transition that fails is reported with the reason the node gives on /diagnostics (its status message):
+"/ur5_driver did not become active: unconfigured: configure failed: cannot connect to the UR controller
+at 192.168.1.10: ...".
 """
 
 from __future__ import annotations
@@ -35,8 +36,8 @@ def _spin_until(spin_once, done, timeout: float, should_stop) -> bool:
     return True
 
 
-def _reason(node, target: str, spin_once, should_stop) -> str:
-    """The node's last /diagnostics message (its own status), or a pointer to its log."""
+def _reason(node, target: str, spin_once, should_stop) -> str | None:
+    """The node's own status message on /diagnostics (None when it publishes none within REASON_WAIT s)."""
     name = target.rsplit("/", 1)[-1]
     heard: list[str] = []
 
@@ -48,7 +49,7 @@ def _reason(node, target: str, spin_once, should_stop) -> str:
         _spin_until(spin_once, lambda: bool(heard), REASON_WAIT, should_stop)
     finally:
         node.destroy_subscription(subscription)
-    return heard[-1] if heard else "its log says why"
+    return heard[-1] if heard else None
 
 
 def bring_to_active(node, target: str, timeout: float = 60.0, should_stop=lambda: False,
@@ -82,7 +83,8 @@ def bring_to_active(node, target: str, timeout: float = 60.0, should_stop=lambda
                 raise LifecycleFailed(f"{target}: {label} was not answered within {timeout:.0f} s")
             if not answer.result().success:
                 reason = _reason(node, target, spin_once, should_stop)
-                raise LifecycleFailed(f"{target}: {label} failed: {reason}")
+                raise LifecycleFailed(f"{target} did not become active: "
+                                      + (reason or f"{label} failed (its log says why)"))
     finally:
         node.destroy_client(get_state)
         node.destroy_client(change_state)

@@ -32,7 +32,7 @@ from impurity_interfaces.msg import AttentionResult, Heightmap, Primitive
 from impurity_interfaces.srv import GetGroundTruth
 from impurity_learning.splits import EVAL_SEED_BASE
 from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, read_steps
-from ros_harness import ROOT, ActionHelper, NodeProcess, TopicRecorder, call_service, ros_args
+from ros_harness import ROOT, ActionHelper, NodeProcess, TopicRecorder, activate, call_service, ros_args
 
 CONFIG = ROOT / "bringup" / "config" / "cell.yaml"
 PERCEPTION = [("impurity_attention", "heightmap_node"), ("impurity_attention", "attention_node"),
@@ -275,6 +275,7 @@ def test_a_driver_that_drops_mid_motion_ends_the_episode_with_driver_lost(ros_no
     # The real UR5 driver in its dry run (no robot is contacted) serves /ur5/execute_primitive; its
     # connection drops at motion command 4, during the first push (8 motion commands).
     driver = launch("ur5_driver_rtde", "ur5_driver", ros_args({"dry_run": True, "dry_run_drop_after": 3}))
+    activate(ros_node, "/ur5_driver", processes=[driver])
     episode = launch("impurity_policy", "episode_node", ros_args(
         {"record_dir": str(tmp_path), "use_ground_truth": False, "scene_service_timeout": 0.0}))
     procs = [driver, episode]
