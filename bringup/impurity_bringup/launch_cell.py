@@ -133,7 +133,7 @@ def bring_up_lifecycle_nodes(executables: list[str], failed: list[str], stop: th
     if not managed:
         return
     context = rclpy.Context()
-    rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+    rclpy.init(args=[], context=context, signal_handler_options=SignalHandlerOptions.NO)
     node = rclpy.create_node("launch_cell", context=context)
     executor = rclpy.executors.SingleThreadedExecutor(context=context)
     executor.add_node(node)
