@@ -35,7 +35,7 @@ RUN apt-get update \
         python3-venv python3-pip python3-colcon-common-extensions \
         ros-jazzy-rosidl-default-generators ros-jazzy-sensor-msgs ros-jazzy-geometry-msgs \
         ros-jazzy-std-msgs ros-jazzy-std-srvs ros-jazzy-unique-identifier-msgs ros-jazzy-visualization-msgs \
-        ros-jazzy-tf2-msgs ros-jazzy-rosgraph-msgs \
+        ros-jazzy-tf2-msgs ros-jazzy-rosgraph-msgs ros-jazzy-diagnostic-msgs \
         ros-jazzy-ros2launch ros-jazzy-launch-ros ros-jazzy-realsense2-camera \
     && rm -rf /var/lib/apt/lists/*
 

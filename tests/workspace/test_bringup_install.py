@@ -29,12 +29,18 @@ LAUNCH_STUBS = textwrap.dedent("""
             self.name = name
 
     modules = {name: types.ModuleType(name) for name in
-               ("launch", "launch.actions", "launch.substitutions", "launch_ros", "launch_ros.actions")}
+               ("launch", "launch.actions", "launch.events", "launch.substitutions", "launch_ros",
+                "launch_ros.actions", "launch_ros.event_handlers", "launch_ros.events",
+                "launch_ros.events.lifecycle")}
     modules["launch"].LaunchDescription = recorder("LaunchDescription")
-    modules["launch.actions"].DeclareLaunchArgument = recorder("DeclareLaunchArgument")
-    modules["launch.actions"].OpaqueFunction = recorder("OpaqueFunction")
+    for action in ("DeclareLaunchArgument", "OpaqueFunction", "EmitEvent", "RegisterEventHandler"):
+        setattr(modules["launch.actions"], action, recorder(action))
+    modules["launch.events"].matches_action = recorder("matches_action")
     modules["launch.substitutions"].LaunchConfiguration = LaunchConfiguration
     modules["launch_ros.actions"].Node = recorder("Node")
+    modules["launch_ros.actions"].LifecycleNode = recorder("LifecycleNode")
+    modules["launch_ros.event_handlers"].OnStateTransition = recorder("OnStateTransition")
+    modules["launch_ros.events.lifecycle"].ChangeState = recorder("ChangeState")
     sys.modules.update(modules)
 """)
 
