@@ -101,13 +101,12 @@ class HeightmapNode(Node):
 
     def _status(self) -> Status:
         """Camera frame rate (colour frames received), heightmap rate, pairs dropped; WARN while a camera
-        topic is silent for frame_timeout s."""
+        topic is silent for frame_timeout s (0: never)."""
         frames, heightmaps = self._frame_rate, self._heightmap_rate
         values = {"frame rate (Hz)": frames.rate(), "heightmap rate (Hz)": heightmaps.rate(),
                   "frames received": frames.count, "heightmaps published": heightmaps.count,
                   "pairs dropped": self._pairer.dropped}
-        timeout = self.params.frame_timeout or 5.0
-        silent = self._watch.silent(time.monotonic(), timeout)
+        silent = self._watch.silent(time.monotonic(), self.params.frame_timeout)
         if silent:
             return Status(WARN, "no camera messages on " + ", ".join(silent), values)
         return Status(OK, f"{values['heightmap rate (Hz)']:.1f} heightmaps/s", values)

@@ -21,6 +21,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+from rclpy.clock import Clock, ClockType
 
 from impurity_common import names
 
@@ -118,8 +119,6 @@ class Diagnostics:
 
     def __init__(self, node, check: Callable[[], Status], hardware_id: str = "", period: float = PERIOD,
                  callback_group=None):
-        from rclpy.clock import Clock, ClockType
-
         self._node, self.check, self.hardware_id = node, check, hardware_id
         self._publisher = node.create_publisher(DiagnosticArray, names.DIAGNOSTICS_TOPIC, 10)
         self._timer = node.create_timer(period, self.publish, callback_group=callback_group,
