@@ -244,7 +244,12 @@ class Ur5DriverNode(LifecycleNode):
         self._log.echo = None  # rosout may already be gone; the JSONL file still gets every record
         self._disconnect()
         self._log.close()
-        return super().destroy_node()
+        # rclpy's destroy_node leaves the action server and the lifecycle state machine's services behind
+        # (still discoverable, never answering); both go first
+        self._action.destroy()
+        destroyed = super().destroy_node()
+        self._state_machine.destroy_when_not_in_use()
+        return destroyed
 
     # ------------------------------------------------------------------------------------ diagnostics
     def _status(self) -> Status:
