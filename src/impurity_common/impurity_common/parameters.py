@@ -656,13 +656,14 @@ def override_problem(name: str, value: str) -> str | None:
 def command_line_overrides(args: Sequence[str]) -> list[tuple[str, str]]:
     """(name, value) of each `-p NAME:=VALUE` / `--param NAME:=VALUE` in the ROS sections of `args`
     (`--ros-args` up to `--` or the end), in order."""
-    overrides, in_ros = [], False
-    for arg, following in zip(args, [*args[1:], None], strict=True):
+    args, overrides, in_ros = list(args), [], False
+    for index, arg in enumerate(args):
+        following = args[index + 1] if index + 1 < len(args) else ""
         if arg == "--ros-args":
             in_ros = True
         elif in_ros and arg == "--":
             in_ros = False
-        elif in_ros and arg in ("-p", "--param") and following is not None and ":=" in following:
+        elif in_ros and arg in ("-p", "--param") and ":=" in following:
             name, _, value = following.partition(":=")
             overrides.append((name, value))
     return overrides

@@ -498,3 +498,4 @@ def test_only_the_overrides_in_ros_sections_are_checked():
     assert command_line_overrides(args) == [("b", "[1,2]"), ("c", "[0.5,1]")]
     assert command_line_problem(args).startswith("parameter c:=[0.5,1] mixes integers and floats")
     assert command_line_problem(["node", "--ros-args", "-p", "b:=[1,2]"]) is None
+    assert command_line_overrides([]) == [] and command_line_overrides(["node", "--ros-args", "-p"]) == []
