@@ -14,6 +14,7 @@ from impurity_policy.core.verdict import (
     full_mask,
     gripper_holds,
     judge_grasp,
+    piece_height,
     product_color_contrast,
     product_color_distance,
     product_reference,
@@ -266,3 +267,18 @@ def test_a_colour_change_well_beyond_the_exposure_still_counts_the_cells():
     assert target_gone_fraction(*before, MASK, *exposed(before, 0.7), gain=0.7) == 0.0
     with pytest.raises(ValueError, match="gain"):
         target_gone_fraction(*before, MASK, *after, gain=0.0)
+
+
+def test_a_tall_piece_whose_height_stayed_is_not_gone_whatever_the_light_did_to_its_colour():
+    # a shadow or a flicker band over the grasp darkens the untouched target alone: the brightness gain,
+    # measured away from the grasp, does not see it; the target's height did not fall
+    after_height, after_color = scene([TARGET])
+    after_color[MASK] = (np.asarray(RED) * 0.4).astype(np.uint8)
+    verdict = judge((after_height, after_color))
+    assert not verdict.impurity_picked and verdict.gone_fraction == 0.0
+
+
+def test_a_pieces_height_is_measured_above_its_surroundings():
+    assert piece_height(BEFORE[0], MASK) == pytest.approx(0.03)  # a block on the table
+    on_block = scene([(6, 24, 6, 24, 0.02, GREY), (10, 20, 10, 20, 0.022, RED)])  # a 2 mm flake on a block
+    assert piece_height(on_block[0], MASK) == pytest.approx(0.002, abs=1e-6)

@@ -173,6 +173,10 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
     gain: how bright the after view is against the before view (brightness_gain); a cell's colour change
     is measured against its before colour seen at that gain (clipped at 255 as the camera clips), in the
     before view's units, so that a change of exposure alone changes no cell.
+    A piece standing at least min_height_drop above its surroundings (piece_height) cannot be lifted
+    without its cells losing height: there a cell's colour change counts only where the cell also fell by
+    at least half min_height_drop (e.g. a product block revealed under it), so that an untouched tall piece
+    stays, whatever the light did. A flatter piece (a flake) shows its removal in its colour alone.
     Raises ValueError on shape mismatch, an empty mask, non-finite heights in the mask or a gain <= 0.
     """
     mask = _checked_mask(before_height, before_color, target_mask, after_height, after_color)
@@ -187,7 +191,20 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
     dropped = (h0 - h1) >= params.min_height_drop
     expected = np.minimum(c0 * gain, 255.0)
     recolored = np.linalg.norm(c1 - expected, axis=1) / gain >= params.min_color_change
+    if piece_height(before_height, mask) >= params.min_height_drop:
+        recolored &= (h0 - h1) >= params.min_height_drop / 2
     return float(np.mean(dropped | recolored))
+
+
+def piece_height(height: np.ndarray, target_mask: np.ndarray) -> float:
+    """How far (m) the target stands above its surroundings: the median height of the mask's cells less
+    that of the finite cells within REFERENCE_MARGIN around it (0, the table, when there are none).
+    height (H, W) m; target_mask (H, W) bool, not empty."""
+    mask = np.asarray(target_mask).astype(bool)
+    heights = np.asarray(height, dtype=np.float64)
+    ring = heights[_grown(mask, REFERENCE_MARGIN) & ~mask]
+    ring = ring[np.isfinite(ring)]
+    return float(np.median(heights[mask]) - (np.median(ring) if ring.size else 0.0))
 
 
 def _region_and_others(color, height, target_mask, min_object_height):
