@@ -5,7 +5,11 @@ picked an impurity when all hold:
 
 1. the target is gone from where it was: in the next fresh heightmap, at least `min_gone_fraction` of the
    target mask's cells have lost height (by >= `min_height_drop` m) or changed colour (by >=
-   `min_color_change`, Euclidean distance in RGB 0-255);
+   `min_color_change`, Euclidean distance in RGB 0-255). The colour is judged at the after view's own
+   brightness (brightness_gain: measured on cells away from the grasp whose height stayed), so that a
+   camera's exposure change (auto exposure hunting, mains flicker) moves no cell; and on a piece standing
+   at least `min_height_drop` above its surroundings a colour change counts only where the height fell
+   too (target_gone_fraction): such a piece cannot be lifted without losing its height;
 2. the gripper reports something between its fingers after the lift: the driver's `holding`, or, when the
    driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
    the gripper did not close fully);
