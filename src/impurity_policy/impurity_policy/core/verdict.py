@@ -108,8 +108,8 @@ def gripper_holds(report: GripperReport, params: VerdictParams = VerdictParams()
 # surroundings, where the fingers and the lifted piece change the view). 4 cells: 8 mm at the heightmap's
 # 2 mm resolution, about a finger's width.
 REFERENCE_MARGIN = 4
-# The least reference cells a gain is measured on; with fewer the after view is taken as bright as the
-# before view (gain 1).
+# The least reference cells a gain is measured on (enough that a few cells changed by the grasp cannot move
+# the median); with fewer the after view is taken as bright as the before view (gain 1).
 MIN_REFERENCE_CELLS = 50
 # RGB sum (0-765) a reference cell must reach in the before view: darker cells read mostly rounding.
 MIN_REFERENCE_BRIGHTNESS = 48.0
