@@ -38,6 +38,7 @@ from impurity_common.names import (
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
 from impurity_policy.core.episode import (
+    COUNTED_BY_NOTHING,
     FIELD_RANGES,
     TERMINATION_CANCELED,
     EpisodeRequest,
@@ -92,8 +93,10 @@ def kind_label(kind: int) -> str:
 
 def format_result(result) -> str:
     """The episode's end and metrics, one per line; an episode that failed before its first action (a
-    request the cell refused, e.g. an unknown palette, a lost node) prints its reason alone: no metrics."""
-    if result.actions == 0 and is_failure(result.termination_reason):
+    request the cell refused, e.g. an unknown palette, a lost node) or that ended before its scene was ready
+    (counted nothing, e.g. canceled during the reset) prints its reason alone: no metrics."""
+    counted_nothing = result.counted_by == COUNTED_BY_NOTHING
+    if result.actions == 0 and (is_failure(result.termination_reason) or counted_nothing):
         return (f"episode {result.episode_id or '(none)'}: {result.termination_reason}\n"
                 "  no action was taken")
     perception = result.counted_by == "perception"

@@ -39,6 +39,7 @@ from impurity_bringup.cell_nodes import (
     parameter_files,
     ros_arguments,
 )
+from impurity_common.parameters import override_problem
 
 
 def executable(package: str, name: str) -> pathlib.Path:
@@ -195,6 +196,9 @@ def main(argv=None) -> int:
             parser.error(str(error))
         if target not in {n for _, n in cell_nodes}:
             parser.error(f"--param {text!r}: {target} is not a node of the {args.cell} cell")
+        problem = override_problem(name, value)
+        if problem is not None:  # rcl would end the node in a traceback
+            parser.error(f"--param {target}: {problem}")
         overrides.setdefault(target, {})[name] = value
     commands = node_commands(nodes, files, overrides)
     if args.print_only:

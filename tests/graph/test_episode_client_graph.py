@@ -26,7 +26,7 @@ from rclpy.executors import MultiThreadedExecutor
 from impurity_bringup.episode_client import format_result
 from impurity_common.names import RUN_EPISODE_ACTION
 from impurity_interfaces.action import RunEpisode
-from impurity_policy.core.episode import TERMINATION_CANCELED
+from impurity_policy.core.episode import COUNTED_BY_NOTHING, TERMINATION_CANCELED
 from ros_harness import ros_args
 
 CLIENT = [sys.executable, "-m", "impurity_bringup.episode_client"]
@@ -108,6 +108,14 @@ def test_an_episode_refused_before_its_first_action_prints_its_reason_and_no_met
     ran = RunEpisode.Result(episode_id="e1", termination_reason="error: driver rejected the primitive",
                             actions=3, grasp_attempts=1, targets_total=2)
     assert "grasp success" in format_result(ran)  # after an action, the metrics are the record
+
+
+def test_an_episode_canceled_before_its_scene_was_ready_prints_its_reason_and_no_count():
+    canceled = RunEpisode.Result(episode_id="e1", termination_reason=TERMINATION_CANCELED,
+                                 counted_by=COUNTED_BY_NOTHING, targets_total=-1)
+    text = format_result(canceled)
+    assert f"episode e1: {TERMINATION_CANCELED}" in text and "no action was taken" in text
+    assert "targets picked" not in text and "/-1" not in text
 
 
 def run_client(*args: str) -> subprocess.CompletedProcess:

@@ -212,6 +212,9 @@ def test_a_cancel_is_honoured_in_every_wait_and_the_goal_ends_canceled_with_its_
         assert result.actions == len(steps) == 1 and steps[0]["message"] == "push cancelled"
     else:
         assert result.actions == len(steps) == 0
+    if wait == "reset service":  # the scene was never ready: nothing was counted, and the record says so
+        assert result.counted_by == summary_of(result)["counted_by"] == "nothing"
+        assert result.targets_total == summary_of(result)["targets_total"] == -1
     # Free again: the next goal is accepted.
     again = action.send_goal(RunEpisode.Goal(scenario="random", seed=2))
     assert again.accepted

@@ -90,6 +90,13 @@ BAD_STARTS = {
                          "expected one of: random, challenging, invisible, file, empty"),
     "own-main": ("impurity_bags", "bag_replay", {"rate": 0.0},
                  "bag_replay: parameter rate:=0.0 is out of range; expected a double in [0.001, 1000.0]"),
+    # rcl itself cannot read a list of integers and floats: refused before rclpy starts
+    "mixed-list": ("impurity_attention", "heightmap_node", {"camera_position": [0.5, 0.0, 1]},
+                   "heightmap_node: parameter camera_position:=[0.5,0.0,1] mixes integers and floats in one "
+                   "list, which ROS cannot read; write every number as a float: "
+                   "camera_position:=[0.5,0.0,1.0]"),
+    "own-main-mixed-list": ("impurity_bags", "bag_replay", {"topics": ["/a", 1]},
+                            "bag_replay: parameter topics:=[/a,1] mixes integers and strings in one list"),
 }
 
 

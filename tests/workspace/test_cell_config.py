@@ -193,6 +193,9 @@ def test_the_launcher_takes_another_config_and_calibration(capsys, tmp_path):
     (["--cell", "real", "--only", "sim_cell"], "unknown node(s) of the real cell: sim_cell"),
     (["--param", "ur5_driver:dry_run:=false"], "ur5_driver is not a node of the sim cell"),
     (["--param", "policy_node:rules=none"], "expected EXECUTABLE:NAME:=VALUE"),
+    (["--param", "heightmap_node:camera_position:=[0.5,0.0,1]"],
+     "camera_position:=[0.5,0.0,1] mixes integers and floats in one list, which ROS cannot read; write every "
+     "number as a float: camera_position:=[0.5,0.0,1.0]"),
     (["--calibration", "/nonexistent/calibration.yaml"],
      "calibration /nonexistent/calibration.yaml not found"),
 ])

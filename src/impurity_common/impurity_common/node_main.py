@@ -20,6 +20,7 @@ from rclpy.signals import SignalHandlerOptions
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
     ParameterError,
+    command_line_problem,
     parameter_specs,
     parameters_help,
 )
@@ -51,6 +52,7 @@ def init_with_stop_event(args=None, signals=(signal.SIGINT, signal.SIGTERM)) -> 
     KeyboardInterrupt in the main thread, in no fixed order; a spin_once that starts in between fails
     with RCLError ("the given context is not valid") and the KeyboardInterrupt then lands in the
     clean-up, so Ctrl-C ended the process by SIGINT instead of exit 0 (seen in CI on bag_replay)."""
+    exit_if_unreadable_overrides(args)
     rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
     stop = threading.Event()
     for sig in signals:
@@ -120,6 +122,19 @@ def exit_if_help(args: Sequence[str] | None = None, parameters=None, description
         sys.exit(0)
 
 
+def exit_if_unreadable_overrides(args: Sequence[str] | None = None, executable: str | None = None) -> None:
+    """When a `-p NAME:=VALUE` of `args` (default sys.argv) is one rcl cannot read (a list mixing
+    integers and floats, parameters.command_line_problem), print one line naming the executable (default
+    sys.argv[0]'s name), the parameter and the fix to stderr and exit with PARAMETER_ERROR_EXIT_CODE
+    before rclpy starts (rcl would end in a traceback); else return. spin_node and init_with_stop_event
+    call it."""
+    args = sys.argv if args is None else args
+    problem = command_line_problem(args)
+    if problem is not None:
+        print(f"{executable or pathlib.Path(sys.argv[0]).name}: {problem}", file=sys.stderr, flush=True)
+        sys.exit(PARAMETER_ERROR_EXIT_CODE)
+
+
 def parameters_of(node_factory):
     """The parameters dataclass of a node class, found without building it: the one dataclass defined in
     the class's module whose fields are all parameters (parameters.param or nested groups) and which no
@@ -160,12 +175,14 @@ def spin_node(node_factory, args=None, executor_factory=None, *, parameters=None
     parameters of `parameters` (the node's parameters dataclass; default: parameters_of(node_factory))
     under `description` (default: the first line of node_factory's module docstring).
 
-    A bad parameter or an unknown one (ParameterError from parameters.declare_parameters) ends the
-    process with its one line on stderr and exit status 2, no traceback. Malloc arenas are bounded first
+    A bad parameter or an unknown one (ParameterError from parameters.declare_parameters), or a `-p`
+    override rcl cannot read (exit_if_unreadable_overrides), ends the process with its one line on stderr
+    and exit status 2, no traceback. Malloc arenas are bounded first
     (bound_malloc_arenas), so memory stays flat over long runs."""
     if wants_help(sys.argv if args is None else args):
         exit_if_help(args, parameters or parameters_of(node_factory),
                      description or _description_of(node_factory))
+    exit_if_unreadable_overrides(args)
     bound_malloc_arenas()
     rclpy.init(args=args)
     node = None

@@ -597,3 +597,82 @@ def camera_orientation_param():
     """The camera pose's orientation (see camera_position_param)."""
     return param(cell.CAMERA_ORIENTATION, "Camera optical frame orientation in base_link: quaternion "
                  "[x, y, z, w]", length=4, check=nonzero_norm)
+
+
+# ------------------------------------------------------------------ command-line overrides rcl cannot read
+# YAML words rcl's parameter parser reads as booleans (rcl_yaml_param_parser); any other plain word that
+# is a whole integer (C strtoll, base 0) is an integer, a whole number (strtod) a double, else a string.
+_YAML_BOOLEANS = frozenset("y Y yes Yes YES true True TRUE on On ON "
+                           "n N no No NO false False FALSE off Off OFF".split())
+_KIND_WORDS = {"bool": "booleans", "integer": "integers", "double": "floats", "string": "strings"}
+
+
+def _yaml_scalar_kind(text: str) -> str:
+    """The type rcl gives one plain YAML scalar of a `-p` value: bool, integer, double or string."""
+    if text[:1] in ("'", '"'):
+        return "string"
+    if text in _YAML_BOOLEANS:
+        return "bool"
+    try:
+        if "_" not in text:  # Python reads 1_000 as a number, C does not
+            int(text, 0)
+            return "integer"
+    except ValueError:
+        pass
+    try:
+        if "_" not in text:
+            float(text)
+            return "double"
+    except ValueError:
+        pass
+    return "string"
+
+
+def override_problem(name: str, value: str) -> str | None:
+    """Why rcl cannot read the command-line override `-p name:=value`, in words naming the parameter and
+    the fix, or None when it can (as far as checked here: a flat YAML list whose elements are not all of
+    one type, which rcl refuses with a traceback: "Sequence should be of same type"). E.g. ("camera_position",
+    "[0.5,0.0,1]") -> "parameter camera_position:=[0.5,0.0,1] mixes integers and floats in one list, which
+    ROS cannot read; write every number as a float: camera_position:=[0.5,0.0,1.0]"."""
+    text = value.strip()
+    if not (text.startswith("[") and text.endswith("]")) or any(c in text[1:-1] for c in "[]{}'\""):
+        return None
+    elements = [element.strip() for element in text[1:-1].split(",")]
+    if elements == [""]:
+        return None
+    kinds = [_yaml_scalar_kind(element) for element in elements]
+    if len(set(kinds)) < 2:
+        return None
+    if set(kinds) == {"integer", "double"}:
+        fixed = [f"{float(int(e, 0))!r}" if kind == "integer" else e
+                 for e, kind in zip(elements, kinds, strict=True)]
+        return (f"parameter {name}:={text} mixes integers and floats in one list, which ROS cannot read; "
+                f"write every number as a float: {name}:=[{','.join(fixed)}]")
+    mixed = " and ".join(_KIND_WORDS[k] for k in sorted(set(kinds)))
+    return (f"parameter {name}:={text} mixes {mixed} in one list, which ROS cannot read; write every element "
+            "as one type (quote words: ['a','b'])")
+
+
+def command_line_overrides(args: Sequence[str]) -> list[tuple[str, str]]:
+    """(name, value) of each `-p NAME:=VALUE` / `--param NAME:=VALUE` in the ROS sections of `args`
+    (`--ros-args` up to `--` or the end), in order."""
+    args, overrides, in_ros = list(args), [], False
+    for index, arg in enumerate(args):
+        following = args[index + 1] if index + 1 < len(args) else ""
+        if arg == "--ros-args":
+            in_ros = True
+        elif in_ros and arg == "--":
+            in_ros = False
+        elif in_ros and arg in ("-p", "--param") and ":=" in following:
+            name, _, value = following.partition(":=")
+            overrides.append((name, value))
+    return overrides
+
+
+def command_line_problem(args: Sequence[str]) -> str | None:
+    """override_problem of the first `-p` override in `args` that rcl cannot read, or None."""
+    for name, value in command_line_overrides(args):
+        problem = override_problem(name, value)
+        if problem is not None:
+            return problem
+    return None

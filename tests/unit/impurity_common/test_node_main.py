@@ -151,3 +151,15 @@ def test_with_the_stop_event_signals_only_set_it_and_leave_the_context_valid():
     run = subprocess.run([sys.executable, "-c", STOP_SCRIPT], capture_output=True, text=True, timeout=60)
     assert run.returncode == 0, run.stderr
     assert run.stdout.split("\n")[:3] == ["SIGINT True True", "SIGTERM True True", "SIGINT True True"]
+
+
+# ------------------------------------------------------------------ overrides rcl cannot read
+def test_an_override_rcl_cannot_read_ends_the_process_with_one_line_before_rclpy_starts(capsys):
+    args = ["heightmap_node", "--ros-args", "-p", "camera_position:=[0.5,0.0,1]"]
+    with pytest.raises(SystemExit) as stop:
+        node_main.exit_if_unreadable_overrides(args, "heightmap_node")
+    assert stop.value.code == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and err.startswith("heightmap_node: parameter camera_position:=[0.5,0.0,1] ")
+    assert err.rstrip().endswith("write every number as a float: camera_position:=[0.5,0.0,1.0]")
+    node_main.exit_if_unreadable_overrides([*args[:3], "camera_position:=[0.5,0.0,1.0]"])  # returns

@@ -23,9 +23,12 @@ from impurity_common.parameters import (
     check_fields,
     check_value,
     close_names,
+    command_line_overrides,
+    command_line_problem,
     descriptor,
     format_value,
     increasing,
+    override_problem,
     param,
     parameter_specs,
     parameters_help,
@@ -462,3 +465,37 @@ def test_a_dataclass_whose_post_init_checks_its_fields_builds_from_ros_values_as
     with pytest.raises(ParameterError, match="^node: parameter rate:=20.0 is out of range; expected"):
         build("node", Checked, {**{spec.name: spec.default for spec in parameter_specs(Checked)},
                                 "rate": 20.0})
+
+
+# ------------------------------------------------------------------ command-line overrides rcl cannot read
+@pytest.mark.parametrize("value, fix", [
+    ("[0.5,0.0,1]", "camera_position:=[0.5,0.0,1.0]"),
+    ("[1, 2.5]", "camera_position:=[1.0,2.5]"),
+    ("[0x10,2.5]", "camera_position:=[16.0,2.5]"),
+    ("[1e3,2]", "camera_position:=[1e3,2.0]"),
+])
+def test_a_list_of_integers_and_floats_is_refused_with_the_fix(value, fix):
+    problem = override_problem("camera_position", value)
+    assert problem.startswith(f"parameter camera_position:={value} mixes integers and floats in one list")
+    assert problem.endswith(f"write every number as a float: {fix}")
+
+
+@pytest.mark.parametrize("value, kinds", [("[1,true]", "booleans and integers"),
+                                          ("[a,1]", "integers and strings")])
+def test_a_list_of_other_mixed_types_is_refused_naming_them(value, kinds):
+    assert f"mixes {kinds} in one list" in override_problem("p", value)
+
+
+@pytest.mark.parametrize("value", ["[1,2]", "[0.5,0.0,1.0]", "[yes,no]", "[1e3,2.0]", "[]", "1", "abc",
+                                   "['a','1']", "[a,b]"])
+def test_values_rcl_reads_are_not_refused(value):
+    assert override_problem("p", value) is None
+
+
+def test_only_the_overrides_in_ros_sections_are_checked():
+    args = ["node", "-p", "a:=[1,2.5]", "--ros-args", "-p", "b:=[1,2]", "--param", "c:=[0.5,1]", "--",
+            "-p", "d:=[1,2.5]"]
+    assert command_line_overrides(args) == [("b", "[1,2]"), ("c", "[0.5,1]")]
+    assert command_line_problem(args).startswith("parameter c:=[0.5,1] mixes integers and floats")
+    assert command_line_problem(["node", "--ros-args", "-p", "b:=[1,2]"]) is None
+    assert command_line_overrides([]) == [] and command_line_overrides(["node", "--ros-args", "-p"]) == []

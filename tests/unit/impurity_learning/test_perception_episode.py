@@ -5,12 +5,14 @@ verdict` chooses the verdict's thresholds from such episodes."""
 
 import json
 
+import numpy as np
 import pytest
 
 from impurity_learning.agents import make_agent
 from impurity_learning.evaluate import PerceptionSimCell, run_episode
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRecorder, EpisodeRequest
+from impurity_policy.core.verdict import GripperReport, judge_grasp
 from ur5_driver_sim.core.world import CellWorld
 
 REQUEST = EpisodeRequest("challenging", seed=50_001, num_targets=1, num_objects=5, max_actions=15)
@@ -65,3 +67,30 @@ def test_a_view_handed_over_as_the_known_product_is_attended_with_until_the_next
     assert cell.known_product is product
     cell.reset(request)
     assert cell.known_product is None
+
+
+def test_rendered_views_at_another_exposure_judge_an_untouched_impurity_stays_and_a_lifted_one_gone(world):
+    """The grasp verdict on the simulator's frames, the view after the grasp 0.6 to 0.8 times as bright as
+    the one before (auto exposure hunting, mains flicker)."""
+    def exposed(color, factor):
+        return np.clip(np.rint(color * factor), 0, 255).astype(np.uint8)
+
+    cell = PerceptionSimCell(world, make_agent("ours", SHIPPED_CHECKPOINT, "cell"))
+    cell.reset(EpisodeRequest("random", seed=51_000, num_targets=1, num_objects=5, palette="blocks"))
+    before = cell.observe()
+    assert before.target_mask is not None
+    holds = GripperReport(holding=True, opening=0.03)
+    for factor in (0.6, 0.7, 0.8):  # nothing moved: the target is where it was
+        untouched = judge_grasp(before.height, before.color, before.target_mask, before.height,
+                                exposed(before.color, factor), holds)
+        assert not untouched.impurity_picked and untouched.gone_fraction == 0.0, factor
+    action = cell.decide(before)
+    assert action.kind == "grasp"
+    outcome = cell.execute(action)
+    after = cell.observe()
+    assert cell.truth().targets_removed == 1  # the simulator says the impurity was lifted
+    for factor in (1.0, 0.6, 0.7, 0.8):
+        lifted = judge_grasp(before.height, before.color, before.target_mask, after.height,
+                             exposed(after.color, factor),
+                             GripperReport(outcome.holding, outcome.gripper_opening))
+        assert lifted.impurity_picked, (factor, lifted.reason)

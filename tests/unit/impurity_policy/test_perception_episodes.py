@@ -111,6 +111,21 @@ def run(views, script, truth=None, limits=EpisodeLimits(none_frames_to_finish=3)
 NONE = view(MODE_NONE, target_there=False)
 
 
+def exposed(v, factor):
+    """The view `v` as a camera would give it at another exposure: RGB scaled, clipped at 255."""
+    color = np.clip(np.rint(v.color * float(factor)), 0, 255).astype(np.uint8)
+    return dataclasses.replace(v, color=color)
+
+
+@pytest.mark.parametrize("factor", [0.6, 0.7, 0.8])
+def test_a_grasp_that_left_the_target_is_not_counted_when_the_next_view_came_out_darker(factor):
+    after = exposed(view(MODE_NONE, target_there=True), factor)  # the target still there, the view darker
+    summary, _ = run([view(), after, NONE, NONE], [grasp(holding=True)])
+    assert summary["targets_picked"] == 0 and summary["grasp_success"] == 0.0
+    picked, _ = run([view(), exposed(NONE, factor), NONE, NONE], [grasp(holding=True)])
+    assert picked["targets_picked"] == 1  # really gone: still counted
+
+
 # ---- how an episode without counts ends ---------------------------------------------------------------
 def test_ends_by_perception_after_n_consecutive_none_views_without_any_target_count():
     summary, cell = run([view(), NONE, NONE, NONE], [grasp()])

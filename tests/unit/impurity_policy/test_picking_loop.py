@@ -5,6 +5,7 @@ step by step. No simulator, no ROS: the cell below plays a script of outcomes.""
 import pytest
 
 from impurity_policy.core.episode import (
+    COUNTED_BY_NOTHING,
     TERMINATION_ACTION_LIMIT,
     TERMINATION_ALL_PICKED,
     TERMINATION_CANCELED,
@@ -365,3 +366,22 @@ def test_a_motion_the_driver_refuses_ends_the_episode_at_the_first_refusal():
     summary, cell = run([push(), refused, push(), push()], limits=EpisodeLimits(max_consecutive_failures=5))
     assert summary["termination_reason"] == str(refused) and summary["actions"] == 1
     assert len(cell.script) == 2  # nothing was tried after the refusal
+
+
+class LostResetCell(ScriptedCell):
+    """A cell whose scene service is gone: reset raises EpisodeAborted."""
+
+    def reset(self, request):
+        raise EpisodeAborted("node_lost: /cell/reset_scene")
+
+
+@pytest.mark.parametrize("ending", ["canceled in the reset", "aborted in the reset"])
+def test_an_episode_that_ends_before_its_scene_is_ready_records_that_it_counted_nothing(tmp_path, ending):
+    cell = WaitingCell([push()] * 5, "reset", 1, targets=2) if "canceled" in ending else LostResetCell()
+    recorder = EpisodeRecorder(tmp_path, "ep-1")
+    summary = run_episode(cell, EpisodeRequest("random", seed=1, num_targets=2), "ep-1", recorder=recorder,
+                          should_stop=lambda: getattr(cell, "canceled", False))
+    assert summary["counted_by"] == COUNTED_BY_NOTHING and summary["targets_total"] == -1
+    assert summary["targets_picked"] == summary["actions"] == 0 and not summary["completed"]
+    written = read_steps(tmp_path / "episodes.jsonl")[-1]
+    assert written["counted_by"] == COUNTED_BY_NOTHING and written["targets_total"] == -1

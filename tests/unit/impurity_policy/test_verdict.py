@@ -10,9 +10,11 @@ from impurity_policy.core.verdict import (
     GripperReport,
     ProductReference,
     VerdictParams,
+    brightness_gain,
     full_mask,
     gripper_holds,
     judge_grasp,
+    piece_height,
     product_color_contrast,
     product_color_distance,
     product_reference,
@@ -213,3 +215,70 @@ def test_the_decision_needs_the_target_gone_a_hold_and_a_colour_apart():
     assert "Mahalanobis" in decide_picked(gone, True, 0.5, params)[1]
     assert "nothing held" in decide_picked(gone, False, 2.0, params)[1]
     assert "only" in decide_picked(gone / 2, True, 2.0, params)[1]
+
+
+def exposed(view, factor):
+    """The same heightmap seen at another exposure: RGB scaled by `factor`, clipped at 255 as a camera."""
+    height, color = view
+    return height, np.clip(np.rint(color * float(factor)), 0, 255).astype(np.uint8)
+
+
+FLAT_TARGET = (10, 20, 10, 20, 0.002, RED)  # a flake 2 mm thick: its removal shows in its colour alone
+
+
+@pytest.mark.parametrize("factor", [0.6, 0.7, 0.8, 1.25])
+def test_a_change_of_exposure_alone_does_not_make_an_untouched_target_gone(factor):
+    # the gripper lifted the neighbour; the view after the grasp came out darker (auto exposure, flicker)
+    verdict = judge(exposed(scene([TARGET]), factor))
+    assert not verdict.impurity_picked and verdict.gone_fraction == 0.0 and verdict.holding
+    assert verdict.gain == pytest.approx(factor, rel=0.02) and f"{factor:.2f}x" in verdict.reason
+    flat = scene([FLAT_TARGET, NEIGHBOUR])
+    untouched = judge_grasp(*flat, MASK, *exposed(scene([FLAT_TARGET]), factor), HOLDS)
+    assert not untouched.impurity_picked and untouched.gone_fraction == 0.0
+
+
+@pytest.mark.parametrize("factor", [0.6, 0.7, 0.8, 1.25])
+def test_a_target_really_picked_is_still_gone_at_another_exposure(factor):
+    assert judge(exposed(scene([NEIGHBOUR]), factor)).impurity_picked
+    flat = scene([FLAT_TARGET, NEIGHBOUR])
+    picked = judge_grasp(*flat, MASK, *exposed(scene([NEIGHBOUR]), factor), HOLDS)
+    assert picked.impurity_picked and picked.gone_fraction == 1.0
+
+
+def test_the_brightness_gain_is_measured_away_from_the_grasp_on_cells_that_did_not_move():
+    after = exposed(scene([(10, 20, 10, 20, 0.03, GREY)]), 0.6)  # the target's cells turned grey
+    assert brightness_gain(*BEFORE, MASK, *after) == pytest.approx(0.6, rel=0.02)
+    lifted = exposed(scene([TARGET]), 0.6)  # the neighbour's cells lost height: not reference cells
+    assert brightness_gain(*BEFORE, MASK, *lifted) == pytest.approx(0.6, rel=0.02)
+    assert brightness_gain(*BEFORE, MASK, *scene([TARGET])) == 1.0  # same exposure: exactly 1
+
+
+def test_without_enough_reference_cells_the_views_are_taken_as_equally_bright():
+    dark = np.zeros(SHAPE, np.float32), np.zeros((*SHAPE, 3), np.uint8)  # a black table: nothing to measure
+    assert brightness_gain(*dark, MASK, *dark) == 1.0
+    saturated = np.zeros(SHAPE, np.float32), np.full((*SHAPE, 3), 255, np.uint8)
+    assert brightness_gain(*saturated, MASK, *saturated) == 1.0
+
+
+def test_a_colour_change_well_beyond_the_exposure_still_counts_the_cells():
+    before = scene([(10, 20, 10, 20, 0.002, GREY)])  # a flat grey flake; after it, a red one lies there
+    after = exposed(scene([(10, 20, 10, 20, 0.002, RED)]), 0.7)
+    assert target_gone_fraction(*before, MASK, *after, gain=0.7) == 1.0
+    assert target_gone_fraction(*before, MASK, *exposed(before, 0.7), gain=0.7) == 0.0
+    with pytest.raises(ValueError, match="gain"):
+        target_gone_fraction(*before, MASK, *after, gain=0.0)
+
+
+def test_a_tall_piece_whose_height_stayed_is_not_gone_whatever_the_light_did_to_its_colour():
+    # a shadow or a flicker band over the grasp darkens the untouched target alone: the brightness gain,
+    # measured away from the grasp, does not see it; the target's height did not fall
+    after_height, after_color = scene([TARGET])
+    after_color[MASK] = (np.asarray(RED) * 0.4).astype(np.uint8)
+    verdict = judge((after_height, after_color))
+    assert not verdict.impurity_picked and verdict.gone_fraction == 0.0
+
+
+def test_a_pieces_height_is_measured_above_its_surroundings():
+    assert piece_height(BEFORE[0], MASK) == pytest.approx(0.03)  # a block on the table
+    on_block = scene([(6, 24, 6, 24, 0.02, GREY), (10, 20, 10, 20, 0.022, RED)])  # a 2 mm flake on a block
+    assert piece_height(on_block[0], MASK) == pytest.approx(0.002, abs=1e-6)

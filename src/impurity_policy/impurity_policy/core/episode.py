@@ -44,6 +44,9 @@ TERMINATION_NOTHING_LEFT = "no_target_or_cluster_left"
 # perception verdict on each grasp (core/verdict.py) on a cell without truth.
 COUNTED_BY_TRUTH = "truth"
 COUNTED_BY_PERCEPTION = "perception"
+# An episode that ended before its scene was ready (canceled, refused or failed in the cell's reset) counted
+# nothing: its record says so, with targets_total -1 (no count).
+COUNTED_BY_NOTHING = "nothing"
 # Reasons of episodes that ended because the cell failed, not because of the picking: "node_lost: ..."
 # (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "driver_lost: ..."
 # (the arm driver lost the robot mid-motion), "error: ...".

@@ -75,6 +75,7 @@ from impurity_common.enums import AttentionMode
 from impurity_common.parameters import check_fields, param
 
 from .episode import (
+    COUNTED_BY_NOTHING,
     COUNTED_BY_PERCEPTION,
     COUNTED_BY_TRUTH,
     DEFAULT_ACTIONS_PER_TARGET,
@@ -254,7 +255,8 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
                 on_error: Callable[[Exception], None] | None = None,
                 on_started: Callable[[], None] | None = None) -> dict:
     """One episode on `cell`. Returns the paper's metrics (episode.EpisodeTracker.metrics) with
-    termination_reason, counted_by ("truth" | "perception") and completed (counted by truth: every target
+    termination_reason, counted_by ("truth" | "perception" | "nothing": it ended before the cell's reset
+    returned, targets_total -1) and completed (counted by truth: every target
     picked; by perception: it ended because attention saw nothing left); counted by perception on a cell
     with truth(), also episode.truth_audit's figures; with a recorder, also what it wrote (record_path).
     `on_step` sees each step after it is recorded; `should_stop` (a cancel) is asked before each look and
@@ -267,11 +269,12 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
     tracker = EpisodeTracker(episode_id, request, request.num_targets, 0, limits.max_consecutive_failures)
     episode = _Episode(cell, request, limits, tracker, recorder, on_step, should_stop or (lambda: False))
     bind_stop = getattr(cell, "set_should_stop", None) if should_stop is not None else None
-    reason = None
+    reason, scene_ready = None, False
     try:
         if bind_stop is not None:
             bind_stop(should_stop)
         scene = cell.reset(request)
+        scene_ready = True
         if on_started is not None:
             on_started()
         if scene is None:
@@ -295,16 +298,22 @@ def run_episode(cell: Cell, request: EpisodeRequest, episode_id: str, limits: Ep
             except Exception as error:  # noqa: BLE001 - the record must close; the next reset clears it too
                 if on_error is not None:
                     on_error(error)
-    summary = _summary(tracker, reason, episode.truth_targets_total)
+    summary = _summary(tracker, reason, episode.truth_targets_total, scene_ready)
     if recorder is not None:
         summary = recorder.write_summary(summary, reason)
         recorder.write_picture()
     return summary
 
 
-def _summary(tracker: EpisodeTracker, reason: str, truth_targets_total: int | None) -> dict:
+def _summary(tracker: EpisodeTracker, reason: str, truth_targets_total: int | None,
+             scene_ready: bool = True) -> dict:
     """run_episode's summary of an ended episode: the tracker's metrics, termination_reason, completed,
-    counted_by and, counted by perception, the truth audit (episode.truth_audit)."""
+    counted_by and, counted by perception, the truth audit (episode.truth_audit). An episode whose scene
+    was never ready (scene_ready False) counted nothing: counted_by "nothing", targets_total -1."""
+    if not scene_ready:
+        tracker.targets_total = -1
+        return {**tracker.metrics(), "termination_reason": reason, "completed": False,
+                "counted_by": COUNTED_BY_NOTHING}
     metrics = tracker.metrics()
     if tracker.counts_known:
         completed = tracker.targets_total > 0 and metrics["targets_picked"] == tracker.targets_total

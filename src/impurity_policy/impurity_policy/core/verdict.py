@@ -5,7 +5,11 @@ picked an impurity when all hold:
 
 1. the target is gone from where it was: in the next fresh heightmap, at least `min_gone_fraction` of the
    target mask's cells have lost height (by >= `min_height_drop` m) or changed colour (by >=
-   `min_color_change`, Euclidean distance in RGB 0-255);
+   `min_color_change`, Euclidean distance in RGB 0-255). The colour is judged at the after view's own
+   brightness (brightness_gain: measured on cells away from the grasp whose height stayed), so that a
+   camera's exposure change (auto exposure hunting, mains flicker) moves no cell; and on a piece standing
+   at least `min_height_drop` above its surroundings a colour change counts only where the height fell
+   too (target_gone_fraction): such a piece cannot be lifted without losing its height;
 2. the gripper reports something between its fingers after the lift: the driver's `holding`, or, when the
    driver does not say, a measured opening wider than `closed_opening` (m) (VPG's grasp success test:
    the gripper did not close fully);
@@ -81,13 +85,16 @@ class GripperReport:
 
 @dataclass(frozen=True)
 class GraspVerdict:
-    """impurity_picked: both tests passed; gone_fraction: share of the target mask's cells that changed
-    (-1 when there was no target mask); holding: the gripper test; reason: one line for the records."""
+    """impurity_picked: the tests passed; gone_fraction: share of the target mask's cells that changed
+    (-1 when there was no target mask); holding: the gripper test; reason: one line for the records;
+    gain: how bright the after view was against the before view (brightness_gain; 1: as bright or not
+    measured)."""
 
     impurity_picked: bool
     gone_fraction: float
     holding: bool
     reason: str
+    gain: float = 1.0
 
 
 def gripper_holds(report: GripperReport, params: VerdictParams = VerdictParams()) -> bool:
@@ -97,15 +104,32 @@ def gripper_holds(report: GripperReport, params: VerdictParams = VerdictParams()
     return report.opening > params.closed_opening
 
 
-def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, target_mask: np.ndarray,
-                         after_height: np.ndarray, after_color: np.ndarray,
-                         params: VerdictParams = VerdictParams()) -> float:
-    """Share (0..1) of the target mask's cells that lost height or changed colour between two heightmaps.
+# cells: the reference cells of the brightness gain lie at least this far from the target mask (the grasp's
+# surroundings, where the fingers and the lifted piece change the view). 4 cells: 8 mm at the heightmap's
+# 2 mm resolution, about a finger's width.
+REFERENCE_MARGIN = 4
+# The least reference cells a gain is measured on (enough that a few cells changed by the grasp cannot move
+# the median); with fewer the after view is taken as bright as the before view (gain 1).
+MIN_REFERENCE_CELLS = 50
+# RGB sum (0-765) a reference cell must reach in the before view: darker cells read mostly rounding.
+MIN_REFERENCE_BRIGHTNESS = 48.0
 
-    before_height, after_height: (H, W) float, m above the table; before_color, after_color: (H, W, 3)
-    uint8 RGB; target_mask: (H, W) bool (or 0/255), the attended target's cells in the before map.
-    Raises ValueError on shape mismatch, an empty mask, or non-finite heights in the mask.
-    """
+
+def _grown(mask: np.ndarray, cells: int) -> np.ndarray:
+    """mask grown by `cells` cells (8-neighbourhood), within its shape."""
+    grown = mask.copy()
+    for _ in range(cells):
+        step = grown.copy()
+        step[1:] |= grown[:-1]
+        step[:-1] |= grown[1:]
+        step[:, 1:] |= step[:, :-1].copy()
+        step[:, :-1] |= step[:, 1:].copy()
+        grown = step
+    return grown
+
+
+def _checked_mask(before_height, before_color, target_mask, after_height, after_color) -> np.ndarray:
+    """The target mask as bool, after checking the maps share its (H, W) shape and it is not empty."""
     mask = np.asarray(target_mask).astype(bool)
     shapes = {"before_height": np.shape(before_height), "after_height": np.shape(after_height),
               "target_mask": mask.shape}
@@ -116,15 +140,75 @@ def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, ta
             raise ValueError(f"{name} must be {(*mask.shape, 3)} RGB, got {np.shape(color)}")
     if not mask.any():
         raise ValueError("target_mask is empty: no attended target to judge")
+    return mask
+
+
+def brightness_gain(before_height: np.ndarray, before_color: np.ndarray, target_mask: np.ndarray,
+                    after_height: np.ndarray, after_color: np.ndarray,
+                    params: VerdictParams = VerdictParams()) -> float:
+    """How bright the after view is against the before view (after / before, 1: as bright), measured on
+    reference cells away from the grasp: cells at least REFERENCE_MARGIN from the target mask whose height
+    stayed (moved by less than min_height_drop), not saturated (every channel < 255 in both views) and
+    bright enough to measure (RGB sum >= MIN_REFERENCE_BRIGHTNESS before). The median of their RGB sums'
+    ratios: the scene around the grasp did not change, the camera's exposure may have (auto exposure,
+    mains flicker). 1.0 when fewer than MIN_REFERENCE_CELLS cells qualify. Same arrays and errors as
+    target_gone_fraction."""
+    mask = _checked_mask(before_height, before_color, target_mask, after_height, after_color)
+    c0 = np.asarray(before_color, dtype=np.float64)
+    c1 = np.asarray(after_color, dtype=np.float64)
+    with np.errstate(invalid="ignore"):
+        still = np.abs(np.asarray(after_height, np.float64) - np.asarray(before_height, np.float64)) \
+            < params.min_height_drop
+    s0, s1 = c0.sum(axis=2), c1.sum(axis=2)
+    reference = (~_grown(mask, REFERENCE_MARGIN) & still & (c0.max(axis=2) < 255) & (c1.max(axis=2) < 255)
+                 & (s0 >= MIN_REFERENCE_BRIGHTNESS))
+    if np.count_nonzero(reference) < MIN_REFERENCE_CELLS:
+        return 1.0
+    return float(np.median(s1[reference] / s0[reference]))
+
+
+def target_gone_fraction(before_height: np.ndarray, before_color: np.ndarray, target_mask: np.ndarray,
+                         after_height: np.ndarray, after_color: np.ndarray,
+                         params: VerdictParams = VerdictParams(), gain: float = 1.0) -> float:
+    """Share (0..1) of the target mask's cells that lost height or changed colour between two heightmaps.
+
+    before_height, after_height: (H, W) float, m above the table; before_color, after_color: (H, W, 3)
+    uint8 RGB; target_mask: (H, W) bool (or 0/255), the attended target's cells in the before map.
+    gain: how bright the after view is against the before view (brightness_gain); a cell's colour change
+    is measured against its before colour seen at that gain (clipped at 255 as the camera clips), in the
+    before view's units, so that a change of exposure alone changes no cell.
+    A piece standing at least min_height_drop above its surroundings (piece_height) cannot be lifted
+    without its cells losing height: there a cell's colour change counts only where the cell also fell by
+    at least half min_height_drop (e.g. a product block revealed under it), so that an untouched tall piece
+    stays, whatever the light did. A flatter piece (a flake) shows its removal in its colour alone.
+    Raises ValueError on shape mismatch, an empty mask, non-finite heights in the mask or a gain <= 0.
+    """
+    mask = _checked_mask(before_height, before_color, target_mask, after_height, after_color)
     h0 = np.asarray(before_height, dtype=np.float64)[mask]
     h1 = np.asarray(after_height, dtype=np.float64)[mask]
     if not (np.isfinite(h0).all() and np.isfinite(h1).all()):
         raise ValueError("heights under the target mask must be finite")
+    if not (np.isfinite(gain) and gain > 0):
+        raise ValueError(f"brightness gain must be > 0, got {gain}")
     c0 = np.asarray(before_color, dtype=np.float64)[mask]
     c1 = np.asarray(after_color, dtype=np.float64)[mask]
     dropped = (h0 - h1) >= params.min_height_drop
-    recolored = np.linalg.norm(c1 - c0, axis=1) >= params.min_color_change
+    expected = np.minimum(c0 * gain, 255.0)
+    recolored = np.linalg.norm(c1 - expected, axis=1) / gain >= params.min_color_change
+    if piece_height(before_height, mask) >= params.min_height_drop:
+        recolored &= (h0 - h1) >= params.min_height_drop / 2
     return float(np.mean(dropped | recolored))
+
+
+def piece_height(height: np.ndarray, target_mask: np.ndarray) -> float:
+    """How far (m) the target stands above its surroundings: the median height of the mask's cells less
+    that of the finite cells within REFERENCE_MARGIN around it (0, the table, when there are none).
+    height (H, W) m; target_mask (H, W) bool, not empty."""
+    mask = np.asarray(target_mask).astype(bool)
+    heights = np.asarray(height, dtype=np.float64)
+    ring = heights[_grown(mask, REFERENCE_MARGIN) & ~mask]
+    ring = ring[np.isfinite(ring)]
+    return float(np.median(heights[mask]) - (np.median(ring) if ring.size else 0.0))
 
 
 def _region_and_others(color, height, target_mask, min_object_height):
@@ -208,7 +292,9 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
         return GraspVerdict(False, -1.0, holding, "no attended target to judge (not a TARGET decision)")
     if any(m is None for m in (before_height, before_color, after_height, after_color)):
         return GraspVerdict(False, -1.0, holding, "no heightmap before or after the grasp")
-    gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params)
+    gain = brightness_gain(before_height, before_color, target_mask, after_height, after_color, params)
+    gone = target_gone_fraction(before_height, before_color, target_mask, after_height, after_color, params,
+                                gain)
     contrast = None
     if gone >= params.min_gone_fraction and holding:
         if reference is not None:
@@ -217,7 +303,9 @@ def judge_grasp(before_height: np.ndarray | None, before_color: np.ndarray | Non
             contrast = product_color_contrast(before_color, before_height, target_mask,
                                               params.min_object_height)
     picked, reason = decide_picked(gone, holding, contrast, params)
-    return GraspVerdict(picked, gone, holding, reason)
+    if round(gain, 2) != 1.0:
+        reason += f" (colours judged at the after view's brightness, {gain:.2f}x the before view's)"
+    return GraspVerdict(picked, gone, holding, reason, gain)
 
 
 def decide_picked(gone: float, holding: bool, contrast: float | None,
