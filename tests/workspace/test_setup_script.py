@@ -150,3 +150,17 @@ def test_a_venv_of_another_python_is_named_not_reused(tmp_path):
     assert run.returncode == 1, run.stdout + run.stderr
     assert ".venv is Python 3.11 but" in run.stderr and "mv .venv .venv-3.11" in run.stderr
     assert "pip install" not in run.stderr
+
+
+def _pins() -> list:
+    from packaging.requirements import Requirement
+
+    lines = (line.split("#")[0].strip() for line in (TOP / "requirements.txt").read_text().splitlines())
+    return [Requirement(line) for line in lines if line]
+
+
+@pytest.mark.parametrize("version,left_out", [("3.11", []), ("3.12", ["pybullet"])])
+def test_requirements_leave_out_only_the_simulators_engine_on_312(version, left_out):
+    # Every other pin has a cp312 wheel (ROS 2 Jazzy's included); PyBullet 3.2.7 has cp311 wheels only.
+    environment = {"python_version": version, "python_full_version": version + ".0"}
+    assert [pin.name for pin in _pins() if pin.marker and not pin.marker.evaluate(environment)] == left_out
