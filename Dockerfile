@@ -10,7 +10,9 @@
 #
 # Pins equal requirements.txt's where both name a package; each deviation says why
 # (tests/workspace/test_dockerfile.py checks both). No Docker engine runs on our build machines: this
-# file is linted (hadolint) and checked by that test in `make test`, never built there.
+# file is linted (hadolint) and checked by that test in `make test`, never built there; its colcon step
+# is: tests/workspace/test_image_install.py builds the same packages the same way (a colcon on another
+# interpreter than the venv's, a plain install) and starts every runtime executable from that install.
 FROM ros:jazzy-ros-base
 
 SHELL ["/bin/bash", "-o", "pipefail", "-c"]
@@ -39,7 +41,11 @@ RUN apt-get update \
         ros-jazzy-ros2launch ros-jazzy-launch-ros ros-jazzy-realsense2-camera \
     && rm -rf /var/lib/apt/lists/*
 
-# A venv that still sees apt's rclpy and message packages.
+# Python packages in a venv, as the ROS 2 documentation ("Using Python Packages with ROS 2") has it: the
+# venv sees apt's rclpy and message packages (--system-site-packages) and is first on PATH (ENV above);
+# every package's setup.cfg says `[build_scripts] executable = /usr/bin/env python3`, so the executables
+# that apt's colcon (on /usr/bin/python3) installs start on /opt/venv/bin/python3, which imports torch,
+# OpenCV, scikit-learn, rosbags and ur-rtde. The venv lies outside /ws: colcon never crawls it.
 # numpy==1.26.4, not requirements.txt's 2.4.6: the apt ROS message packages' C extensions were built
 #   against Ubuntu 24.04's numpy 1.26 (an extension built for numpy 1.x does not load under numpy 2).
 # opencv-python-headless==4.11.0.86, not requirements.txt's 5.0.0.93: 5.x and 4.12+ require numpy >= 2;

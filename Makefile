@@ -27,7 +27,7 @@ help:
 	@echo "              (EVAL_EPISODES=8, EVAL_GROUP_EPISODES=4, EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
 	@echo "make soak   - N picking episodes back to back through the node graph, memory per node (SOAK_EPISODES=200)"
-	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent)"
+	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent; CPython 3.11, 3.12: runtime only)"
 	@echo "make test-bag - re-record tests/data/episode_bag and known_product_bag (after a checkpoint or perception change)"
 
 setup:

@@ -7,7 +7,9 @@
 #   bash scripts/setup.sh               check the host, then set up what is out of date
 #   bash scripts/setup.sh --check-only  only check the host prerequisites (exit 0 ok, 1 missing)
 #
-# Environment: PYTHON (default python3.11) is the CPython 3.11 that makes .venv; TORCH_INDEX_URL,
+# Environment: PYTHON is the CPython that makes .venv: 3.11 for everything, or 3.12 for the runtime only
+# (the nodes of a real cell and their tests: the simulator's PyBullet 3.2.7 has cp311 wheels only).
+# Default: python3.11 when there is one, else python3. TORCH_INDEX_URL,
 # when set, is the package index torch is installed from (e.g. https://download.pytorch.org/whl/cpu
 # for the CPU-only wheel); unset, pip's own indexes decide (PyPI: the CUDA build on x86_64 Linux).
 set -euo pipefail
@@ -15,7 +17,16 @@ set -euo pipefail
 case $0 in */*) cd "${0%/*}/.." ;; *) cd .. ;; esac
 top=$(pwd)
 SECONDS=0
-PYTHON=${PYTHON:-python3.11}
+if [ -z "${PYTHON:-}" ]; then
+  if command -v python3.11 >/dev/null 2>&1; then PYTHON=python3.11; else PYTHON=python3; fi
+fi
+python_version=""  # X.Y.Z of $PYTHON, set by check_host
+# Printed by every run on CPython 3.12: what it leaves out, and how to get a 3.11.
+RUNTIME_ONLY_NOTE="setup: CPython 3.12 sets up the runtime only (the nodes of a real cell, their tests). \
+The simulator needs CPython 3.11 (PyBullet 3.2.7 has no cp312 wheel), and so do make demo, train, eval \
+and soak. Ubuntu 24.04: sudo add-apt-repository ppa:deadsnakes/ppa && sudo apt-get install python3.11 \
+python3.11-venv python3.11-dev (or: uv python install 3.11); then mv .venv .venv-3.12 && \
+PYTHON=python3.11 make setup"
 TORCH_INDEX_URL=${TORCH_INDEX_URL:-}
 CMAKE_MIN=3.20 # rosidl's generated CMake files: cmake_minimum_required(VERSION 3.20)
 venv=$top/.venv
@@ -45,7 +56,7 @@ check_host() {
     return 0
   }
 
-  # The ROS 2 Jazzy wheels pinned in requirements.txt are cp311-manylinux_2_28_x86_64 only.
+  # The ROS 2 Jazzy wheels pinned in requirements.txt are cp311 and cp312, manylinux_2_28_x86_64 only.
   if [[ "${OSTYPE:-}" == linux* && "${HOSTTYPE:-}" == x86_64 ]]; then ok platform "Linux ${HOSTTYPE}"
   else lack "Linux x86_64" "this is ${OSTYPE:-?} ${HOSTTYPE:-?}; the pinned ROS 2 Jazzy wheels exist for x86_64 Linux only"; fi
 
@@ -62,18 +73,20 @@ PY
 )
     [ -n "$py_info" ] && mapfile -t info <<<"$py_info"
     local impl=${info[0]:-} ver=${info[1]:-} exe=${info[2]:-} venv_ok=${info[3]:-} header=${info[4]:--} include=${info[5]:-}
-    if [ "${impl:-}" != CPython ] || [[ "${ver:-}" != 3.11.* ]]; then
-      lack "CPython 3.11" "$found is ${impl:-?} ${ver:-?}, the ROS 2 Jazzy wheels are cp311; or set PYTHON=/path/to/python3.11" \
+    if [ "${impl:-}" != CPython ] || [[ "${ver:-}" != 3.1[12].* ]]; then
+      lack "CPython 3.11" "$found is ${impl:-?} ${ver:-?}; the ROS 2 Jazzy wheels are cp311 and cp312 (3.12: the runtime only); or set PYTHON=/path/to/python3.11" \
         python3.11 python3.11-venv python3.11-dev
     else
+      local xy=${ver%.*}
+      python_version=$ver
       ok python "$exe (CPython $ver)"
       if [ "$venv_ok" = venv ]; then ok venv "venv + ensurepip"
-      else lack "Python 3.11 venv/ensurepip" "$exe cannot make a venv" python3.11-venv; fi
+      else lack "Python $xy venv/ensurepip" "$exe cannot make a venv" "python$xy-venv"; fi
       if [ "$header" != - ]; then ok Python.h "$header"
-      else lack "Python 3.11 headers" "no Python.h in ${include:-?}, colcon/rosidl builds need it" python3.11-dev; fi
+      else lack "Python $xy headers" "no Python.h in ${include:-?}, colcon/rosidl builds need it" "python$xy-dev"; fi
     fi
   else
-    lack "$PYTHON" "CPython 3.11 for the cp311 ROS 2 Jazzy wheels; or set PYTHON=/path/to/python3.11; Ubuntu 24.04: deadsnakes PPA" \
+    lack "$PYTHON" "CPython 3.11 (3.12: the runtime only) for the ROS 2 Jazzy wheels; or set PYTHON=/path/to/python3.11; Ubuntu 24.04: deadsnakes PPA" \
       python3.11 python3.11-venv python3.11-dev
   fi
 
@@ -118,16 +131,27 @@ PY
 }
 
 case "${1:-}" in
-  --check-only) if check_host 1; then exit 0; else exit 1; fi ;;
-  "") ;;
+  --check-only) check=0; check_host 1 || check=1 ;;
+  "") check_host 0 || exit 1 ;;
   *) echo "usage: bash scripts/setup.sh [--check-only]" >&2; exit 2 ;;
 esac
-check_host 0 || exit 1
+[[ "$python_version" != 3.12.* ]] || echo "$RUNTIME_ONLY_NOTE"
+[ "${1:-}" != --check-only ] || exit "$check"
 
 # One set-up at a time: parallel `make` targets must not run pip or colcon over each other.
 mkdir -p "$top/.setup-lock.d"
 exec 9>"$top/.setup-lock.d/lock"
 flock 9
+
+# .venv is made once, by one Python: another PYTHON needs a .venv of its own.
+if [ -x "$venv/bin/python" ]; then
+  venv_version=$("$venv/bin/python" -c 'import sys; print("%d.%d" % sys.version_info[:2])' 2>/dev/null) || venv_version="?"
+  if [ "$venv_version" != "${python_version%.*}" ]; then
+    echo "setup: .venv is Python $venv_version but $PYTHON is $python_version: move .venv away" \
+      "(mv .venv .venv-$venv_version) and run make setup again, or set PYTHON to a Python $venv_version" >&2
+    exit 1
+  fi
+fi
 
 req_sha=$( (sha256sum requirements.txt scripts/setup.sh scripts/fix_ros_wheel_cmake.py scripts/check_torch.py;
   echo "TORCH_INDEX_URL=$TORCH_INDEX_URL") | sha256sum | cut -d' ' -f1)

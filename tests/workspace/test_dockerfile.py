@@ -84,7 +84,7 @@ def apt_packages() -> set[str]:
 def requirement_pins() -> dict[str, str]:
     pins = {}
     for line in (ROOT / "requirements.txt").read_text().splitlines():
-        line = line.split("#")[0].strip()
+        line = line.split("#")[0].split(";")[0].strip()  # without an environment marker
         if "==" in line:
             name, version = line.split("==")
             pins[canonical(name.split("[")[0])] = version.strip()
@@ -163,6 +163,20 @@ def test_every_module_the_runtime_imports_is_installed():
             installed = (canonical(DISTRIBUTION_OF_MODULE.get(module, module)) in pins or ros_apt in apt
                          or module in ROS_BASE_MODULES)
             assert installed, f"{package} imports {module}, which the image installs neither with pip nor apt"
+
+
+def test_the_venv_sees_apts_ros_packages_and_comes_first_on_path():
+    # The node executables start on `/usr/bin/env python3` (setup.cfg's [build_scripts]): the venv's
+    # python3 only while the venv's bin comes first on PATH (tests/workspace/test_image_install.py).
+    venvs = [command.split() for command in run_commands() if "-m venv" in command]
+    assert len(venvs) == 1 and "--system-site-packages" in venvs[0], venvs
+    environment = " ".join(arguments for keyword, arguments in instructions() if keyword == "ENV")
+    assert f"PATH={venvs[0][-1]}/bin:$PATH" in environment.split(), environment
+
+
+def test_colcon_installs_plain_files_not_symlinks_into_the_checkout():
+    builds = [command for command in run_commands() if command.startswith("colcon build")]
+    assert builds and "--symlink-install" not in builds[0]
 
 
 def test_the_torch_pin_is_the_cpu_build_by_default():

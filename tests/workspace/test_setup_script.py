@@ -79,3 +79,88 @@ def test_torch_check_refuses_other_versions(version):
     assert run.returncode == 1
     assert f"torch {version} installed" in run.stderr
     assert "pins torch==2.13.0" in run.stderr
+
+
+# ------------------------------------------------------------------------ which CPython makes .venv
+def _interpreter(directory: Path, name: str, version: str) -> Path:
+    """A stand-in for CPython `version` at directory/name, answering what setup.sh asks an interpreter:
+    the host check's script on stdin (implementation, version, executable, venv, Python.h, include dir)
+    and `-c` (.venv's X.Y); anything else (pip, venv) fails."""
+    xy = version.rsplit(".", 1)[0]
+    path = directory / name
+    include = f"/usr/include/python{xy}"
+    path.write_text(f"""#!{BASH}
+case "$1" in
+  -) cat >/dev/null; printf '%s\\n' CPython {version} "$0" venv {include}/Python.h {include} ;;
+  -c) echo {xy} ;;
+  *) exit 1 ;;
+esac
+""")
+    path.chmod(0o755)
+    return path
+
+
+def _check_only(env: dict) -> subprocess.CompletedProcess:
+    return subprocess.run([BASH, str(SETUP), "--check-only"], capture_output=True, text=True, timeout=60,
+                          env={"PATH": os.environ["PATH"], "HOME": os.environ.get("HOME", "/tmp"), **env})
+
+
+def test_cpython_312_sets_up_the_runtime_and_says_the_simulator_needs_311(tmp_path):
+    run = _check_only({"PYTHON": str(_interpreter(tmp_path, "python3.12", "3.12.3"))})
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "(CPython 3.12.3)" in run.stdout and "prerequisites ok" in run.stdout
+    assert "runtime only" in run.stdout and "The simulator needs CPython 3.11" in run.stdout
+    # how to get one: Ubuntu 24.04's python3 is 3.12, its 3.11 comes from the deadsnakes PPA (or uv)
+    assert "ppa:deadsnakes/ppa" in run.stdout and "PYTHON=python3.11 make setup" in run.stdout
+
+
+def test_cpython_311_sets_up_everything_without_a_note(tmp_path):
+    run = _check_only({"PYTHON": str(_interpreter(tmp_path, "python3.11", "3.11.9"))})
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "(CPython 3.11.9)" in run.stdout and "runtime only" not in run.stdout
+
+
+@pytest.mark.parametrize("version", ["3.10.12", "3.13.1"])
+def test_other_pythons_are_refused_naming_311(tmp_path, version):
+    run = _check_only({"PYTHON": str(_interpreter(tmp_path, "python3", version))})
+    assert run.returncode == 1
+    assert "missing CPython 3.11" in run.stderr and f"CPython {version}" in run.stderr
+
+
+def test_without_python311_the_default_is_python3(tmp_path):
+    # Stock Ubuntu 24.04: python3 is 3.12 and there is no python3.11.
+    (tmp_path / "bash").symlink_to(BASH)
+    _interpreter(tmp_path, "python3", "3.12.3")
+    run = subprocess.run([str(tmp_path / "bash"), str(SETUP), "--check-only"], capture_output=True, text=True,
+                         timeout=60, env={"PATH": str(tmp_path)})
+    python_line = f"setup: python        {tmp_path / 'python3'} (CPython 3.12.3)"
+    assert python_line in run.stdout, run.stdout + run.stderr
+    assert "missing CPython" not in run.stderr and "runtime only" in run.stdout
+
+
+def test_a_venv_of_another_python_is_named_not_reused(tmp_path):
+    # A copy of the set-up script, its .venv made by 3.11, PYTHON a 3.12: it stops before pip runs.
+    (tmp_path / "scripts").mkdir()
+    shutil.copy(SETUP, tmp_path / "scripts" / "setup.sh")
+    (tmp_path / ".venv" / "bin").mkdir(parents=True)
+    _interpreter(tmp_path / ".venv" / "bin", "python", "3.11.9")
+    python312 = _interpreter(tmp_path, "python3.12", "3.12.3")
+    run = subprocess.run([BASH, str(tmp_path / "scripts" / "setup.sh")], capture_output=True, text=True,
+                         timeout=60, env={**os.environ, "PYTHON": str(python312)})
+    assert run.returncode == 1, run.stdout + run.stderr
+    assert ".venv is Python 3.11 but" in run.stderr and "mv .venv .venv-3.11" in run.stderr
+    assert "pip install" not in run.stderr
+
+
+def _pins() -> list:
+    from packaging.requirements import Requirement
+
+    lines = (line.split("#")[0].strip() for line in (TOP / "requirements.txt").read_text().splitlines())
+    return [Requirement(line) for line in lines if line]
+
+
+@pytest.mark.parametrize("version,left_out", [("3.11", []), ("3.12", ["pybullet"])])
+def test_requirements_leave_out_only_the_simulators_engine_on_312(version, left_out):
+    # Every other pin has a cp312 wheel (ROS 2 Jazzy's included); PyBullet 3.2.7 has cp311 wheels only.
+    environment = {"python_version": version, "python_full_version": version + ".0"}
+    assert [pin.name for pin in _pins() if pin.marker and not pin.marker.evaluate(environment)] == left_out
