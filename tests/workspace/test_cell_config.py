@@ -17,7 +17,14 @@ import yaml
 from launch_stubs import launched_nodes
 from parameter_files import as_declared, flatten
 
-from impurity_bringup.cell_nodes import CELLS, config_dir, parameter_files, ros_arguments, share_dir
+from impurity_bringup.cell_nodes import (
+    CELLS,
+    config_dir,
+    node_section,
+    parameter_files,
+    ros_arguments,
+    share_dir,
+)
 from impurity_bringup.launch_cell import main as launch_cell_main
 from impurity_calibration.calibration import read_calibration_file
 from impurity_common.parameters import build, parameter_specs
@@ -65,7 +72,9 @@ def parameter_as_read(node_name: str, name: str, default, *overrides: str, cell=
 
 
 def sections(config: pathlib.Path) -> dict:
-    return yaml.safe_load(config.read_text())
+    """{node name: section} of a cell file, whose keys are cell_nodes.node_section(node name)."""
+    return {key.removeprefix(node_section("")): section
+            for key, section in yaml.safe_load(config.read_text()).items()}
 
 
 # ------------------------------------------------------------------------------------ the camera pose

@@ -64,8 +64,13 @@ def test_no_two_constants_share_a_name():
     assert len(constants) == len(set(constants))
 
 
+# One-word names that are also other things' names: the heightmap node ("heightmap") and its marker namespace
+OTHER_WORDS = {"heightmap"}
+
+
 def test_no_source_outside_names_spells_a_topic_service_or_action():
-    spelled = {relative(path): sorted(string_literals(path) & GRAPH_NAMES) for path in python_sources()}
+    spelled = {relative(path): sorted(string_literals(path) & (GRAPH_NAMES - OTHER_WORDS))
+               for path in python_sources()}
     assert {path: found for path, found in spelled.items() if found} == {}
 
 
