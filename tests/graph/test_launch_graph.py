@@ -1,8 +1,11 @@
 """The cell started by its launcher (launch_cell, the pip twin of cell.launch.py: the same node lists,
 files and namespace) on this session's domain: under a namespace every node, and every topic, service and
 action of theirs, is in it, but for the ROS globals; the pieces still find each other there (the simulated
-camera feeds the heightmap node, the episode node answers). The real cell runs as a dry run (its
-real_cell.yaml default, or dry_run:=true) with no robot, under its namespace too."""
+camera feeds the heightmap node, the episode node answers episode_client --namespace). The real cell
+runs as a dry run (its real_cell.yaml default, or dry_run:=true) with no robot, under its namespace too."""
+
+import subprocess
+import sys
 
 import pytest
 from rclpy.action import ActionClient
@@ -93,6 +96,14 @@ def test_a_namespaced_simulated_cell_has_every_node_and_name_under_its_namespace
     status = call_service(ros_node, Trigger, names.absolute(names.EPISODE_STATUS_SERVICE, namespace),
                           Trigger.Request(), timeout=60.0, processes=[cell])
     assert status.success, status.message
+    # the operator's command line reaches it by the namespace
+    stop = episode_client("--namespace", namespace, "--stop")
+    assert (stop.returncode, stop.stdout.strip()) == (1, "episode_client: no episode is running"), stop.stderr
+
+
+def episode_client(*arguments) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "impurity_bringup.episode_client", *arguments],
+                          capture_output=True, text=True, timeout=180)
 
 
 @pytest.mark.parametrize("arguments", [(), ("--dry-run", "true", "--robot-ip", "192.0.2.1")],
