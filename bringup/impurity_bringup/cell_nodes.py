@@ -4,11 +4,12 @@ launch file share/impurity_bringup/launch/cell.launch.py and the pip launcher im
 Two cells share every node but the hardware's:
   sim   ur5_driver_sim/sim_cell: PyBullet world, simulated camera, UR5 and gripper (config/cell.yaml)
   real  ur5_driver_rtde/ur5_driver: a UR5 through ur-rtde and a Robotiq 2F-85 (config/real_cell.yaml,
-        read over cell.yaml); the camera driver (realsense2_camera) is started apart (README, "Running on a
-        real cell")
+        read over cell.yaml); the camera driver (realsense2_camera) is the launch file's camera:=true, or
+        started apart (README, "Running on a real cell")
 Every node reads cell.yaml, on the real cell then real_cell.yaml (only what differs: the arm driver, the
 episode without simulator truth), then the camera calibration (config/camera_calibration.yaml, the
-camera pose in a `/**` section), then any `-p` override.
+camera pose in a `/**` section), then any `-p` override. With a namespace every node runs in it
+(`-r __ns:=/cell_a`); the files key each node's section /**/<node name>, which matches in any namespace.
 
 The files are the installed ones, share/impurity_bringup/config/ (bringup/config/ in the source tree;
 colcon --symlink-install links them, so an edit there is read at once).

@@ -32,13 +32,15 @@ def relative(path: pathlib.Path) -> str:
     return str(path.relative_to(ROOT))
 
 
-# Names ROS tools expect at the root whatever a node's namespace (rviz2, tf2, robot_state_publisher's /tf)
-GLOBAL_NAMES = {"/tf", "/tf_static"}
+# Names ROS and its tools expect at the root whatever a node's namespace (tf2 and rviz2, rclpy's own topics,
+# the diagnostic aggregator)
+ROS_GLOBALS = {"/tf", "/tf_static", "/clock", "/diagnostics", "/parameter_events", "/rosout"}
 
 
 def test_the_cells_names_are_relative_and_only_the_ros_globals_absolute():
     """A node started in a namespace has every cell name under it; TF stays where ROS tools look."""
-    assert {name for name in GRAPH_NAMES if name.startswith("/")} == GLOBAL_NAMES
+    assert {name for name in GRAPH_NAMES if name.startswith("/")} <= ROS_GLOBALS
+    assert {names.TF_TOPIC, names.TF_STATIC_TOPIC} <= ROS_GLOBALS
     assert not any(frame.startswith("/") for frame in FRAMES)
 
 
