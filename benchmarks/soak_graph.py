@@ -22,7 +22,7 @@ import time
 import rclpy
 import yaml
 
-from impurity_bringup.cell_nodes import base_config
+from impurity_bringup.cell_nodes import base_config, node_section
 from impurity_bringup.episode_client import run_episode, running_cell
 from impurity_interfaces.action import RunEpisode
 
@@ -76,7 +76,7 @@ def rss_mb(pid: int) -> float:
 
 def soak_config(mode: str, out: pathlib.Path) -> pathlib.Path:
     config = yaml.safe_load(base_config().read_text())
-    config["sim_cell"]["ros__parameters"]["mode"] = mode
+    config[node_section("sim_cell")]["ros__parameters"]["mode"] = mode
     path = out / "soak_cell.yaml"
     path.write_text(yaml.safe_dump(config, sort_keys=False))
     return path

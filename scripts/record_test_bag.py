@@ -27,6 +27,7 @@ import time
 import yaml
 
 from impurity_bags.bags import BagReader, BagWriter, cell_typestore, file_sha256
+from impurity_bringup.cell_nodes import node_section
 from impurity_common import names
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
@@ -36,11 +37,13 @@ DEFAULT_OUTPUT = ROOT / "tests" / "data" / "episode_bag"
 # the second decision depends on it (the smallest invisible scene: 10 blocks for its two heaps)
 KNOWN_PRODUCT_EPISODE = {"output": ROOT / "tests" / "data" / "known_product_bag", "scenario": "invisible",
                          "objects": 10, "max_actions": 2}
-COLOR, DEPTH, INFO = names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC
-PRIMITIVE, STEPS = names.PRIMITIVE_TOPIC, names.EPISODE_STEPS_TOPIC
+# as a bag spells them: the cell, recorded at the root namespace, under absolute names
+COLOR, DEPTH, INFO = (names.absolute(topic)
+                      for topic in (names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC))
+PRIMITIVE, STEPS = names.absolute(names.PRIMITIVE_TOPIC), names.absolute(names.EPISODE_STEPS_TOPIC)
 # the known product is an input of attention as the camera is: an episode whose first view showed no target
 # replays exactly only with it (tests/graph/test_bag_replay_regression.py plays it among the frames)
-RECORDED_TOPICS = [COLOR, DEPTH, INFO, names.KNOWN_PRODUCT_TOPIC, PRIMITIVE, STEPS]
+RECORDED_TOPICS = [COLOR, DEPTH, INFO, names.absolute(names.KNOWN_PRODUCT_TOPIC), PRIMITIVE, STEPS]
 # custom_data keys read by the regression test
 POLICY_KEY = "impurity.policy"  # "checkpoint" or "untrained"
 CHECKPOINT_SHA_KEY = "impurity.checkpoint_sha256"
@@ -71,7 +74,7 @@ def policy_overrides(untrained: bool, seed: int) -> tuple[dict, dict]:
 
 def write_config(base: pathlib.Path, policy_params: dict, path: pathlib.Path) -> pathlib.Path:
     config = yaml.safe_load(base.read_text()) or {}
-    config.setdefault("policy", {}).setdefault("ros__parameters", {}).update(policy_params)
+    config.setdefault(node_section("policy"), {}).setdefault("ros__parameters", {}).update(policy_params)
     path.write_text(yaml.safe_dump(config, sort_keys=False))
     return path
 

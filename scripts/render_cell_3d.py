@@ -97,10 +97,11 @@ def from_bag(path: pathlib.Path, at: float | None) -> CellSnapshot:
     wanted = (names.TF_TOPIC, names.TF_STATIC_TOPIC, names.MARKERS_TOPIC, names.JOINT_STATES_TOPIC,
               *HEIGHTMAP_TOPICS)
     with BagReader(path, typestore) as reader:
-        present = [t for t in wanted if t in reader.topics]
+        local = {names.absolute(t): t for t in wanted}  # as the bag spells it (absolute) -> the cell's name
+        present = [t for t in local if t in reader.topics]
         stop = None if at is None else reader.start_ns + int(at * 1e9) + 1
         tree = RobotTree.from_urdf(robot_description())
-        has_tf = names.TF_TOPIC in present
+        has_tf = names.absolute(names.TF_TOPIC) in present
         last_joint_states, heightmaps = None, {}
         unreadable: dict[str, int] = {}
         for message in reader.messages(present, stop_ns=stop):
@@ -109,16 +110,17 @@ def from_bag(path: pathlib.Path, at: float | None) -> CellSnapshot:
             except Exception:  # noqa: BLE001 - rosbags' SerdeError and struct errors: skip, say so
                 unreadable[message.topic] = unreadable.get(message.topic, 0) + 1
                 continue
-            if message.topic in (names.TF_TOPIC, names.TF_STATIC_TOPIC):
+            topic = local[message.topic]
+            if topic in (names.TF_TOPIC, names.TF_STATIC_TOPIC):
                 snapshot.add_tf(msg)
-            elif message.topic == names.MARKERS_TOPIC:
+            elif topic == names.MARKERS_TOPIC:
                 snapshot.add_markers(msg)
-            elif message.topic == names.JOINT_STATES_TOPIC:
+            elif topic == names.JOINT_STATES_TOPIC:
                 last_joint_states = msg
-            elif message.topic == names.HEIGHTMAP_TOPIC:
-                heightmaps[message.topic] = msg
-            elif message.topic == names.ATTENTION_TOPIC:
-                heightmaps[message.topic] = msg.heightmap
+            elif topic == names.HEIGHTMAP_TOPIC:
+                heightmaps[topic] = msg
+            elif topic == names.ATTENTION_TOPIC:
+                heightmaps[topic] = msg.heightmap
         if not has_tf and last_joint_states is not None:
             snapshot.add_joint_states(last_joint_states, tree)
             snapshot.sources.append(f"{names.JOINT_STATES_TOPIC} through the robot model "

@@ -4,22 +4,30 @@ launch file share/impurity_bringup/launch/cell.launch.py and the pip launcher im
 Two cells share every node but the hardware's:
   sim   ur5_driver_sim/sim_cell: PyBullet world, simulated camera, UR5 and gripper (config/cell.yaml)
   real  ur5_driver_rtde/ur5_driver: a UR5 through ur-rtde and a Robotiq 2F-85 (config/real_cell.yaml,
-        read over cell.yaml); the camera driver (realsense2_camera) is started apart (README, "Running on a
-        real cell")
+        read over cell.yaml); the camera driver (realsense2_camera) is the launch file's camera:=true, or
+        started apart (README, "Running on a real cell")
 Every node reads cell.yaml, on the real cell then real_cell.yaml (only what differs: the arm driver, the
 episode without simulator truth), then the camera calibration (config/camera_calibration.yaml, the
-camera pose in a `/**` section), then any `-p` override.
+camera pose in a `/**` section), then any `-p` override. With a namespace every node runs in it
+(`-r __ns:=/cell_a`); the files key each node's section /**/<node name>, which matches in any namespace.
 
 The files are the installed ones, share/impurity_bringup/config/ (bringup/config/ in the source tree;
 colcon --symlink-install links them, so an edit there is read at once).
 """
 
 import pathlib
+import re
 
 PACKAGE = "impurity_bringup"
 BASE_CONFIG_NAME = "cell.yaml"  # every node's settings; the simulated cell's whole file
 CONFIG_NAMES = {"sim": BASE_CONFIG_NAME, "real": "real_cell.yaml"}  # each cell's own file
 CALIBRATION_NAME = "camera_calibration.yaml"
+
+
+def node_section(node_name: str) -> str:
+    """The key of a node's section in the cell's parameter files: /**/<node name>, which rcl matches in
+    any namespace (a plain `heightmap:` is /heightmap's alone, not /cell_a/heightmap's)."""
+    return f"/**/{node_name}"
 
 
 class NotInstalledError(RuntimeError):
@@ -135,6 +143,64 @@ def parameter_files(cell: str, config: str | pathlib.Path | None = None,
     return files
 
 
+# namespace: the whole cell under one ROS namespace ('' or '/': the root). Every name of the cell is
+# relative (impurity_common.names), so /cell_a puts /cell_a/heightmap, /cell_a/episode/start, ... beside
+# another cell's; /tf and /tf_static stay global (the frames of two cells must then differ, or each cell
+# runs on its own ROS_DOMAIN_ID).
+_NAMESPACE_TOKEN = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+
+
+def namespace_of(text: str) -> str:
+    """The launchers' `namespace` as a ROS namespace: '' for the root ('' or '/'), else absolute without a
+    trailing slash ('cell_a' -> '/cell_a'). ValueError names the argument and the rule it breaks."""
+    tokens = text.strip().strip("/").split("/") if text.strip().strip("/") else []
+    bad = [token for token in tokens if not _NAMESPACE_TOKEN.fullmatch(token)]
+    if bad:
+        raise ValueError(f"namespace {text!r}: each part must start with a letter or '_' and hold only "
+                         f"letters, digits and '_' (not {', '.join(repr(b) for b in bad)}), e.g. /cell_a")
+    return "/" + "/".join(tokens) if tokens else ""
+
+
+# The real cell's arm driver: the launchers' robot_ip and dry_run set these parameters of it (after the
+# files: a command-line value wins over real_cell.yaml's).
+DRIVER = "ur5_driver"
+
+
+def driver_overrides(robot_ip: str = "", dry_run: str = "") -> dict[str, str | bool]:
+    """{parameter: value} of the arm driver from the launchers' robot_ip and dry_run ('' = real_cell.yaml's
+    value); ValueError when dry_run is neither true nor false."""
+    overrides: dict[str, str | bool] = {}
+    if robot_ip:
+        overrides["robot_ip"] = robot_ip
+    if dry_run:
+        if dry_run.lower() not in ("true", "false"):
+            raise ValueError(f"dry_run {dry_run!r}: true (record the commands, contact no robot) or false")
+        overrides["dry_run"] = dry_run.lower() == "true"
+    return overrides
+
+
+# camera:=true (the ROS launch file): realsense2_camera's rs_launch.py with what heightmap_node reads
+# (config/real_cell.yaml's comment): colour and depth aligned, synchronised, 640x480 at 30 Hz, no TF of its
+# own (cell_state_publisher publishes the calibrated camera pose). Its camera_namespace and camera_name stay
+# "camera", under the cell's namespace: names.COLOR_TOPIC and the others.
+CAMERA_PACKAGE = "realsense2_camera"
+CAMERA_LAUNCH_FILE = "rs_launch.py"
+CAMERA_LAUNCH_ARGUMENTS = {
+    "camera_namespace": "camera", "camera_name": "camera", "align_depth.enable": "true",
+    "enable_sync": "true", "publish_tf": "false",
+    "rgb_camera.color_profile": "640,480,30", "depth_module.depth_profile": "640,480,30",
+}
+
+# rviz:=true: rviz2 with config/cell.rviz, started in the cell's namespace so that its relative topics
+# (the markers, the robot model, the images) are the cell's.
+RVIZ_CONFIG_NAME = "cell.rviz"
+
+
+def rviz_config() -> pathlib.Path:
+    """The installed RViz configuration of the cell."""
+    return config_dir() / RVIZ_CONFIG_NAME
+
+
 def format_value(value) -> str:
     """A parameter value as `-p name:=value` spells it (YAML: true/false, [a,b,c])."""
     if isinstance(value, bool):
@@ -144,14 +210,16 @@ def format_value(value) -> str:
     return str(value)
 
 
-def ros_arguments(files: list[pathlib.Path], overrides: dict | None = None) -> list[str]:
-    """`--ros-args` of one node: the parameter files (parameter_files: the cell's, then the calibration),
-    then the `-p` overrides ({name: value}).
+def ros_arguments(files: list[pathlib.Path], overrides: dict | None = None, namespace: str = "") -> list[str]:
+    """`--ros-args` of one node: its namespace (namespace_of; '' none), the parameter files
+    (parameter_files: the cell's, then the calibration), then the `-p` overrides ({name: value}).
 
     The order is rcl's: of two parameter files the later one wins, and a `-p` wins over the files only
     when it comes after them (tests/workspace/test_cell_config.py).
     """
     args = ["--ros-args"]
+    if namespace_of(namespace):
+        args += ["-r", f"__ns:={namespace_of(namespace)}"]
     for path in files:
         args += ["--params-file", str(path)]
     for name, value in (overrides or {}).items():

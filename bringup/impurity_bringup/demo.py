@@ -20,7 +20,7 @@ from rclpy.action import ActionClient
 from impurity_bringup import checkout
 from impurity_bringup.episode_client import format_result, run_episode, running_cell
 from impurity_common.enums import EPISODE_SCENARIOS, Scenario
-from impurity_common.names import RUN_EPISODE_ACTION
+from impurity_common.names import RUN_EPISODE_ACTION, absolute
 from impurity_interfaces.action import RunEpisode
 from impurity_policy.core.episode import EpisodeRequest, describe_request, is_failure
 
@@ -41,8 +41,8 @@ def main(argv=None) -> int:
 
     domain = os.environ.get("ROS_DOMAIN_ID", "0")
     if args.probe > 0 and another_cell(args.probe):
-        print(f"demo: another cell is running on ROS_DOMAIN_ID={domain} (its {RUN_EPISODE_ACTION} answers): "
-              "stop it, or run the demo on a domain of its own, e.g. ROS_DOMAIN_ID=42 make demo",
+        print(f"demo: another cell is running on ROS_DOMAIN_ID={domain} (its {absolute(RUN_EPISODE_ACTION)} "
+              "answers): stop it, or run the demo on a domain of its own, e.g. ROS_DOMAIN_ID=42 make demo",
               file=sys.stderr)
         return 1
     with running_cell(args.out) as launcher:

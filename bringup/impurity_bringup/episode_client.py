@@ -27,6 +27,7 @@ import rclpy
 from rclpy.signals import SignalHandlerOptions
 from std_srvs.srv import Trigger
 
+from impurity_bringup.cell_nodes import namespace_of
 from impurity_common.clients import RaceFreeActionClient
 from impurity_common.enums import EPISODE_SCENARIOS, PrimitiveKind, Scenario
 from impurity_common.names import (
@@ -34,6 +35,7 @@ from impurity_common.names import (
     RUN_EPISODE_ACTION,
     START_EPISODE_SERVICE,
     STOP_EPISODE_SERVICE,
+    absolute,
 )
 from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.srv import StartEpisode
@@ -255,6 +257,8 @@ def parse_args(argv=None) -> argparse.Namespace:
     parser.add_argument("--palette", default="", help="simulated cell: a named palette or random-<seed> "
                         "(see README, 'Appearance'); empty: the default blue/red palette")
     parser.add_argument("--timeout", type=positive_float, default=900.0, help="s for the whole episode")
+    parser.add_argument("--namespace", default="", help="the cell's ROS namespace (launch_cell --namespace), "
+                        "e.g. /cell_a; default: the root")
     route = parser.add_mutually_exclusive_group()
     route.add_argument("--start-only", action="store_true",
                        help=f"use the {START_EPISODE_SERVICE} service and return once it answers (after "
@@ -263,6 +267,10 @@ def parse_args(argv=None) -> argparse.Namespace:
                        help=f"stop the running episode ({STOP_EPISODE_SERVICE}): it ends canceled, a motion "
                             "under way is stopped; the other options are ignored")
     args = parser.parse_args(argv)
+    try:
+        args.namespace = namespace_of(args.namespace)
+    except ValueError as error:
+        parser.error(f"--{error}")
     args.request = EpisodeRequest(scenario=args.scenario, seed=args.seed, num_targets=args.targets,
                                   num_objects=args.objects, max_actions=args.max_actions,
                                   scene_file=args.scene_file, palette=args.palette)
@@ -280,6 +288,7 @@ def call(node, srv_type, name: str, request, ctrl_c: CtrlC, timeout: float = 30.
     is sent again every 5 s while unanswered (a response can be lost while the client's reader is not
     matched yet)."""
     client = node.create_client(srv_type, name)
+    name = absolute(name, node.get_namespace())
     try:
         if not _spin_until(node, client.service_is_ready, 60.0, ctrl_c):
             if ctrl_c.count:
@@ -323,14 +332,15 @@ def main(argv=None) -> int:
     rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
     ctrl_c = CtrlC()
     signal.signal(signal.SIGINT, ctrl_c)
-    node = rclpy.create_node("episode_client")
+    node = rclpy.create_node("episode_client", namespace=args.namespace or None)
     try:
         if args.stop:
             response = call(node, Trigger, STOP_EPISODE_SERVICE, Trigger.Request(), ctrl_c, STOP_TIMEOUT)
             print(f"episode_client: {response.message}")
             return 0 if response.success else 1
         route = START_EPISODE_SERVICE if args.start_only else RUN_EPISODE_ACTION
-        print(f"episode_client: {describe_request(request)} ({route})", flush=True)
+        print(f"episode_client: {describe_request(request)} ({absolute(route, node.get_namespace())})",
+              flush=True)
         if args.start_only:
             response = call(node, StartEpisode, START_EPISODE_SERVICE, StartEpisode.Request(**fields), ctrl_c)
             print(f"accepted={response.accepted} episode_id={response.episode_id} {response.reason}")

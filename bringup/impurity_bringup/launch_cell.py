@@ -1,13 +1,16 @@
 """Pip-environment launcher: every node of the cell as its own process, with the cell's parameter file
 and the camera calibration.
 
-    launch_cell [--cell sim|real] [--config FILE] [--calibration FILE] [--param EXE:NAME:=VALUE]...
+    launch_cell [--cell sim|real] [--namespace /cell_a] [--robot-ip IP] [--dry-run true|false]
+                [--config FILE] [--calibration FILE] [--param EXE:NAME:=VALUE]...
     python -m impurity_bringup.launch_cell ...   (the same)
 
 `--cell sim` (default): the PyBullet cell, config/cell.yaml. `--cell real`: the UR5 driver on
 ur-rtde instead of the simulator, config/real_cell.yaml read over cell.yaml (start the camera
-driver apart: README, "Running on a real cell"). Every node reads the cell's files (`--config` replaces
-the cell's own), then `--calibration`, then its `--param` overrides. `--print` lists the command lines
+driver apart: README, "Running on a real cell"); `--robot-ip` and `--dry-run` set the driver's parameters
+of those names. `--namespace /cell_a` starts every node under /cell_a (the cell's names are relative:
+/cell_a/heightmap, ...). Every node reads the cell's files (`--config` replaces the cell's own), then
+`--calibration`, then its `--param` overrides. `--print` lists the command lines
 and starts nothing. The files and executables are the installed ones (share/impurity_bringup/config,
 lib/<package>/<executable> of each package's install prefix, found through the ament index).
 
@@ -33,9 +36,12 @@ from ament_index_python.packages import PackageNotFoundError, get_package_prefix
 
 from impurity_bringup.cell_nodes import (
     CELLS,
+    DRIVER,
     LIFECYCLE_NODES,
     NotInstalledError,
     calibration_file,
+    driver_overrides,
+    namespace_of,
     parameter_files,
     ros_arguments,
 )
@@ -54,11 +60,13 @@ def executable(package: str, name: str) -> pathlib.Path:
     return path
 
 
-def node_commands(nodes, files: list[pathlib.Path], overrides: dict | None = None
+def node_commands(nodes, files: list[pathlib.Path], overrides: dict | None = None, namespace: str = ""
                   ) -> list[tuple[str, list[str]]]:
     """(executable name, command line) of every node: its installed executable with
-    cell_nodes.ros_arguments (the parameter files, then the overrides given for that executable)."""
-    return [(name, [str(executable(package, name)), *ros_arguments(files, (overrides or {}).get(name))])
+    cell_nodes.ros_arguments (the namespace, the parameter files, then the overrides given for that
+    executable)."""
+    return [(name, [str(executable(package, name)),
+                    *ros_arguments(files, (overrides or {}).get(name), namespace)])
             for package, name in nodes]
 
 
@@ -122,9 +130,11 @@ class CellProcesses:
                     pass
 
 
-def bring_up_lifecycle_nodes(executables: list[str], failed: list[str], stop: threading.Event) -> None:
-    """Configure and activate the lifecycle nodes among `executables` (in a thread of the launcher, with a
-    ROS node of its own); a failure is appended to `failed` and sets `stop`."""
+def bring_up_lifecycle_nodes(executables: list[str], namespace: str, failed: list[str],
+                             stop: threading.Event) -> None:
+    """Configure and activate the lifecycle nodes among `executables`, in `namespace` ('' the root, else
+    '/cell_a'), in a thread of the launcher with a ROS node of its own; a failure is appended to `failed`
+    and sets `stop`."""
     import rclpy
     from rclpy.signals import SignalHandlerOptions
 
@@ -141,7 +151,8 @@ def bring_up_lifecycle_nodes(executables: list[str], failed: list[str], stop: th
     try:
         for name in managed:
             try:
-                bring_to_active(node, f"/{name}", should_stop=stop.is_set, spin_once=executor.spin_once)
+                bring_to_active(node, f"{namespace}/{name}", should_stop=stop.is_set,
+                                spin_once=executor.spin_once)
                 print(f"launch_cell: {name} is active", flush=True)
             except LifecycleFailed as error:
                 failed.append(str(error))
@@ -157,6 +168,14 @@ def main(argv=None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--cell", choices=tuple(CELLS), default="sim",
                         help="sim: the PyBullet cell (default); real: the UR5 driver, camera started apart")
+    parser.add_argument("--namespace", default="",
+                        help="ROS namespace of the whole cell, e.g. /cell_a (default: the root); /tf stays "
+                        "global")
+    parser.add_argument("--robot-ip", default="", help="--cell real: the UR controller's address (default: "
+                        "config/real_cell.yaml's)")
+    parser.add_argument("--dry-run", choices=("true", "false"), default="",
+                        help="--cell real: true records the commands and contacts no robot, false moves the "
+                        "robot (default: config/real_cell.yaml's, true)")
     parser.add_argument("--config", type=pathlib.Path, default=None,
                         help="the cell's own parameter file (default: config/cell.yaml; --cell real: "
                         "config/real_cell.yaml, read over config/cell.yaml)")
@@ -188,7 +207,16 @@ def main(argv=None) -> int:
     if unknown:
         parser.error(f"unknown node(s) of the {args.cell} cell: {', '.join(sorted(unknown))}")
     nodes = [(p, n) for p, n in cell_nodes if not wanted or n in wanted]
+    try:
+        namespace = namespace_of(args.namespace)
+    except ValueError as error:
+        parser.error(f"--{error}")
+    driver = driver_overrides(args.robot_ip, args.dry_run)
+    if driver and args.cell != "real":
+        parser.error("--robot-ip and --dry-run are the real cell's: add --cell real")
     overrides: dict[str, dict] = {"episode_node": {"record_dir": args.record_dir}} if args.record_dir else {}
+    if driver:
+        overrides[DRIVER] = dict(driver)
     for text in args.param:
         try:
             target, name, value = parse_override(text)
@@ -200,7 +228,7 @@ def main(argv=None) -> int:
         if problem is not None:  # rcl would end the node in a traceback
             parser.error(f"--param {target}: {problem}")
         overrides.setdefault(target, {})[name] = value
-    commands = node_commands(nodes, files, overrides)
+    commands = node_commands(nodes, files, overrides, namespace)
     if args.print_only:
         for _, command in commands:
             print(shlex.join(command))
@@ -211,10 +239,11 @@ def main(argv=None) -> int:
         signal.signal(sig, lambda *_: stop_requested.set())
     cell = CellProcesses(commands, args.log_dir, args.quiet)
     lifecycle_failures: list[str] = []
-    threading.Thread(target=bring_up_lifecycle_nodes, args=([n for _, n in nodes], lifecycle_failures,
-                                                            stop_requested), daemon=True).start()
-    print(f"launch_cell: started the {args.cell} cell: {', '.join(n for _, n in nodes)} (ROS_DOMAIN_ID="
-          f"{os.environ.get('ROS_DOMAIN_ID', '0')}); Ctrl-C stops all", flush=True)
+    threading.Thread(target=bring_up_lifecycle_nodes, daemon=True,
+                     args=([n for _, n in nodes], namespace, lifecycle_failures, stop_requested)).start()
+    print(f"launch_cell: started the {args.cell} cell: {', '.join(n for _, n in nodes)} (namespace "
+          f"{namespace or '/'}, ROS_DOMAIN_ID={os.environ.get('ROS_DOMAIN_ID', '0')}); Ctrl-C stops all",
+          flush=True)
     exit_code = 0
     while not stop_requested.wait(0.2):
         dead = cell.first_dead()

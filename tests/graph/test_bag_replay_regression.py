@@ -54,10 +54,10 @@ def policy_parameters(bag: pathlib.Path, notes: dict) -> dict:
 def recorded_decisions(reader: BagReader) -> dict[int, bytes]:
     """Camera stamp -> the recorded decision's bytes, for the frames kept in the bag."""
     frames = set()
-    for message in reader.messages([COLOR]):
+    for message in reader.messages([names.absolute(COLOR)]):  # a bag holds absolute names
         frames.add(stamp_ns(deserialize_message(message.data, Image).header.stamp))
     decisions = {}
-    for message in reader.messages([PRIMITIVE]):
+    for message in reader.messages([names.absolute(PRIMITIVE)]):
         stamp = stamp_ns(deserialize_message(message.data, Primitive).header.stamp)
         if stamp in frames:
             decisions.setdefault(stamp, message.data)
@@ -93,7 +93,8 @@ def test_replayed_frames_give_the_recorded_decisions(bag, ros_node, launch):
         expected = recorded_decisions(reader)
         # an episode whose first view showed no target sent it to attention as the known product: replayed
         # after the decision it answered and before the next frame, as attention heard it
-        known = [names.KNOWN_PRODUCT_TOPIC] if names.KNOWN_PRODUCT_TOPIC in reader.topics else []
+        recorded_known = names.absolute(names.KNOWN_PRODUCT_TOPIC) in reader.topics
+        known = [names.KNOWN_PRODUCT_TOPIC] if recorded_known else []
     played = [INFO, DEPTH, COLOR, *known]
     assert expected, f"{bag} holds no camera frame with a recorded decision: {REGENERATE}"
 

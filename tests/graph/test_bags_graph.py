@@ -164,6 +164,53 @@ def test_looping_replay_stops_on_sigint(ros_node, launch, tmp_path):
         ros_node.destroy_subscription(subscription)
 
 
+# --------------------------------------------------------------------------------- a namespaced cell
+NAMESPACE = "/bagtest_ns"
+
+
+def test_a_recorder_in_a_namespace_records_relative_topics_under_it_and_a_replay_there_selects_them(
+        ros_node, launch, tmp_path):
+    """The cell's names are relative: a recorder started in a cell's namespace records that cell's
+    topics, under the absolute names a bag holds; a replay in the namespace selects them by the same relative
+    names."""
+    bag = tmp_path / "namespaced"
+    in_namespace = {"__ns": NAMESPACE}
+    recorder = launch("impurity_bags", "bag_recorder", ros_args(
+        {"topics": ["chatter"], "output": str(bag), "split_duration": 0.2}, remappings=in_namespace))
+    chatter = ros_node.create_publisher(String, f"{NAMESPACE}/chatter", RELIABLE)
+    try:
+        wait_for_subscribers(ros_node, chatter, processes=[recorder])
+        published = []
+
+        def publish_one() -> bool:
+            published.append(String(data=f"message {len(published)}"))
+            chatter.publish(published[-1])
+            return closed_topic_counts(bag).get(f"{NAMESPACE}/chatter", 0) >= 3
+
+        spin_until(ros_node, publish_one, 30.0, "the recorder to close a split of the namespaced chatter",
+                   [recorder])
+        recorder.send_signal(signal.SIGINT)
+        assert recorder.process.wait(timeout=15) == 0
+    finally:
+        ros_node.destroy_publisher(chatter)
+    with BagReader(bag) as reader:
+        assert list(reader.topics) == [f"{NAMESPACE}/chatter"]
+        expected = [m.data for m in reader.messages()]
+
+    received = []
+    subscription = ros_node.create_subscription(String, f"{NAMESPACE}/chatter", received.append, RELIABLE,
+                                                raw=True)
+    try:
+        replay = launch("impurity_bags", "bag_replay", ros_args(
+            {"bag": str(bag), "topics": ["chatter"], "as_fast_as_possible": True, "wait_for_subscribers": 1},
+            remappings=in_namespace))
+        spin_until(ros_node, lambda: len(received) >= len(expected), 30.0, "the replayed chatter", [replay])
+        assert replay.process.wait(timeout=15) == 0, replay.output()[-2000:]
+    finally:
+        ros_node.destroy_subscription(subscription)
+    assert received == expected
+
+
 # --------------------------------------------------------------------------------- clear failures
 def foreign_type_bag(path):
     store = get_typestore(Stores.ROS2_JAZZY)

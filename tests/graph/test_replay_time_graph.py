@@ -32,7 +32,8 @@ def test_replay_with_clock_publishes_the_bags_time_advancing_to_the_played_stamp
     rate, frequency = 8.0, 20.0
     with BagReader(EPISODE_BAG) as reader:
         start_ns = reader.start_ns
-        played_ns = [m.timestamp_ns for m in reader.messages([names.PRIMITIVE_TOPIC])][-1]  # 24.2 s in
+        recorded = reader.messages([names.absolute(names.PRIMITIVE_TOPIC)])  # a bag holds absolute names
+        played_ns = [m.timestamp_ns for m in recorded][-1]  # 24.2 s in
     clock = TopicRecorder(ros_node, Clock, "/clock", CLOCK_QOS)
     steps = TopicRecorder(ros_node, Primitive, names.PRIMITIVE_TOPIC, RELIABLE)
     try:

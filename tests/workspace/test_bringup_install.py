@@ -9,6 +9,7 @@ import sys
 import textwrap
 
 import pytest
+from launch_stubs import RECORDED
 
 from ros_harness import INSTALL, ROOT
 
@@ -17,8 +18,9 @@ SHARE = INSTALL / PACKAGE / "share" / PACKAGE
 LAUNCH_FILE = SHARE / "launch" / "cell.launch.py"
 WORKSPACE = ROOT / "ros2_ws"
 CONFIG_FILES = sorted(path.name for path in (ROOT / "bringup" / "config").glob("*.yaml"))
-# Stand-ins for the launch and launch_ros modules (not among the PyPI wheels): each action is recorded.
-LAUNCH_STUBS = textwrap.dedent("""
+# Stand-ins for the launch and launch_ros modules (not among the PyPI wheels): each action is recorded
+# (the classes launch_stubs stands in for).
+LAUNCH_STUBS = textwrap.dedent(f"""
     import sys, types
 
     def recorder(kind):
@@ -28,19 +30,12 @@ LAUNCH_STUBS = textwrap.dedent("""
         def __init__(self, name):
             self.name = name
 
-    modules = {name: types.ModuleType(name) for name in
-               ("launch", "launch.actions", "launch.events", "launch.substitutions", "launch_ros",
-                "launch_ros.actions", "launch_ros.event_handlers", "launch_ros.events",
-                "launch_ros.events.lifecycle")}
-    modules["launch"].LaunchDescription = recorder("LaunchDescription")
-    for action in ("DeclareLaunchArgument", "OpaqueFunction", "EmitEvent", "RegisterEventHandler"):
-        setattr(modules["launch.actions"], action, recorder(action))
-    modules["launch.events"].matches_action = recorder("matches_action")
+    recorded = {RECORDED!r}
+    modules = {{name: types.ModuleType(name) for name in recorded}}
+    for name, classes in recorded.items():
+        for cls in classes:
+            setattr(modules[name], cls, recorder(cls))
     modules["launch.substitutions"].LaunchConfiguration = LaunchConfiguration
-    modules["launch_ros.actions"].Node = recorder("Node")
-    modules["launch_ros.actions"].LifecycleNode = recorder("LifecycleNode")
-    modules["launch_ros.event_handlers"].OnStateTransition = recorder("OnStateTransition")
-    modules["launch_ros.events.lifecycle"].ChangeState = recorder("ChangeState")
     sys.modules.update(modules)
 """)
 
@@ -61,6 +56,11 @@ def test_the_launch_file_package_xml_and_index_marker_are_installed():
 def test_every_parameter_file_of_bringup_config_is_installed():
     assert {"cell.yaml", "real_cell.yaml", "camera_calibration.yaml"} <= set(CONFIG_FILES)
     assert sorted(path.name for path in (SHARE / "config").glob("*.yaml")) == CONFIG_FILES
+
+
+@pytest.mark.parametrize("name", ["cell.rviz", "cell.foxglove.json"])
+def test_the_rviz_config_and_the_foxglove_layout_are_installed_with_the_parameter_files(name):
+    assert (SHARE / "config" / name).read_bytes() == (ROOT / "bringup" / "config" / name).read_bytes()
 
 
 @pytest.mark.parametrize("executable", ["launch_cell", "episode_client", "demo", "eval_graph"])
@@ -112,7 +112,8 @@ def test_the_installed_launch_file_loads_and_declares_the_cells_arguments(tmp_pa
     done = run_outside_the_checkout(code, tmp_path)
     assert done.returncode == 0, done.stderr
     calibration = SHARE / "config" / "camera_calibration.yaml"
-    assert done.stdout.splitlines() == ["cell config calibration security keystore", str(calibration)]
+    assert done.stdout.splitlines() == [
+        "cell namespace robot_ip dry_run camera rviz config calibration security keystore", str(calibration)]
 
 
 def test_the_pip_launcher_runs_as_a_module_from_anywhere(tmp_path):

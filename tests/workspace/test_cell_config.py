@@ -14,7 +14,7 @@ import sys
 import pytest
 import rclpy
 import yaml
-from launch_stubs import launched_actions, launched_nodes
+from launch_stubs import declared_arguments, launched_actions, launched_nodes
 from lifecycle_msgs.msg import Transition
 from parameter_files import as_declared, flatten
 
@@ -22,14 +22,18 @@ from impurity_bringup.cell_nodes import (
     CELLS,
     LIFECYCLE_NODES,
     config_dir,
+    namespace_of,
+    node_section,
     parameter_files,
     ros_arguments,
     share_dir,
 )
 from impurity_bringup.launch_cell import main as launch_cell_main
 from impurity_calibration.calibration import read_calibration_file
+from impurity_common import names
 from impurity_common.parameters import build, parameter_specs
 
+ROOT = pathlib.Path(__file__).resolve().parents[2]
 SIM_CONFIG = config_dir() / "cell.yaml"
 REAL_CONFIG = config_dir() / "real_cell.yaml"
 CALIBRATION = config_dir() / "camera_calibration.yaml"
@@ -63,17 +67,19 @@ def parameter_class(node_name: str):
 
 
 def parameter_as_read(node_name: str, name: str, default, *overrides: str, cell="sim",
-                      calibration=CALIBRATION):
-    """The value node `node_name` gets for `name` when started as the launchers start it: the cell's
-    files (parameter_files), then `calibration`, then the `-p` overrides ("name:=value")."""
-    args = ros_arguments(parameter_files(cell, None, calibration))
+                      calibration=CALIBRATION, namespace=""):
+    """The value node `node_name` gets for `name` when started as the launchers start it: in `namespace`,
+    the cell's files (parameter_files), then `calibration`, then the `-p` overrides ("name:=value")."""
+    args = ros_arguments(parameter_files(cell, None, calibration), None, namespace)
     for override in overrides:
         args += ["-p", override]
     return as_declared(rclpy.get_default_context(), node_name, args, {name: default})[name]
 
 
 def sections(config: pathlib.Path) -> dict:
-    return yaml.safe_load(config.read_text())
+    """{node name: section} of a cell file, whose keys are cell_nodes.node_section(node name)."""
+    return {key.removeprefix(node_section("")): section
+            for key, section in yaml.safe_load(config.read_text()).items()}
 
 
 # ------------------------------------------------------------------------------------ the camera pose
@@ -150,6 +156,20 @@ def test_perception_and_policy_are_configured_alike_on_both_cells():
         assert as_read_by("real", node_name) == as_read_by("sim", node_name)
     assert parameter_as_read("attention", "min_relative_contrast", 0.0, cell="real") == \
         parameter_as_read("attention", "min_relative_contrast", 0.0, cell="sim")
+
+
+@pytest.mark.parametrize("config", [SIM_CONFIG, REAL_CONFIG], ids=["cell.yaml", "real_cell.yaml"])
+def test_every_section_of_a_cell_file_is_keyed_for_its_node_in_any_namespace(config):
+    keys = yaml.safe_load(config.read_text())
+    assert all(key == node_section(key.rsplit("/", 1)[-1]) for key in keys), list(keys)
+
+
+@pytest.mark.parametrize("namespace", ["/cell_a", "/plant/line_2"])
+def test_a_cell_in_a_namespace_reads_the_same_parameters(namespace):
+    assert parameter_as_read("heightmap", "depth_scale", 1.0, namespace=namespace) == 0.001  # cell.yaml's
+    assert parameter_as_read("episode", "use_ground_truth", True, cell="real", namespace=namespace) is False
+    assert list(parameter_as_read("heightmap", "camera_position", [0.0, 0.0, 0.0], namespace=namespace)) == \
+        pytest.approx(read_calibration_file(CALIBRATION)[0])
 
 
 # ------------------------------------------------------------------------------------ the launchers
@@ -271,3 +291,105 @@ def test_the_launch_file_configures_the_real_driver_at_its_start_and_activates_i
 def test_the_simulated_cell_has_no_lifecycle_node(monkeypatch):
     actions = launched_actions(monkeypatch, share_dir() / "launch" / "cell.launch.py", {})
     assert {kind for kind, _, _ in actions} == {"Node"}
+
+
+# ------------------------------------------------------------------------------------ namespace and driver
+@pytest.mark.parametrize("given,namespace", [("/cell_a", "/cell_a"), ("cell_a", "/cell_a"),
+                                             ("/cell_a/", "/cell_a"), ("plant/line_2", "/plant/line_2"),
+                                             ("", ""), ("/", "")])
+def test_a_namespace_is_made_absolute_and_the_root_is_none(given, namespace):
+    assert namespace_of(given) == namespace
+
+
+@pytest.mark.parametrize("given", ["cell-a", "/2cell", "/cell a", "/cell_a//b"])
+def test_a_namespace_ros_cannot_take_is_refused_naming_the_argument(given):
+    with pytest.raises(ValueError, match=r"namespace .*each part must start with a letter"):
+        namespace_of(given)
+
+
+def test_the_launcher_starts_every_node_in_the_namespace_first_thing_after_ros_args(capsys):
+    commands = printed_commands(capsys, "--namespace", "cell_a")
+    assert [c[1:4] for c in commands] == [["--ros-args", "-r", "__ns:=/cell_a"]] * len(CELLS["sim"])
+    files = ["--params-file", str(SIM_CONFIG), "--params-file", str(CALIBRATION)]
+    assert all(command[4:] == files for command in commands)
+
+
+def test_the_launcher_sets_the_real_drivers_address_and_dry_run_after_the_files(capsys):
+    commands = printed_commands(capsys, "--cell", "real", "--robot-ip", "10.0.0.2", "--dry-run", "false")
+    by_name = {pathlib.Path(c[0]).name: c for c in commands}
+    assert by_name["ur5_driver"][-4:] == ["-p", "robot_ip:=10.0.0.2", "-p", "dry_run:=false"]
+    assert all("-p" not in command for name, command in by_name.items() if name != "ur5_driver")
+
+
+@pytest.mark.parametrize("argv,says", [
+    (["--namespace", "cell-a"], "--namespace 'cell-a': each part must start with a letter"),
+    (["--robot-ip", "10.0.0.2"], "--robot-ip and --dry-run are the real cell's: add --cell real"),
+    (["--dry-run", "false"], "--robot-ip and --dry-run are the real cell's: add --cell real"),
+])
+def test_the_launcher_refuses_a_bad_namespace_and_driver_settings_on_the_simulated_cell(capsys, argv, says):
+    with pytest.raises(SystemExit) as stop:
+        launch_cell_main(["--print", *argv])
+    assert stop.value.code == 2 and says in capsys.readouterr().err
+
+
+LAUNCH_FILE = ROOT / "bringup" / "launch" / "cell.launch.py"
+
+
+def test_the_launch_file_declares_the_cells_arguments(monkeypatch):
+    declared = declared_arguments(monkeypatch, LAUNCH_FILE)
+    assert set(declared) == {"cell", "namespace", "robot_ip", "dry_run", "camera", "rviz", "config",
+                             "calibration", "security", "keystore"}
+    defaults = {name: kwargs["default_value"] for name, kwargs in declared.items()}
+    assert {name: defaults[name] for name in ("cell", "namespace", "robot_ip", "dry_run", "camera", "rviz")} \
+        == {"cell": "sim", "namespace": "", "robot_ip": "", "dry_run": "", "camera": "false", "rviz": "false"}
+
+
+def test_the_launch_file_starts_every_node_in_the_namespace(monkeypatch):
+    nodes = launched_nodes(monkeypatch, LAUNCH_FILE, {"namespace": "cell_a"})
+    assert len(nodes) == len(CELLS["sim"]) and {node["namespace"] for node in nodes} == {"/cell_a"}
+    assert {node["namespace"] for node in launched_nodes(monkeypatch, LAUNCH_FILE, {})} == {None}
+
+
+def test_the_launch_files_robot_ip_and_dry_run_are_the_real_drivers_parameters_after_its_files(monkeypatch):
+    nodes = {node["executable"]: node["parameters"] for node in launched_nodes(
+        monkeypatch, LAUNCH_FILE, {"cell": "real", "robot_ip": "10.0.0.2", "dry_run": "false"})}
+    files = [str(SIM_CONFIG), str(REAL_CONFIG), str(CALIBRATION)]
+    assert nodes["ur5_driver"] == [*files, {"robot_ip": "10.0.0.2", "dry_run": False}]
+    assert all(parameters == files for executable, parameters in nodes.items() if executable != "ur5_driver")
+
+
+@pytest.mark.parametrize("arguments", [{"robot_ip": "10.0.0.2"}, {"dry_run": "false"}, {"camera": "true"}])
+def test_the_launch_file_refuses_real_cell_arguments_on_the_simulated_cell(monkeypatch, arguments):
+    with pytest.raises(ValueError, match="are the real cell's: add cell:=real"):
+        launched_nodes(monkeypatch, LAUNCH_FILE, arguments)
+
+
+@pytest.mark.parametrize("namespace", ["", "/cell_a"])
+def test_camera_true_includes_the_realsense_launch_with_the_cells_profiles_in_the_namespace(monkeypatch,
+                                                                                          namespace):
+    actions = launched_actions(monkeypatch, LAUNCH_FILE, {"cell": "real", "camera": "true",
+                                                          "namespace": namespace})
+    (camera,) = [action for action in actions if action[0] != "Node"]
+    if namespace:
+        kind, ((push, include),), _ = camera
+        assert kind == "GroupAction" and push == ("PushRosNamespace", ("/cell_a",), {})
+    else:
+        include = camera
+    kind, (source,), kwargs = include
+    assert kind == "IncludeLaunchDescription"
+    _, ((_, (path,), _),), _ = source  # PythonLaunchDescriptionSource(PathJoinSubstitution([...]))
+    assert path == [("FindPackageShare", ("realsense2_camera",), {}), "launch", "rs_launch.py"]
+    arguments = dict(kwargs["launch_arguments"])
+    assert arguments["align_depth.enable"] == "true" and arguments["publish_tf"] == "false"
+    assert arguments["rgb_camera.color_profile"] == arguments["depth_module.depth_profile"] == "640,480,30"
+    # the driver's default names under the cell's namespace are the ones heightmap_node subscribes to
+    camera_prefix = f"{arguments['camera_namespace']}/{arguments['camera_name']}/"
+    assert all(topic.startswith(camera_prefix)
+               for topic in (names.COLOR_TOPIC, names.DEPTH_TOPIC, names.CAMERA_INFO_TOPIC))
+
+
+def test_rviz_true_starts_rviz2_with_the_cells_config_in_its_namespace(monkeypatch):
+    nodes = launched_nodes(monkeypatch, LAUNCH_FILE, {"rviz": "true", "namespace": "/cell_a"})
+    (rviz,) = [node for node in nodes if node["package"] == "rviz2"]
+    assert rviz["namespace"] == "/cell_a" and rviz["arguments"] == ["-d", str(config_dir() / "cell.rviz")]
+    assert not [node for node in launched_nodes(monkeypatch, LAUNCH_FILE, {}) if node["package"] == "rviz2"]

@@ -231,3 +231,37 @@ def test_without_security_the_launch_adds_no_enclave_and_no_environment(monkeypa
 def test_security_without_a_keystore_is_refused(monkeypatch):
     with pytest.raises(ValueError, match="keystore"):
         launched_nodes(monkeypatch, LAUNCH_FILE, {"security": "true", "keystore": ""})
+
+
+# ------------------------------------------------------------------------------------- a namespaced cell
+GLOBAL_NAMES = {"/rosout", "/parameter_events", "/clock", "/tf", "/tf_static"}
+
+
+def sros2_resolved(name: str, ns: str, node: str) -> str:
+    """A policy name as sros2's permissions template resolves it in a profile: absolute as it is, `~/x` the
+    node's own (ns/node/x), anything else under the profile's ns."""
+    if name.startswith("/"):
+        return name
+    prefix = ns if ns.endswith("/") else ns + "/"
+    return prefix + node + name[1:] if name.startswith("~") else prefix + name
+
+
+def namespaced_profiles(namespace: str) -> dict[str, ET.Element]:
+    """The profiles of the policy made for a cell in `namespace` as the policy's comment says: every
+    profile's ns set to it."""
+    text = POLICY.read_text().replace('ns="/"', f'ns="{namespace}"')
+    root = ET.fromstring(text, parser=ET.XMLParser(target=ET.TreeBuilder(insert_comments=True)))
+    return {element.get("path"): element.find("profiles/profile") for element in root.find("enclaves")}
+
+
+@pytest.mark.parametrize("executable", sorted(MODULES))
+def test_in_a_namespace_an_enclave_is_granted_its_codes_names_under_it_and_the_globals(executable):
+    namespace = "/cell_a"
+    profile = namespaced_profiles(namespace)[enclave(executable)]
+    node = profile.get("node")
+    granted = {(permission, sros2_resolved(name, profile.get("ns"), node))
+               for permission, name in grants(profile)}
+    code = {(permission, names.absolute(name, namespace)) for permission, name in code_grants(executable)}
+    rclpy_own = {(permission, sros2_resolved(name, namespace, node)) for permission, name in ROS_NODE_GRANTS}
+    assert granted == code | rclpy_own
+    assert {name for _, name in granted if not name.startswith(namespace + "/")} <= GLOBAL_NAMES

@@ -16,7 +16,8 @@ open split is then closed and metadata.yaml written. A SIGKILL loses only the op
 `split_duration` s): earlier splits are complete files already listed in metadata.yaml. Exits 1 with
 one line when the bag cannot be written, 2 with one line for a bad parameter.
 
-  bag_recorder --ros-args -p output:=/tmp/episode_bag -p topics:="[/heightmap, /policy/primitive]"
+  bag_recorder --ros-args -p output:=/tmp/episode_bag -p topics:="[heightmap, policy/primitive]"
+  bag_recorder --ros-args -r __ns:=/cell_a -p output:=/tmp/cell_a_bag   # records /cell_a/heightmap ...
 """
 
 import sys
@@ -45,16 +46,17 @@ from impurity_common.node_main import bound_malloc_arenas, exit_if_help, init_wi
 from impurity_common.parameters import (
     PARAMETER_ERROR_EXIT_CODE,
     ParameterError,
-    absolute_names,
     declare_parameters,
     param,
+    topic_names,
 )
 
 
 @dataclass(frozen=True)
 class BagRecorderParameters:
-    topics: tuple[str, ...] = param(names.EPISODE_TOPICS, "Topics to record (absolute names)",
-                                    check=absolute_names)
+    topics: tuple[str, ...] = param(names.EPISODE_TOPICS, "Topics to record: a relative name in the "
+                                    "recorder's namespace (the cell's), an absolute one as it is; the bag "
+                                    "holds the resolved, absolute names", check=topic_names)
     output: str = param("", "Bag directory to create (must not exist); default bag_<date>_<time> in the "
                         "working directory")
     split_duration: float = param(5.0, "s of messages per split file: what a SIGKILL can lose at most",
@@ -92,7 +94,7 @@ class BagRecorderNode(Node):
         super().__init__("bag_recorder")
         params = self.params = declare_parameters(self, BagRecorderParameters)
         output = params.output or time.strftime("bag_%Y%m%d_%H%M%S")
-        self._wanted = list(dict.fromkeys(params.topics))
+        self._wanted = list(dict.fromkeys(self.resolve_topic_name(topic) for topic in params.topics))
         self._pending = list(self._wanted)  # no publisher seen yet
         self._refused: list[str] = []
         self._recorded: dict[str, dict] = {}  # topic -> msg_class, request, subscription, publisher gids

@@ -1,8 +1,10 @@
 """Bag replay: publishes a rosbag2 bag's messages as raw CDR, bytes exactly as recorded.
 
 Thin shell around impurity_bags.bags (BagReader, replay_plan, run_replay). Timing: the original
-one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. Topics
-are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
+one scaled by `rate`, from `start_offset` s, optionally looping; or `as_fast_as_possible`. A bag holds
+absolute names and plays them as recorded; the names given in `topics`, `ack_before` and `ack_after`
+(relative ones, as impurity_common.names spells the cell's, in the replay's namespace) choose among them.
+Topics are renamed with ROS remapping arguments (`-r /heightmap:=/replayed/heightmap`).
 
 Pacing for offline tests: with `ack_topic` set, a message on `ack_before` is published only once
 the previous one was answered: a message with its header stamp arrived on `ack_topic`. Without an
@@ -38,7 +40,7 @@ in the first pass, or fewer when stopped (Ctrl-C) or with `allow_partial` (then 
 missing subscribers, or a pass that played fewer messages than the topics hold (how many of how many,
 and why); 2 with one line for a bad parameter; every wait is bounded.
 
-  bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[/heightmap]"
+  bag_replay --ros-args -p bag:=tests/data/episode_bag -p rate:=2.0 -p topics:="[heightmap]"
   bag_replay --ros-args -p bag:=tests/data/episode_bag -p clock:=true   # nodes with use_sim_time:=true
 """
 
@@ -178,8 +180,8 @@ class BagReplayNode(Node):
         self._acked_stamps: set[int] = set()
         self._pending_stamp: int | None = None  # of the last ack_before message, until answered
         self._unanswered: list[BagMessage] = []  # played since, for re-publication
-        self._ack_before = params.ack_before
-        self._ack_after = {topic for topic in params.ack_after if topic}
+        self._ack_before = self._bag_name(params.ack_before) if params.ack_before else ""
+        self._ack_after = {self._bag_name(topic) for topic in params.ack_after if topic}
         self._pacing = bool(params.ack_topic)
         self._clock_publisher = None
         self._replay_time_ns = self.timing.first_ns(self.reader.start_ns)  # the last /clock value
@@ -203,13 +205,19 @@ class BagReplayNode(Node):
         logger = self.get_logger()
         for warning in self.reader.warnings:
             logger.warn(warning)
-        selection = select_topics(self.reader.path, self.reader.topics, self.params.topics,
+        wanted = [self._bag_name(topic) for topic in self.params.topics if topic]
+        selection = select_topics(self.reader.path, self.reader.topics, wanted,
                                   message_type_problem, self.params.allow_partial)
         for warning in selection.warnings:
             logger.warn(warning)
         for note in selection.notes:
             logger.info(note)
         self.topics = list(selection.play)
+
+    def _bag_name(self, topic: str) -> str:
+        """A name given in the parameters as the bag spells it: expanded in the replay's namespace, not
+        remapped (remapping renames what is published)."""
+        return self.resolve_topic_name(topic, only_expand=True)
 
     def _publisher(self, topic: str):
         info = self.reader.topics[topic]

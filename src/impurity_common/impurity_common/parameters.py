@@ -580,10 +580,10 @@ def nonzero_norm(values) -> str | None:
     return None if math.isfinite(norm) and norm > 1e-9 else "has no rotation (norm 0)"
 
 
-def absolute_names(values) -> str | None:
-    """check= for lists of ROS topic names."""
-    bad = [v for v in values if not v.startswith("/")]
-    return f"has names that are not absolute: {', '.join(repr(v) for v in bad)}" if bad else None
+def topic_names(values) -> str | None:
+    """check= for lists of ROS topic names (relative or absolute): none empty, none with a blank."""
+    bad = [v for v in values if not v or any(c.isspace() for c in v)]
+    return f"has names that are not topic names: {', '.join(repr(v) for v in bad)}" if bad else None
 
 
 def camera_position_param():

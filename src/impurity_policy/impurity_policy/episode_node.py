@@ -140,14 +140,18 @@ class EpisodeNode(Node):
             return f"busy: an episode is already running ({running.episode_id}, started by {running.route})"
         drivers = self.count_publishers(self._driver_status_topic)
         if drivers > 1:
-            return (f"{drivers} action servers serve {names.EXECUTE_PRIMITIVE_ACTION} ({drivers} publishers "
-                    f"of {self._driver_status_topic}): every primitive would run on each of them; stop all "
-                    "drivers but one (an action is renamed by remapping its internal topics and services, "
-                    "not its name: README, 'Running on a real cell')")
+            return (f"{drivers} action servers serve {self._name(names.EXECUTE_PRIMITIVE_ACTION)} ({drivers} "
+                    f"publishers of {self._driver_status_topic}): every primitive would run on each of them; "
+                    "stop all drivers but one (an action is renamed by remapping its internal topics and "
+                    "services, not its name: README, 'Running on a real cell')")
         return None
 
     def _refusal(self, request: EpisodeRequest) -> str | None:
         return validate_request(request) or self._state_refusal()
+
+    def _name(self, name: str) -> str:
+        """A name of impurity_common.names as it resolves in this node's namespace (for messages)."""
+        return names.absolute(name, self.get_namespace())
 
     def _claim(self, request: EpisodeRequest, route: str) -> tuple[RunningEpisode | None, str | None]:
         """(the new running episode, None), or (None, why it is refused): checked and claimed at once."""
@@ -160,7 +164,7 @@ class EpisodeNode(Node):
 
     def _on_start(self, request, response):
         episode_request = self._request_from(request)
-        running, reason = self._claim(episode_request, names.START_EPISODE_SERVICE)
+        running, reason = self._claim(episode_request, self._name(names.START_EPISODE_SERVICE))
         if reason is not None:
             self.get_logger().warning(f"start refused: {reason}")
             response.accepted, response.reason = False, reason
@@ -230,7 +234,7 @@ class EpisodeNode(Node):
     def _execute_goal(self, goal_handle):
         result = RunEpisode.Result()
         request = self._request_from(goal_handle.request)
-        running, reason = self._claim(request, names.RUN_EPISODE_ACTION)
+        running, reason = self._claim(request, self._name(names.RUN_EPISODE_ACTION))
         if reason is not None:  # claimed by another request since the goal was accepted
             self.get_logger().warning(f"goal aborted: {reason}")
             goal_handle.abort()

@@ -171,11 +171,11 @@ class RosCell:
         wait = self.timeouts.scene_service_timeout
         offered = wait > 0 and self._wait_until(
             lambda: self._reset.service_is_ready() or self._ground_truth.service_is_ready(), wait,
-            f"service {names.RESET_SCENE_SERVICE} or {names.GROUND_TRUTH_SERVICE}")
+            f"service {self._name(names.RESET_SCENE_SERVICE)} or {self._name(names.GROUND_TRUTH_SERVICE)}")
         self._truth_offered = offered and self._ground_truth.service_is_ready()
         if not (offered and self._reset.service_is_ready()):
-            self.node.get_logger().info(f"no {names.RESET_SCENE_SERVICE}: the episode starts on the cell "
-                                        "as it is (scenario and seed apply to simulated cells only)")
+            self.node.get_logger().info(f"no {self._name(names.RESET_SCENE_SERVICE)}: the episode starts on "
+                                        "the cell as it is (scenario and seed apply to simulated cells only)")
             return
         response = self._call(self._reset, ResetScene.Request(
             scenario=request.scenario, seed=request.seed, num_targets=request.num_targets,
@@ -214,7 +214,7 @@ class RosCell:
         self._known_product.publish(attention.heightmap)
         stamp = time_to_ns(attention.heightmap.header.stamp)
         self.node.get_logger().info(f"known product: the first view (stamp {stamp} ns) showed no target; "
-                                    f"sent on {names.KNOWN_PRODUCT_TOPIC}")
+                                    f"sent on {self._name(names.KNOWN_PRODUCT_TOPIC)}")
 
     def look_closer(self) -> View | None:
         """The loop's stall look (core/picking.py): attention attends the frames that follow as a stall look
@@ -233,7 +233,7 @@ class RosCell:
         finally:
             if self._ask_look_closer(False) is None:
                 self.node.get_logger().warning(f"stall look not switched off: no answer from "
-                                               f"{names.LOOK_CLOSER_SERVICE}")
+                                               f"{self._name(names.LOOK_CLOSER_SERVICE)}")
 
     def _ask_look_closer(self, on: bool):
         """/attention/look_closer's answer to `on`, or None when the service is not offered or does not
@@ -344,8 +344,12 @@ class RosCell:
                 return False
         return True
 
+    def _name(self, name: str) -> str:
+        """A name of impurity_common.names as it resolves in the episode node's namespace (for messages)."""
+        return names.absolute(name, self.node.get_namespace())
+
     def _call(self, client, request, name: str):
-        timeout = self.timeouts.service_timeout
+        name, timeout = self._name(name), self.timeouts.service_timeout
         if not self._wait_until(client.service_is_ready, timeout, f"service {name}"):
             raise EpisodeAborted(f"node_lost: service {name} not available within {timeout:.0f} s")
         response = self._request(client, request, name, timeout)
@@ -356,6 +360,7 @@ class RosCell:
     def _request(self, client, request, name: str, timeout: float):
         """One request to a ready service: its response, or None (the request withdrawn) when none came
         within `timeout` s; a cancel while waiting withdraws it and raises EpisodeCanceled."""
+        name = self._name(name)
         done = threading.Event()
         future = client.call_async(request)
         future.add_done_callback(lambda _: done.set())
@@ -388,14 +393,15 @@ class RosCell:
                 if (newest is not None and after_ns < time_to_ns(newest.header.stamp) <= lead_limit
                         and newest.mode == AttentionResult.MODE_NONE):
                     return newest, None
-                self._check_cancel(f"a fresh decision on {names.PRIMITIVE_TOPIC}")
+                self._check_cancel(f"a fresh decision on {self._name(names.PRIMITIVE_TOPIC)}")
                 remaining = deadline - time.monotonic()
                 if self.node.count_publishers(names.PRIMITIVE_TOPIC) > 0:
                     self._policy_seen, gone_since = True, None
                 elif self._policy_seen:  # it was there and left; a slow start is the decision timeout's job
                     gone_since = gone_since or time.monotonic()
                     if time.monotonic() - gone_since > POLICY_GONE_GRACE:
-                        raise EpisodeAborted(f"node_lost: the policy node left {names.PRIMITIVE_TOPIC}")
+                        raise EpisodeAborted(
+                            f"node_lost: the policy node left {self._name(names.PRIMITIVE_TOPIC)}")
                 if remaining <= 0:
                     raise EpisodeAborted(self._no_decision_reason(after_ns, waiting_since_ns, timeout))
                 self._condition.wait(min(remaining, CANCEL_POLL))
@@ -406,8 +412,9 @@ class RosCell:
         now_ns = self.node.get_clock().now().nanoseconds
         heard = [(got, stamp) for got, stamp in self._attention_heard if got >= waiting_since_ns]
         if not heard:
-            return (f"node_lost: no fresh decision on {names.PRIMITIVE_TOPIC} within {timeout:.0f} s and no "
-                    f"attention results (camera, heightmap, attention or policy node not running?)")
+            return (f"node_lost: no fresh decision on {self._name(names.PRIMITIVE_TOPIC)} within "
+                    f"{timeout:.0f} s and no attention results (camera, heightmap, attention or policy "
+                    "node not running?)")
         received, stamp = heard[-1]
         if (now_ns - received) * 1e-9 > ATTENTION_SILENT:
             return (f"node_lost: attention results stopped {(now_ns - received) * 1e-9:.0f} s ago and no "
@@ -424,14 +431,15 @@ class RosCell:
             return (f"stale_input: attention results are stamped {(after_ns - stamp) * 1e-9:.1f} s before "
                     f"{self._after_what} (use_sim_time / the driver's timestamp setting)")
         return (f"node_lost: attention results arrive (stamped {gap:.1f} s before this node's clock) but no "
-                f"decision on {names.PRIMITIVE_TOPIC} within {timeout:.0f} s (policy node not running, or "
-                "refusing them: see its log)")
+                f"decision on {self._name(names.PRIMITIVE_TOPIC)} within {timeout:.0f} s (policy node not "
+                "running, or refusing them: see its log)")
 
     def _execute(self, primitive: Primitive):
         timeout = self.timeouts.motion_timeout
+        action = self._name(names.EXECUTE_PRIMITIVE_ACTION)
         if not self._wait_until(self._driver.server_is_ready, self.timeouts.service_timeout,
-                                f"driver action {names.EXECUTE_PRIMITIVE_ACTION}"):
-            raise EpisodeAborted(f"node_lost: driver action {names.EXECUTE_PRIMITIVE_ACTION} not available")
+                                f"driver action {action}"):
+            raise EpisodeAborted(f"node_lost: driver action {action} not available")
         done = threading.Event()
         goal_future = self._driver.send_goal_async(ExecutePrimitive.Goal(primitive=primitive))
         goal_future.add_done_callback(lambda _: done.set())

@@ -32,9 +32,33 @@ def relative(path: pathlib.Path) -> str:
     return str(path.relative_to(ROOT))
 
 
-def test_topics_services_and_actions_are_absolute_and_frames_are_not():
-    assert all(name.startswith("/") for name in GRAPH_NAMES)
+# Names ROS and its tools expect at the root whatever a node's namespace (tf2 and rviz2, rclpy's own topics,
+# the diagnostic aggregator)
+ROS_GLOBALS = {"/tf", "/tf_static", "/clock", "/diagnostics", "/parameter_events", "/rosout"}
+
+
+def test_the_cells_names_are_relative_and_only_the_ros_globals_absolute():
+    """A node started in a namespace has every cell name under it; TF stays where ROS tools look."""
+    assert {name for name in GRAPH_NAMES if name.startswith("/")} <= ROS_GLOBALS
+    assert {names.TF_TOPIC, names.TF_STATIC_TOPIC} <= ROS_GLOBALS
     assert not any(frame.startswith("/") for frame in FRAMES)
+
+
+def test_a_relative_name_resolves_under_the_namespace_and_a_global_one_stays():
+    assert names.absolute(names.HEIGHTMAP_TOPIC) == "/heightmap"
+    assert names.absolute(names.HEIGHTMAP_TOPIC, "/cell_a") == "/cell_a/heightmap"
+    assert names.absolute(names.COLOR_TOPIC, "/cell_a/") == "/cell_a/camera/camera/color/image_raw"
+    assert names.absolute(names.TF_TOPIC, "/cell_a") == "/tf"
+
+
+def test_the_episode_topics_resolve_to_the_names_the_committed_bags_hold():
+    """Bags hold absolute names: the cell at the root namespace records and replays them unchanged."""
+    from impurity_bags.bags import BagReader
+
+    for bag in ("episode_bag", "known_product_bag"):
+        with BagReader(ROOT / "tests" / "data" / bag) as reader:
+            recorded = set(reader.topics)
+        assert recorded <= {names.absolute(topic) for topic in names.EPISODE_TOPICS}, bag
 
 
 def test_no_two_constants_share_a_name():
@@ -42,8 +66,13 @@ def test_no_two_constants_share_a_name():
     assert len(constants) == len(set(constants))
 
 
+# One-word names that are also other things' names: the heightmap node ("heightmap") and its marker namespace
+OTHER_WORDS = {"heightmap"}
+
+
 def test_no_source_outside_names_spells_a_topic_service_or_action():
-    spelled = {relative(path): sorted(string_literals(path) & GRAPH_NAMES) for path in python_sources()}
+    spelled = {relative(path): sorted(string_literals(path) & (GRAPH_NAMES - OTHER_WORDS))
+               for path in python_sources()}
     assert {path: found for path, found in spelled.items() if found} == {}
 
 

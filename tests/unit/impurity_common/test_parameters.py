@@ -357,7 +357,7 @@ def test_every_node_accepts_its_own_defaults(node):
 @pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell"])
 def test_cell_yaml_names_only_declared_parameters_with_allowed_values(node):
     cls = node_parameter_classes()[node]
-    config = flatten(yaml.safe_load((ROOT / "bringup" / "config" / "cell.yaml").read_text())[node]
+    config = flatten(yaml.safe_load((ROOT / "bringup" / "config" / "cell.yaml").read_text())["/**/" + node]
                      ["ros__parameters"])
     specs_by_name = {spec.name: spec for spec in parameter_specs(cls)}
     assert set(config) <= set(specs_by_name), f"unknown parameters {set(config) - set(specs_by_name)}"

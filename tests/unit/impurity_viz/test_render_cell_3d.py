@@ -60,11 +60,11 @@ def bag(tmp_path_factory):
                  JointState(name=list(kin.JOINT_NAMES), position=list(JOINTS), velocity=[0.0] * 6,
                             effort=[0.0] * 6)),  # rosbags refuses rclpy's CDR with empty arrays (size)
                 (names.MARKERS_TOPIC, "visualization_msgs/msg/MarkerArray", 2 * SECOND, grasp_markers())]
-    with BagWriter(path, cell_typestore()) as writer:
+    with BagWriter(path, cell_typestore()) as writer:  # under the absolute names a recording holds
         for topic, msgtype, _, _ in messages:
-            writer.add_topic(topic, msgtype)
+            writer.add_topic(names.absolute(topic), msgtype)
         for topic, _, stamp, msg in messages:
-            writer.write(topic, stamp, serialize_message(msg))
+            writer.write(names.absolute(topic), stamp, serialize_message(msg))
     return path
 
 
