@@ -369,7 +369,7 @@ def test_camera_true_includes_the_realsense_launch_with_the_cells_profiles_in_th
                                                                                           namespace):
     actions = launched_actions(monkeypatch, LAUNCH_FILE, {"cell": "real", "camera": "true",
                                                           "namespace": namespace})
-    (camera,) = [action for action in actions if action[0] != "Node"]
+    (camera,) = [action for action in actions if action[0] in ("IncludeLaunchDescription", "GroupAction")]
     if namespace:
         kind, ((push, include),), _ = camera
         assert kind == "GroupAction" and push == ("PushRosNamespace", ("/cell_a",), {})

@@ -234,7 +234,7 @@ def test_security_without_a_keystore_is_refused(monkeypatch):
 
 
 # ------------------------------------------------------------------------------------- a namespaced cell
-GLOBAL_NAMES = {"/rosout", "/parameter_events", "/clock", "/tf", "/tf_static"}
+GLOBAL_NAMES = {"/rosout", "/parameter_events", "/clock", "/tf", "/tf_static", "/diagnostics"}
 
 
 def sros2_resolved(name: str, ns: str, node: str) -> str:
@@ -261,7 +261,8 @@ def test_in_a_namespace_an_enclave_is_granted_its_codes_names_under_it_and_the_g
     node = profile.get("node")
     granted = {(permission, sros2_resolved(name, profile.get("ns"), node))
                for permission, name in grants(profile)}
-    code = {(permission, names.absolute(name, namespace)) for permission, name in code_grants(executable)}
+    code = {(permission, sros2_resolved(name, namespace, node) if name.startswith("~") else
+             names.absolute(name, namespace)) for permission, name in code_grants(executable)}
     rclpy_own = {(permission, sros2_resolved(name, namespace, node)) for permission, name in ROS_NODE_GRANTS}
     assert granted == code | rclpy_own
     assert {name for _, name in granted if not name.startswith(namespace + "/")} <= GLOBAL_NAMES
