@@ -52,7 +52,7 @@ def run(cell, actions=12, **limits):
 @pytest.mark.parametrize("counts", [2, None], ids=["by truth", "by perception"])
 def test_the_fifth_occluded_view_in_a_row_is_looked_at_closer_and_the_count_starts_over(counts):
     cell = StallingCell(counts=counts)
-    summary = run(cell, actions=12)
+    summary = run(cell, actions=12, search_pushes=100)  # the search does not end it (test_search_end.py)
     assert summary["termination_reason"] == TERMINATION_ACTION_LIMIT
     assert cell.looks == [5, 10]  # the 5th and the 10th view; 12 views in all
     assert [source for _, source in cell.decided].count("closer") == 2
@@ -75,7 +75,7 @@ def test_a_view_that_is_not_occluded_breaks_the_row():
 def test_none_views_break_the_row_when_counting_by_perception():
     # three NONE views would end the episode: two, then attention sees a heap again
     cell = StallingCell(modes=[OCCLUDED] * 4 + [NONE, NONE] + [OCCLUDED] * 5, counts=None)
-    run(cell, actions=9, none_frames_to_finish=3)
+    run(cell, actions=9, none_frames_to_finish=3, search_pushes=100)
     assert cell.looks == [11]
 
 

@@ -28,6 +28,11 @@ DEFAULT_MAX_ACTIONS_UNCOUNTED = 30
 # no heap that could hide one) on this many consecutive fresh frames. One frame can miss a target
 # (shading, a blurred edge): three in a row make the end robust at ~1 s of waiting.
 DEFAULT_NONE_FRAMES_TO_FINISH = 3
+# Counting by perception: pushes in a row at heaps with no impurity in view after which the bin is taken as
+# clean (picking's end of the search). On tuning seeds 5000-5007 of the default palette (8 episodes per
+# scenario), every hidden impurity showed after at most 5 such pushes (16 reveals, runs of 1 to 5); 4 would
+# have left 1 of the 16 behind. Measured by `python -m impurity_learning.calibrate search-pushes`.
+DEFAULT_SEARCH_PUSHES = 5
 # Consecutive grasps that lift nothing or pushes whose motion failed before giving up. A motion the
 # driver refuses (goal rejected) is not one of them: it ends the episode at once ("error: ...").
 DEFAULT_MAX_CONSECUTIVE_FAILURES = 5

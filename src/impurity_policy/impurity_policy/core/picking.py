@@ -51,7 +51,11 @@ Two ways to count:
   holding); the picked count is the number of grasps judged "impurity picked". The loop stops when
   attention answers NONE on `none_frames_to_finish` consecutive fresh views (the paper's end: no visible
   impurity and no heap that could hide one) -> "no_target_or_cluster_left", at the action limit (the
-  request's, else `max_actions_uncounted`), or after repeated failures. A last look (View.last_look) is
+  request's, else `max_actions_uncounted`), or after repeated failures. The end of the search
+  (EpisodeLimits.search_pushes): a heap that hides an impurity shows it after a few pushes, so once
+  `search_pushes` views in a row have been pushes at heaps with no impurity in view (a stall look
+  included), the next such view ends the episode "no_target_or_cluster_left" too: the bin is taken as
+  clean. A last look (View.last_look) is
   acted on until one was in vain (answered by a push, or by a grasp its verdict says lifted no impurity);
   after that a last look counts as NONE. A grasp that lifts a product piece the verdict takes for an
   impurity does not stop them. With a cell that offers truth()
@@ -82,6 +86,7 @@ from .episode import (
     DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
     DEFAULT_NONE_FRAMES_TO_FINISH,
+    DEFAULT_SEARCH_PUSHES,
     TERMINATION_ACTION_LIMIT,
     TERMINATION_CANCELED,
     TERMINATION_NOTHING_LEFT,
@@ -224,6 +229,10 @@ class EpisodeLimits:
     stall_look_views: int = param(5, "After this many views in a row on which attention found a heap but no "
                                   "impurity, ask the cell for a stall look (module docstring) and decide on "
                                   "it", low=1, high=1000)
+    search_pushes: int = param(DEFAULT_SEARCH_PUSHES, "Counting by perception: pushes in a row at heaps "
+                               "that showed no impurity after which the bin is taken as clean (the end of "
+                               "the search, module docstring); more leaves fewer hidden impurities behind and "
+                               "costs more actions", low=1, high=1000)
 
     def __post_init__(self):
         check_fields(self)
@@ -422,6 +431,7 @@ class _Episode:
         if self.recorder is not None:
             self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
         none_views = 0
+        searched = 0  # OCCLUDED_REGION views in a row decided on: pushes at heaps that showed no impurity
         view = None
         looked_in_vain = False  # a last look was in vain (see below): later last looks count as NONE
         while True:
@@ -442,6 +452,9 @@ class _Episode:
                 continue
             none_views = 0
             view = self._stall_look(view)
+            searched = searched + 1 if view.mode == AttentionMode.OCCLUDED_REGION else 0
+            if searched > limits.search_pushes:
+                return TERMINATION_NOTHING_LEFT
             action = cell.decide(view)
             if action is None:
                 return TERMINATION_NOTHING_LEFT

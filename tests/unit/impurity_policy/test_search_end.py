@@ -1,0 +1,75 @@
+"""The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes): counted by perception,
+after `search_pushes` pushes in a row at heaps that showed no impurity, the next such view ends the episode
+as "nothing left"; a target in view starts the count over. Counted by truth it never applies (the paper's
+protocol ends on the count). Specified against a scripted cell."""
+
+import pytest
+
+from impurity_policy.core.episode import TERMINATION_ACTION_LIMIT, TERMINATION_NOTHING_LEFT, EpisodeRequest
+from impurity_policy.core.picking import Action, EpisodeLimits, Outcome, View, run_episode
+from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
+
+OCCLUDED, TARGET = MODE_OCCLUDED_REGION, MODE_TARGET
+
+
+class ScriptedCell:
+    """Attention answers `modes` in turn, then OCCLUDED_REGION for ever; every decision pushes. counts:
+    reset's target count (None: the loop counts by perception)."""
+
+    def __init__(self, modes=(), counts=None):
+        self.modes, self.counts, self.pushes = list(modes), counts, 0
+
+    def reset(self, request):
+        return self.counts
+
+    def observe(self):
+        return View(self.modes.pop(0) if self.modes else OCCLUDED)
+
+    def decide(self, view):
+        return Action("push", (0.5, 0.0, 0.02), 0.0, 1.0, 0, (100, 100), view.mode)
+
+    def execute(self, action):
+        self.pushes += 1
+        return Outcome(True, False, "push")
+
+    def targets_remaining(self, outcome, before):
+        return before
+
+
+def run(cell, **limits):
+    request = EpisodeRequest("invisible", seed=1, num_targets=2, max_actions=30)
+    return run_episode(cell, request, "ep-1", EpisodeLimits(**limits))
+
+
+@pytest.mark.parametrize("pushes", [1, 3, 5])
+def test_a_clean_bin_ends_after_search_pushes_pushes_at_heaps(pushes):
+    cell = ScriptedCell()
+    summary = run(cell, search_pushes=pushes)
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+    assert summary["actions"] == cell.pushes == pushes
+    assert summary["completed"]
+
+
+def test_a_target_in_view_starts_the_count_over():
+    # two pushes, a target (pushed at here), two more pushes: four at heaps but never three in a row
+    cell = ScriptedCell(modes=[OCCLUDED, OCCLUDED, TARGET, OCCLUDED, OCCLUDED])
+    summary = run(cell, search_pushes=2)
+    assert summary["actions"] == 5  # the sixth view is the third at a heap in a row
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+
+
+def test_counted_by_truth_the_search_never_ends_the_episode():
+    cell = ScriptedCell(counts=2)
+    summary = run(cell, search_pushes=2)
+    assert summary["termination_reason"] == TERMINATION_ACTION_LIMIT and summary["actions"] == 30
+
+
+def test_more_search_pushes_cost_more_actions_on_a_clean_bin():
+    actions = [run(ScriptedCell(), search_pushes=k)["actions"] for k in (2, 4, 8)]
+    assert actions == [2, 4, 8]
+
+
+@pytest.mark.parametrize("pushes", [0, -2])
+def test_a_count_below_one_is_refused_naming_the_field(pushes):
+    with pytest.raises(ValueError, match="search_pushes"):
+        EpisodeLimits(search_pushes=pushes)
