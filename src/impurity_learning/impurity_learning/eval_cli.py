@@ -13,7 +13,18 @@ of their own (perception_figures.py); --clean-scenes N adds N scenes per row and
 impurity. The default (--count truth) is the paper's table alone; --count perception leaves the README
 block alone.
 
-    python -m impurity_learning.eval_cli --count both --clean-scenes 4 --episodes 20
+    python -m impurity_learning.eval_cli --count both --clean-scenes 10 --episodes 20   # make eval's episodes
+
+The README block (readme_table) heads with the perception count beside the truth count, each mean with the
+half width of its 95 % t interval; docs/results.md gives the truth-counted figures with their intervals.
+
+--scene-set runs scenes beyond the paper's blocks (ur5_driver_sim.core.scenes.SCENE_SETS: tall, flat, mixed
+15-60 mm, sparse, dense, clean; --piece-heights LOW HIGH in mm) on the random and challenging layouts, on
+evaluation seeds (only measured) or, with --split tuning, on the tuning seeds end rules may be fitted on
+(splits.SCENE_SET_TUNING_SEEDS). Such a run writes under runs/eval/<set>-<split>/, never the README block:
+
+    python -m impurity_learning.eval_cli --scene-set sparse --split tuning --methods ours --count both \
+        --episodes 4 --palette-groups default
 
 Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped
 policy.pt); a
@@ -247,8 +258,8 @@ def readme_table(results: dict, rows, scenarios) -> str:
     tables = (("Action efficiency, %: counted by perception / by truth (paper)", efficiency, None),
               ("Actions per scene: by perception / by truth", actions,
                ("clean scenes: actions / product lifted", clean_cell)),
-              ("By perception, per scene: impurities left behind / product lifted · ended by the cell's own "
-               "\"nothing left\", of episodes", left, None),
+              ("By perception, per scene: impurities left behind / product lifted · ended \"nothing left\"",
+               left, None),
               ("Grasp success, % (by truth; paper)", success, None))
     sections = []
     for title, cell, extra in tables:
