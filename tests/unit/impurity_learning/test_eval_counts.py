@@ -107,3 +107,23 @@ def test_a_run_that_cannot_hold_its_split_or_scene_set_is_refused_before_any_epi
                                                                                     capsys):
     assert main([*arguments, "--no-progress", "--jobs", "1"]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_the_scene_set_table_puts_each_sets_counts_side_by_side_and_reads_clean_sets_from_clean_scenes():
+    from impurity_learning import scene_set_table
+
+    def run(scene_set, records, truth):
+        return {"_meta": {"rows": ["ours@cell"], "scenarios": ["random"], "scene_set": scene_set,
+                          "split": "tuning"},
+                "ours@cell": {"scenarios": {"random": aggregate(truth)},
+                              "by_perception": by_scenario(records, ["random"])}}
+
+    tall = run("tall", [perception_record(2, 30, reason="action_limit"), perception_record(1, 10, lifted=1)],
+               [truth_record(2, 2, 4), truth_record(2, 2, 6)])
+    clean = run("clean", [perception_record(0, 12, lifted=1, clean=True),
+                          perception_record(0, 4, clean=True)], [truth_record(0, 0, 0, total=0)] * 2)
+    table = scene_set_table.markdown(scene_set_table.table_rows(tall) + scene_set_table.table_rows(clean))
+    assert ("| tall | tuning | ours@cell | random | 2 | 20.0 [-107.1, 147.1] | 5.0 [-7.7, 17.7] | "
+            "1 / 1 / 0 | 0.50 [-5.85, 6.85] | 0.50 [-5.85, 6.85] |") in table
+    assert ("| clean | tuning | ours@cell | random | 2 | 8.0 [-42.8, 58.8] | 0.0 [0.0, 0.0] | "
+            "2 / 0 / 0 | (clean) | 0.50 [-5.85, 6.85] |") in table
