@@ -73,6 +73,7 @@ def test_a_set_with_piece_heights_is_named_by_them_in_mm():
     chosen = scene_set_named("sparse@50-50")
     assert chosen.heights == (0.05, 0.05) and chosen.name == "sparse@50-50"
     assert chosen.pieces == SCENE_SETS["sparse"].pieces
+    assert chosen.meaning.endswith("pieces 50-50 mm tall here")
     assert SCENE_SETS["tall"].with_heights((0.015, 0.06)).name == "tall@15-60"
 
 

@@ -296,7 +296,8 @@ class SceneSet:
         """This set with piece heights `heights` (m); its name says them in mm ("sparse@50-50")."""
         check_piece_heights(heights)
         low, high = (round(1000 * h) for h in heights)
-        return replace(self, name=f"{self.name.split('@')[0]}@{low}-{high}", heights=tuple(heights))
+        return replace(self, name=f"{self.name.split('@')[0]}@{low}-{high}", heights=tuple(heights),
+                       meaning=f"{self.meaning.split('; ')[0]}; pieces {low}-{high} mm tall here")
 
 
 WIDE_HEIGHTS = (0.015, 0.060)  # m: pieces flatter and taller than ours
