@@ -4,9 +4,12 @@ SHELL := /bin/bash
 ENV := source scripts/env.sh &&
 
 EVAL_GRAPH_EPISODES ?= 2
-# make eval: episodes per method and scenario on the default palette, and per non-default palette group
-# (tuning, held-out; generalisation table). 13 rows (6 networks x 2 rules presets + the heuristic).
-EVAL_EPISODES ?= 8
+# make eval: episodes per method and scenario on the default palette (the paper's protocol: 20), each counted
+# by truth and by perception; clean scenes (no impurity) per method and scenario, counted by perception; and
+# episodes per non-default palette group (tuning, held-out; generalisation table). 13 rows (6 networks x 2
+# rules presets + the heuristic).
+EVAL_EPISODES ?= 20
+EVAL_CLEAN_SCENES ?= 10
 EVAL_GROUP_EPISODES ?= 4
 SOAK_EPISODES ?= 200
 # make test: pytest-xdist workers, each on a ROS domain of its own (tests/conftest.py), whole files per
@@ -24,7 +27,8 @@ help:
 	@echo "make train-baselines - VPG, No-TSD, No-OI, No-T at once (BASELINE_HOURS=1.3, resumable)"
 	@echo "make eval   - paper's evaluation: methods x scenarios (fast sim), table and chart, then a few"
 	@echo "              episodes through the node graph, generalisation table per palette group"
-	@echo "              (EVAL_EPISODES=8, EVAL_GROUP_EPISODES=4, EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
+	@echo "              (EVAL_EPISODES=20 counted by truth and by perception, EVAL_CLEAN_SCENES=10,"
+	@echo "              EVAL_GROUP_EPISODES=4, EVAL_ARGS=..., EVAL_GRAPH_EPISODES=2)"
 	@echo "make bench  - latency and throughput figures"
 	@echo "make soak   - N picking episodes back to back through the node graph, memory per node (SOAK_EPISODES=200)"
 	@echo "make setup  - .venv + pinned requirements + colcon build (idempotent; CPython 3.11, 3.12: runtime only)"
@@ -59,8 +63,8 @@ train-baselines: setup
 	@$(ENV) scripts/train_baselines.sh
 
 eval: setup
-	@$(ENV) python -m impurity_learning.eval_cli --rules cell none --episodes $(EVAL_EPISODES) \
-		--group-episodes $(EVAL_GROUP_EPISODES) $(EVAL_ARGS)
+	@$(ENV) python -m impurity_learning.eval_cli --rules cell none --episodes $(EVAL_EPISODES) --count both \
+		--clean-scenes $(EVAL_CLEAN_SCENES) --group-episodes $(EVAL_GROUP_EPISODES) $(EVAL_ARGS)
 	@$(ENV) python -m impurity_bringup.eval_graph --episodes $(EVAL_GRAPH_EPISODES)
 
 soak: setup

@@ -13,7 +13,18 @@ of their own (perception_figures.py); --clean-scenes N adds N scenes per row and
 impurity. The default (--count truth) is the paper's table alone; --count perception leaves the README
 block alone.
 
-    python -m impurity_learning.eval_cli --count both --clean-scenes 4 --episodes 20
+    python -m impurity_learning.eval_cli --count both --clean-scenes 10 --episodes 20   # make eval's episodes
+
+The README block (readme_table) heads with the perception count beside the truth count, each mean with the
+half width of its 95 % t interval; docs/results.md gives the truth-counted figures with their intervals.
+
+--scene-set runs scenes beyond the paper's blocks (ur5_driver_sim.core.scenes.SCENE_SETS: tall, flat, mixed
+15-60 mm, sparse, dense, clean; --piece-heights LOW HIGH in mm) on the random and challenging layouts, on
+evaluation seeds (only measured) or, with --split tuning, on the tuning seeds end rules may be fitted on
+(splits.SCENE_SET_TUNING_SEEDS). Such a run writes under runs/eval/<set>-<split>/, never the README block:
+
+    python -m impurity_learning.eval_cli --scene-set sparse --split tuning --methods ours --count both \
+        --episodes 4 --palette-groups default
 
 Network methods load `<checkpoint-dir>/<trained method>.pt` (Ours: `--policy-checkpoint`, the shipped
 policy.pt); a
@@ -62,14 +73,16 @@ import numpy as np
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 from impurity_policy.core.episode import EpisodeRequest
 from impurity_policy.core.rules import PRESETS
+from ur5_driver_sim.core.scenes import SCENE_SETS, UPRIGHT_LAYOUTS, scene_set_named
 
-from . import generalisation, perception_figures, ray_runtime
+from . import generalisation, perception_figures, ray_runtime, splits
 from .agents import EVAL_METHODS, HEURISTIC_METHODS, TRAINED_METHOD, make_agent
-from .evaluate import EVAL_SEED_BASE, run_episode
+from .evaluate import EVAL_SEED_BASE, run_episode  # noqa: F401 (EVAL_SEED_BASE: for callers)
 from .train_cli import BASELINE_CHECKPOINT_DIR
 
 MARKDOWN = "docs/results.md"  # make eval's table; outputs not given go beside it (generalisation_outputs)
 README = "README.md"  # the repository's README, whose results block a run with the default MARKDOWN replaces
+SCENE_SET_OUTPUTS = "runs/eval"  # a run on a scene set or on tuning seeds writes beside <this>/<set>-<split>/
 SCENARIOS = ("random", "challenging", "invisible")
 LABELS = {"ours": "Ours", "vpg": "VPG", "s_vpg": "S-VPG", "s_rgm": "S-RGM (heuristic)", "no_tsd": "No-TSD",
           "no_oi": "No-OI", "no_t": "No-T"}
@@ -106,16 +119,21 @@ def file_digest(path: pathlib.Path) -> str:
 
 
 def aggregate(episodes: list) -> dict:
-    """Paper 6.1 metrics averaged over episodes, in percent; plus totals."""
+    """Paper 6.1 metrics averaged over episodes, in percent; plus totals, and under "intervals" the 95 % t
+    interval (perception_figures.mean_interval) of grasp success, action efficiency (%) and actions."""
     def mean(key):
         return 100.0 * float(np.mean([e[key] for e in episodes])) if episodes else math.nan
 
+    interval = perception_figures.mean_interval
     return {"episodes": len(episodes), "grasp_success": mean("grasp_success"),
             "action_efficiency": mean("action_efficiency"), "completion": mean("completed"),
             "false_rejects": int(sum(e["false_rejects"] for e in episodes)),
             "actions_mean": float(np.mean([e["actions"] for e in episodes])) if episodes else math.nan,
             "targets_picked": int(sum(e["targets_picked"] for e in episodes)),
-            "targets_total": int(sum(e["targets_total"] for e in episodes))}
+            "targets_total": int(sum(e["targets_total"] for e in episodes)),
+            "intervals": {"grasp_success": interval(100.0 * e["grasp_success"] for e in episodes),
+                          "action_efficiency": interval(100.0 * e["action_efficiency"] for e in episodes),
+                          "actions": interval(e["actions"] for e in episodes)}}
 
 
 def row_key(method: str, rules: str) -> str:
@@ -136,25 +154,37 @@ def percent(value) -> str:
     return "–" if value is None or not math.isfinite(value) else f"{value:.1f}"
 
 
+def with_interval(entry: dict, key: str) -> str:
+    """A truth-counted figure with its 95 % t interval, "59.2 [41.0, 77.4]" (the mean alone for records
+    aggregated without intervals)."""
+    figure = entry.get("intervals", {}).get(key)
+    return perception_figures.shown(figure) if figure else percent(entry.get(key, entry.get(f"{key}_mean")))
+
+
 def results_table(results: dict, rows, scenarios) -> str:
-    """Markdown, Table I style: grasp success and action efficiency per scenario (the paper's figure in
-    brackets), then completion and false rejects."""
+    """Markdown, Table I style: grasp success and action efficiency per scenario with 95 % t intervals in
+    brackets (the paper's figure after them), actions per scene, completion and false rejects; counted by
+    the simulator's truth."""
     sections = []
     for title, key, column in (("Grasp success, %", "grasp_success", 0),
                                ("Action efficiency, %", "action_efficiency", 1),
+                               ("Actions per scene", "actions", None),
                                ("Completion (every target picked), %", "completion", None)):
-        lines = [f"**{title}**" + (" [paper]" if column is not None else ""), "",
+        lines = [f"**{title}**" + (" [95 % interval] (paper)" if column is not None else
+                                   " [95 % interval]" if key == "actions" else ""), "",
                  "| Method | " + " | ".join(scenarios) + " |", "|---|" + "---|" * len(scenarios)]
         for row in rows:
             entry = results[row]
             if entry.get("missing"):
                 cells = ["not trained"] * len(scenarios)
+            elif key == "actions":
+                cells = [with_interval(entry["scenarios"][s], "actions") for s in scenarios]
+            elif column is not None:
+                paper = PAPER[method_of(row)][column]
+                cells = [f"{with_interval(entry['scenarios'][s], key)} ({percent(paper[SCENARIOS.index(s)])})"
+                         for s in scenarios]
             else:
                 cells = [percent(entry["scenarios"][s][key]) for s in scenarios]
-                if column is not None:
-                    paper = PAPER[method_of(row)][column]
-                    cells = [f"{c} [{percent(paper[SCENARIOS.index(s)])}]"
-                             for c, s in zip(cells, scenarios, strict=True)]
             lines.append(f"| {label(row)} | " + " | ".join(cells) + " |")
         sections.append("\n".join(lines))
     lines = ["**False rejects (non-targets grasped) / targets picked of total**", "",
@@ -166,6 +196,83 @@ def results_table(results: dict, rows, scenarios) -> str:
                   f"{entry['scenarios'][s]['targets_total']}" for s in scenarios])
         lines.append(f"| {label(row)} | " + " | ".join(cells) + " |")
     sections.append("\n".join(lines))
+    return "\n\n".join(sections)
+
+
+def plus_minus(figure: dict | None, digits: int = 1) -> str:
+    """"41.0 ± 8.6": a mean_interval dict as its mean and the half width of its interval ("41.0" without
+    one, "–" without a mean)."""
+    if not figure or not math.isfinite(figure["mean"]):
+        return "–"
+    if not math.isfinite(figure["low"]):
+        return f"{figure['mean']:.{digits}f}"
+    return f"{figure['mean']:.{digits}f} ± {(figure['high'] - figure['low']) / 2:.{digits}f}"
+
+
+def readme_table(results: dict, rows, scenarios) -> str:
+    """The README's results block: the same episodes counted by perception (as a real cell counts; the
+    headline) and by the simulator's truth, means ± the half width of their 95 % t intervals. Action
+    efficiency (perception / truth, the paper's figure in parentheses); actions per scene (perception /
+    truth, and on clean scenes by perception); impurities left behind and product lifted per scene with
+    the episodes the cell ended itself ("nothing left", of all), counted by perception; grasp success by
+    truth (paper). "–": not counted that way in the run the block comes from."""
+    def perception(row, scenario):
+        counted = results[row].get("by_perception") or {}
+        return counted.get("scenarios", {}).get(scenario) or {}
+
+    def clean(row):
+        counted = results[row].get("by_perception") or {}
+        return [e for e in counted.get("episodes", []) if e.get("clean_scene")]
+
+    def truth(row, scenario, key):
+        return results[row]["scenarios"][scenario].get("intervals", {}).get(key) or {
+            "mean": results[row]["scenarios"][scenario]["actions_mean" if key == "actions" else key],
+            "low": math.nan, "high": math.nan}
+
+    def efficiency(row, s):
+        paper = PAPER[method_of(row)][1][SCENARIOS.index(s)]
+        return (f"{plus_minus(perception(row, s).get('efficiency'))} / "
+                f"{plus_minus(truth(row, s, 'action_efficiency'))} ({percent(paper)})")
+
+    def actions(row, s):
+        return f"{plus_minus(perception(row, s).get('actions'))} / {plus_minus(truth(row, s, 'actions'))}"
+
+    def left(row, s):
+        f = perception(row, s)
+        if not f.get("episodes"):
+            return "–"
+        return (f"{plus_minus(f['left'], 2)} / {plus_minus(f['product_lifted'], 2)} · "
+                f"{f['ended']['nothing_left']} of {f['episodes']}")
+
+    def success(row, s):
+        paper = PAPER[method_of(row)][0][SCENARIOS.index(s)]
+        return f"{plus_minus(truth(row, s, 'grasp_success'))} ({percent(paper)})"
+
+    def clean_cell(row):
+        episodes = clean(row)
+        if not episodes:
+            return "–"
+        figures = perception_figures.clean_figures(episodes)
+        return f"{plus_minus(figures['actions'])} / {plus_minus(figures['product_lifted'], 2)}"
+
+    tables = (("Action efficiency, %: counted by perception / by truth (paper)", efficiency, None),
+              ("Actions per scene: by perception / by truth", actions,
+               ("clean scenes: actions / product lifted", clean_cell)),
+              ("By perception, per scene: impurities left behind / product lifted · ended \"nothing left\"",
+               left, None),
+              ("Grasp success, % (by truth; paper)", success, None))
+    sections = []
+    for title, cell, extra in tables:
+        header = [*scenarios, *([extra[0]] if extra else [])]
+        lines = [f"**{title}**", "", "| Method | " + " | ".join(header) + " |",
+                 "|---|" + "---|" * len(header)]
+        for row in rows:
+            if results[row].get("missing"):
+                cells = ["not trained"] * len(header)
+            else:
+                cells = [cell(row, s) for s in scenarios] + ([extra[1](row)] if extra else [])
+            lines.append(f"| {label(row)} | " + " | ".join(cells) + " |")
+        sections.append("\n".join(lines))
     return "\n\n".join(sections)
 
 
@@ -203,15 +310,23 @@ def plot_results(results: dict, rows, scenarios, path: pathlib.Path) -> None:
 
 def write_markdown(results: dict, rows, scenarios, path: pathlib.Path, chart: pathlib.Path, command: str):
     meta = results["_meta"]
+    scene_set = meta.get("scene_set", "paper")
+    split = meta.get("split", "evaluation")
+    seeds = ("held-out seeds" if split == "evaluation" else "tuning seeds")
+    scenes = ("the paper's scenes" if scene_set == "paper" else
+              f"scene set `{scene_set}` ({scene_set_named(scene_set).meaning})")
     lines = ["# Evaluation results (fast sim)", "",
              f"Generated by `{command}` on {meta['date']} in {meta['seconds']:.0f} s. "
-             f"{meta['episodes']} episodes per method and scenario on the held-out seeds "
+             f"{meta['episodes']} episodes per method and scenario, {scenes}, on the {seeds} "
              f"{meta['seed_base']} … {meta['seed_base'] + meta['episodes'] - 1} (training scenes use "
              "run seed × 1 000 003 + scene index). Floating-gripper sim, the same sensing as training, "
              "greedy decisions; episode limits: 15 actions per target, 5 consecutive failures.", "",
-             "Metrics as the paper (section 6.1), averaged over episodes: grasp success = targets picked / "
-             "grasp attempts; action efficiency = targets picked / actions; completion = every target "
-             "picked. The paper's figures are in brackets.", "",
+             "Metrics as the paper (section 6.1), counted by the simulator's truth, averaged over episodes: "
+             "grasp success = targets picked / grasp attempts; action efficiency = targets picked / actions; "
+             "completion = every target picked. Beside each mean its 95 % t interval over episodes in "
+             "brackets (Student's t, n - 1 degrees of freedom; – with fewer than two), then the paper's "
+             "figure in parentheses. The same episodes counted by perception, as a real cell counts: the "
+             "section below (with `--count both`).", "",
              results_table(results, rows, scenarios), "",
              f"![results]({os.path.relpath(chart, path.parent)})", "",
              "## Checkpoints", ""]
@@ -254,14 +369,18 @@ COUNTS = ("truth", "perception", "clean")
 
 def run_task(task: tuple) -> dict:
     """One evaluation episode (row, checkpoint, scenario, seed, torch threads, device, palette group,
-    palette, count: one of COUNTS) -> its record; runs in the main process or in a pool worker. row:
-    row_key(method, rules). A record counted by perception also says whether its scene was clean
-    (clean_scene: built with no impurity)."""
+    palette, count: one of COUNTS[, scene set]) -> its record; runs in the main process or in a pool worker.
+    row: row_key(method, rules). A record counted by perception also says whether its scene was clean
+    (clean_scene: built with no impurity). The scene set (a name for scenes.scene_set_named; "" or absent:
+    the paper's scenes) draws the scene's counts and piece heights from its seed; its records name it
+    (scene_set) with the counts drawn."""
     import torch
 
+    from ur5_driver_sim.core.scenes import scene_set_named
     from ur5_driver_sim.core.world import CellWorld
 
-    row, checkpoint, scenario, seed, threads, device, group, palette, count = task
+    row, checkpoint, scenario, seed, threads, device, group, palette, count = task[:9]
+    scene_set = task[9] if len(task) > 9 else ""
     method, _, rules = row.partition("@")
     if "world" not in _WORKER:
         torch.set_num_threads(threads)
@@ -271,15 +390,23 @@ def run_task(task: tuple) -> dict:
         agents[row] = make_agent(method, pathlib.Path(checkpoint) if checkpoint else None, rules or "none",
                                  device)
     world, agent = _WORKER["world"], agents[row]
+    request, heights, drawn = EpisodeRequest(scenario, seed=seed, palette=palette), None, {}
+    if scene_set:
+        draw = scene_set_named(scene_set).draw(seed)
+        heights = draw.heights
+        if draw.num_targets >= 0:
+            request = dataclasses.replace(request, num_targets=draw.num_targets, num_objects=draw.num_objects)
+        drawn = {"scene_set": scene_set, "num_targets": request.num_targets,
+                 "num_objects": request.num_objects, "piece_heights": heights}
     if count == "truth":
-        metrics = run_episode(world, agent, EpisodeRequest(scenario, seed=seed, palette=palette))
+        metrics = run_episode(world, agent, request, piece_heights=heights)
     else:
-        request = EpisodeRequest(scenario, seed=seed, palette=palette)
         if count == "clean":
             request = dataclasses.replace(request, num_targets=0)
-        metrics = {**run_episode(world, agent, request, by_perception=True), "clean_scene": count == "clean"}
+        metrics = {**run_episode(world, agent, request, by_perception=True, piece_heights=heights),
+                   "clean_scene": count == "clean" or request.num_targets == 0}
     return {"method": method, "rules": rules, "row": row, "scenario": scenario, "seed": seed, "group": group,
-            "palette": palette, **metrics}
+            "palette": palette, **drawn, **metrics}
 
 
 def close_worker() -> None:
@@ -317,11 +444,13 @@ def settings_digest() -> str:
 
 def task_key(task: tuple, digests: dict) -> str:
     """What makes an episode's record: row, the checkpoint's bytes (digests: path -> sha256), the decision
-    settings (settings_digest), scenario, seed, device, group, palette and, unless by truth, the count (not
-    the torch threads, not where the checkpoint lies)."""
-    row, checkpoint, scenario, seed, _threads, device, group, palette, count = task
+    settings (settings_digest), scenario, seed, device, group, palette, unless by truth the count, and
+    unless the paper's the scene set (not the torch threads, not where the checkpoint lies)."""
+    row, checkpoint, scenario, seed, _threads, device, group, palette, count = task[:9]
+    scene_set = task[9] if len(task) > 9 else ""
     key = [row, digests.get(checkpoint, ""), settings_digest(), scenario, seed, device, group, palette]
-    return json.dumps(key if count == "truth" else [*key, count])
+    key = key if count == "truth" else [*key, count]
+    return json.dumps([*key, scene_set] if scene_set else key)
 
 
 def read_journal(path: pathlib.Path) -> dict:
@@ -395,16 +524,30 @@ def run_episodes(tasks: list, digests: dict, journal: pathlib.Path, args) -> lis
 def parse_args(argv=None) -> argparse.Namespace:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--methods", nargs="+", default=list(EVAL_METHODS), choices=EVAL_METHODS)
-    p.add_argument("--scenarios", nargs="+", default=list(SCENARIOS), choices=SCENARIOS)
+    p.add_argument("--scenarios", nargs="+", default=None, choices=SCENARIOS,
+                   help="default: all three; with a scene set other than paper, random and challenging (the "
+                        "layouts that take piece heights)")
     p.add_argument("--rules", nargs="+", default=["cell"], choices=sorted(PRESETS),
                    help="test-time rules presets; every network method runs under each (none: the paper's "
                         "argmax, cell: our rules)")
     p.add_argument("--episodes", type=int, default=20, help="per method and scenario")
-    p.add_argument("--seed-base", type=int, default=EVAL_SEED_BASE)
+    p.add_argument("--seed-base", type=int, default=None,
+                   help="episode k runs on scene seed base + k (default: the --split's first seed)")
+    p.add_argument("--split", default="evaluation", choices=splits.SCENE_SET_SPLITS,
+                   help="scene seeds: evaluation (EVAL_SEED_BASE + k, only measured) or tuning (splits."
+                        "SCENE_SET_TUNING_SEEDS: what end rules and thresholds may be fitted on)")
+    p.add_argument("--scene-set", default="paper", metavar="SET",
+                   help="the scenes: " + "; ".join(f"{s.name}: {s.meaning}" for s in SCENE_SETS.values())
+                        + " (ur5_driver_sim.core.scenes.SCENE_SETS; SET@LOW-HIGH: with piece heights "
+                        "LOW-HIGH mm)")
+    p.add_argument("--piece-heights", type=float, nargs=2, default=None, metavar=("LOW", "HIGH"),
+                   help="mm: every piece of the scene set stands upright with a height in LOW-HIGH")
     p.add_argument("--checkpoint-dir", default=str(BASELINE_CHECKPOINT_DIR),
                    help="the baselines' and ablations' networks, <trained method>.pt")
     p.add_argument("--policy-checkpoint", default=str(SHIPPED_CHECKPOINT), help="Ours: the shipped network")
-    p.add_argument("--markdown", default=MARKDOWN)
+    p.add_argument("--markdown", default=None,
+                   help=f"the results (default: {MARKDOWN} for the paper's scenes on evaluation seeds, else "
+                        f"{SCENE_SET_OUTPUTS}/<set>-<split>/results.md)")
     p.add_argument("--chart", default=None,
                    help="the results chart (default: images/results.png beside --markdown)")
     p.add_argument("--json", default=None,
@@ -447,7 +590,30 @@ def parse_args(argv=None) -> argparse.Namespace:
     p.add_argument("--clean-scenes", type=int, default=0, metavar="N",
                    help="also N scenes per row and scenario with no impurity, counted by perception")
     p.add_argument("--no-progress", action="store_true")
-    return generalisation_outputs(p.parse_args(argv))
+    return generalisation_outputs(scene_set_defaults(p.parse_args(argv)))
+
+
+def scene_set_defaults(args):
+    """Resolve the scene set (with --piece-heights) into args.scene_set, a name for scenes.scene_set_named
+    ("" for the paper's scenes), and fill --scenarios, --seed-base and --markdown for it and the --split.
+    A bad set or heights leave args.scene_error (main refuses them, naming the option)."""
+    args.scene_error = ""
+    try:
+        chosen = scene_set_named(args.scene_set)
+        if args.piece_heights is not None:
+            chosen = chosen.with_heights(tuple(h / 1000 for h in args.piece_heights))
+    except ValueError as error:
+        args.scene_error, chosen = f"--scene-set/--piece-heights: {error}", SCENE_SETS["paper"]
+    paper = chosen.name == "paper"
+    args.scene_set = "" if paper else chosen.name
+    if args.scenarios is None:
+        args.scenarios = list(SCENARIOS if paper else UPRIGHT_LAYOUTS)
+    if args.seed_base is None:
+        args.seed_base = splits.scene_set_seeds(args.split, 1)[0]
+    if args.markdown is None:
+        args.markdown = (MARKDOWN if paper and args.split == "evaluation" else
+                         f"{SCENE_SET_OUTPUTS}/{chosen.name.replace('@', '_')}-{args.split}/results.md")
+    return args
 
 
 def generalisation_outputs(args):
@@ -493,6 +659,18 @@ def _main(argv=None) -> int:
         print("eval: --episodes and --perception-scenes must be >= 1, --group-episodes, "
               "--group-palette-offset and --clean-scenes >= 0", file=sys.stderr)
         return 2
+    if args.scene_error:
+        print(f"eval: {args.scene_error}", file=sys.stderr)
+        return 2
+    if args.scene_set and set(args.scenarios) - set(UPRIGHT_LAYOUTS):
+        print(f"eval: --scene-set {args.scene_set}: scenarios {', '.join(UPRIGHT_LAYOUTS)} only "
+              "(--scenarios)", file=sys.stderr)
+        return 2
+    seeds = [args.seed_base + k for k in range(max(args.episodes, args.clean_scenes, args.group_episodes))]
+    if {splits.scene_seed_split(seed) for seed in seeds} != {args.split}:
+        print(f"eval: --seed-base {args.seed_base}: seeds {seeds[0]} ... {seeds[-1]} are not all "
+              f"{args.split} scene seeds (splits.SCENE_SEEDS; --split)", file=sys.stderr)
+        return 2
     torch.set_num_threads(args.threads)
     if args.ray or args.ray_address:
         try:  # before any work: a missing Ray or an unreachable head is said at once
@@ -521,11 +699,13 @@ def _main(argv=None) -> int:
     started = time.perf_counter()
     groups = list(dict.fromkeys(args.palette_groups))
     counts = {"truth": ["truth"], "perception": ["perception"], "both": ["truth", "perception"]}[args.count]
-    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, "default", "", count)
+    scene_set = (args.scene_set,) if args.scene_set else ()  # the paper's scenes: tasks as before scene sets
+    tasks = [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, "default", "", count,
+              *scene_set)
              for count, n in [(c, args.episodes) for c in counts] + [("clean", args.clean_scenes)]
              for scenario in args.scenarios for row, checkpoint in runnable.items() for k in range(n)]
     tasks += [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, group,
-               generalisation.palette_for(group, k + args.group_palette_offset), "truth")
+               generalisation.palette_for(group, k + args.group_palette_offset), "truth", *scene_set)
               for group in groups if group != "default" for scenario in args.scenarios
               for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
     journal = pathlib.Path(args.journal or pathlib.Path(args.json).with_suffix(".partial.jsonl"))
@@ -576,7 +756,8 @@ def _main(argv=None) -> int:
                         "seconds": episodes_seconds,
                         "date": time.strftime("%Y-%m-%d"), "torch_threads": args.threads, "jobs": args.jobs,
                         "ray": args.ray_address or ("local" if args.ray else ""), "count": args.count,
-                        "clean_scenes": args.clean_scenes}
+                        "clean_scenes": args.clean_scenes, "scene_set": args.scene_set or "paper",
+                        "split": args.split}
     arguments = argv if argv is not None else sys.argv[1:]
     command = "python -m impurity_learning.eval_cli " + " ".join(arguments)
     markdown, chart, raw = pathlib.Path(args.markdown), pathlib.Path(args.chart), pathlib.Path(args.json)
@@ -595,7 +776,9 @@ def _main(argv=None) -> int:
                                   command.strip())
     journal.unlink(missing_ok=True)  # every record is in the results now
     table = results_table(results, rows, args.scenarios)
-    if args.count != "perception" and update_readme(pathlib.Path(args.readme), table, markdown):
+    block = readme_table(results, rows, args.scenarios)
+    if (args.count != "perception" and not args.scene_set and args.split == "evaluation"
+            and update_readme(pathlib.Path(args.readme), block, markdown)):
         print(f"eval: updated the results block of {args.readme}", file=sys.stderr)
     print(table)
     print(generalisation.table(results, rows, args.scenarios, groups, label))

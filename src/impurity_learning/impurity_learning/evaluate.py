@@ -34,8 +34,9 @@ class SimCell:
     privilege, and the only place where truth meets the loop."""
 
     def __init__(self, world, agent, attention_params: AttentionParams = AttentionParams(),
-                 grid: HeightmapGrid = HeightmapGrid()):
+                 grid: HeightmapGrid = HeightmapGrid(), piece_heights: tuple | None = None):
         self.world, self.agent, self.attention_params, self.grid = world, agent, attention_params, grid
+        self.piece_heights = piece_heights  # m, the scenes' piece heights (CellWorld.reset_scene); None: ours
         self._projectors: dict = {}
         self._sensed = None
         self.known_product = None  # product_memory.known_product of a view the loop handed over, or None
@@ -47,7 +48,7 @@ class SimCell:
     def reset(self, request: EpisodeRequest) -> picking.Targets:
         self.world.reset_scene(request.scenario, seed=request.seed, num_targets=request.num_targets,
                                num_objects=request.num_objects, scene_file=request.scene_file or None,
-                               palette=request.palette)
+                               palette=request.palette, piece_heights=self.piece_heights)
         self.agent.reset(request.seed)
         self.known_product = None
         self._sense()
@@ -137,13 +138,15 @@ def _reraise(error: Exception) -> None:
 
 def run_episode(world, agent, request: EpisodeRequest,
                 limits: picking.EpisodeLimits = picking.EpisodeLimits(), recorder=None,
-                by_perception: bool = False) -> dict:
+                by_perception: bool = False, piece_heights: tuple | None = None) -> dict:
     """One episode on `world` (a ur5_driver_sim CellWorld) decided by `agent` (agents.py); returns the
     loop's summary: the metrics (targets_outside among them) plus termination_reason and completed
     (every target picked). by_perception: counted as a real cell counts (PerceptionSimCell); the summary
     then holds counted_by "perception", the truth audit (picking.truth_audit) and truth_product_lifted
-    (perception_figures.product_lifted: grasps that lifted something but no target)."""
-    cell = (PerceptionSimCell if by_perception else SimCell)(world, agent)
+    (perception_figures.product_lifted: grasps that lifted something but no target). piece_heights (m,
+    lowest and highest): the scene's pieces stand upright with heights in that range (a scene set's,
+    ur5_driver_sim.core.scenes.SCENE_SETS)."""
+    cell = (PerceptionSimCell if by_perception else SimCell)(world, agent, piece_heights=piece_heights)
     steps: list = []
     summary = picking.run_episode(cell, request, f"{request.scenario}-{request.seed}", limits,
                                   recorder=recorder, on_error=_reraise,

@@ -7,7 +7,8 @@ appearances from the tuning palettes and random palettes of its own seed range, 
 Palettes are names for ur5_driver_sim.core.appearance.palette_named: a named palette's split is its
 `split` field in ur5_driver_sim/data/palettes.yaml (default, tuning, held_out, spare); a random palette
 `random-<seed>`'s split is the range of RANDOM_PALETTE_SEEDS holding its seed. Scene seeds are split by
-SCENE_SEEDS. `palette_group` names the split of any palette.
+SCENE_SEEDS. `palette_group` names the split of any palette. The scene sets beyond the paper's blocks
+(ur5_driver_sim.core.scenes.SCENE_SETS) are split by seed the same way: `scene_set_seeds`.
 """
 
 from __future__ import annotations
@@ -36,6 +37,24 @@ SCENE_SEEDS = (
     SeedRange(range(HELD_OUT_LAYOUT_SEED_BASE, HELD_OUT_LAYOUT_SEED_BASE + 1_000_000), "evaluation",
               "the held-out palettes' perception scenes (held_out_layout_seed): only measured"),
 )
+
+# Scene sets (scenes.SCENE_SETS): tuning scenes SCENE_SET_TUNING_SEEDS (apart from the calibrate tool's
+# 50 000 and 60 000 blocks), evaluation scenes EVAL_SEED_BASE + k as the paper's.
+SCENE_SET_TUNING_SEEDS = range(70_000, 80_000)
+SCENE_SET_SPLITS = ("tuning", "evaluation")
+
+
+def scene_set_seeds(split: str, count: int, start: int = 0) -> list:
+    """Scene seeds start ... start + count - 1 of `split` ("tuning": SCENE_SET_TUNING_SEEDS, "evaluation":
+    EVAL_SEED_BASE + k). ValueError naming the split and its size when they do not fit."""
+    if split not in SCENE_SET_SPLITS:
+        raise ValueError(f"unknown split {split!r} (expected one of {', '.join(SCENE_SET_SPLITS)})")
+    block = SCENE_SET_TUNING_SEEDS if split == "tuning" else SCENE_SEEDS[1].seeds
+    if start < 0 or count < 0 or start + count > len(block):
+        raise ValueError(f"{split} scene seeds {start} ... {start + count - 1}: the split holds "
+                         f"{len(block)} seeds (0 ... {len(block) - 1})")
+    return list(block[start:start + count])
+
 
 # Random palettes random-<seed>, by seed.
 TUNING_RANDOM_SEEDS = range(0, 1000)

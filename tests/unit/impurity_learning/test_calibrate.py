@@ -59,6 +59,25 @@ def test_episode_jobs_stay_in_the_tuning_split():
     assert {splits.palette_group(palette) for _, _, palette, _ in jobs} <= {"default", "tuning"}
 
 
+def test_episode_end_jobs_of_scene_sets_run_their_scenes_on_tuning_seeds():
+    from ur5_driver_sim.core.scenes import SCENE_SETS, UPRIGHT_LAYOUTS
+
+    jobs = episodes.scene_set_end_jobs((0.03, 0.04), splits.tuning_palettes(1), 3, ["sparse", "clean@50-50"])
+    assert len(jobs) == 2 * 2 * len(UPRIGHT_LAYOUTS) * 3
+    assert {splits.scene_seed_split(seed) for *_, seed in jobs} == {"tuning"}
+    for _, (scenario, targets, objects, max_actions, scene_set), _, seed in jobs:
+        assert scenario in UPRIGHT_LAYOUTS and max_actions == 0
+        chosen = SCENE_SETS[scene_set.split("@")[0]]
+        assert (targets, objects) == chosen.draw(seed)[:2]
+    assert {job[1][4] for job in jobs} == {"sparse", "clean@50-50"}
+
+
+def test_an_episode_of_a_scene_set_is_a_scene_of_its_own_when_heights_are_compared():
+    paper = {"height": 0.03, "scenario": "random", "num_targets": 1, "num_objects": 5, "palette": "blocks",
+             "seed": 70_000}
+    assert episodes.key_of(paper) != episodes.key_of({**paper, "scene_set": "sparse"})
+
+
 # ------------------------------------------------------------------- the verifier and its thresholds
 def test_the_threshold_lets_at_most_the_capped_share_of_clean_scenes_through():
     best = np.array([0.9, 0.8, 0.5, 0.4, 0.3, 0.2, 0.1, 0.05, 0.02, 0.01, 0.0, 0.7])

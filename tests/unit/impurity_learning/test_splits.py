@@ -107,3 +107,44 @@ def test_held_out_perception_scenes_are_evaluation_seeds_of_their_own():
     assert len(set(seeds)) == len(seeds)
     assert min(seeds) == splits.HELD_OUT_LAYOUT_SEED_BASE == 918_000_000
     assert {splits.scene_seed_split(seed) for seed in seeds} == {"evaluation"}
+
+
+def test_scene_set_tuning_and_evaluation_seeds_are_disjoint_and_each_in_its_split():
+    tuning = splits.scene_set_seeds("tuning", len(splits.SCENE_SET_TUNING_SEEDS))
+    evaluation = splits.scene_set_seeds("evaluation", 10_000)
+    assert not set(tuning) & set(evaluation)
+    assert {splits.scene_seed_split(seed) for seed in tuning} == {"tuning"}
+    assert {splits.scene_seed_split(seed) for seed in evaluation} == {"evaluation"}
+    assert evaluation[0] == splits.EVAL_SEED_BASE
+
+
+def test_scene_set_tuning_seeds_are_apart_from_the_calibrate_tools_episode_seeds():
+    from impurity_learning.calibrate import episodes
+
+    calibrate = {*range(episodes.VERDICT_SEED_BASE, episodes.VERDICT_SEED_BASE + 10_000),
+                 *range(episodes.EPISODE_END_SEED_BASE, episodes.EPISODE_END_SEED_BASE + 100 * 100)}
+    assert not calibrate & set(splits.SCENE_SET_TUNING_SEEDS)
+
+
+def test_scene_set_seeds_beyond_their_split_are_refused_naming_its_size():
+    size = len(splits.SCENE_SET_TUNING_SEEDS)
+    assert splits.scene_set_seeds("tuning", 2, start=size - 2)[-1] == splits.SCENE_SET_TUNING_SEEDS[-1]
+    with pytest.raises(ValueError, match=f"the split holds {size} seeds"):
+        splits.scene_set_seeds("tuning", 3, start=size - 2)
+    with pytest.raises(ValueError, match="unknown split 'held_out'"):
+        splits.scene_set_seeds("held_out", 1)
+
+
+def test_eval_cli_runs_a_scene_set_on_the_split_asked_and_writes_it_apart():
+    from impurity_learning import eval_cli
+    tuned = eval_cli.parse_args(["--scene-set", "sparse", "--split", "tuning"])
+    assert tuned.seed_base == splits.SCENE_SET_TUNING_SEEDS[0]
+    assert tuned.scenarios == ["random", "challenging"]  # the layouts that take piece heights
+    assert tuned.markdown == f"{eval_cli.SCENE_SET_OUTPUTS}/sparse-tuning/results.md"
+    measured = eval_cli.parse_args(["--scene-set", "tall"])
+    assert measured.seed_base == splits.EVAL_SEED_BASE and measured.markdown != eval_cli.MARKDOWN
+    heights = eval_cli.parse_args(["--scene-set", "sparse", "--piece-heights", "50", "50"])
+    assert heights.scene_set == "sparse@50-50" and "sparse_50-50-evaluation" in heights.markdown
+    paper = eval_cli.parse_args([])
+    assert (paper.scene_set, paper.markdown, paper.scenarios) == ("", eval_cli.MARKDOWN,
+                                                                  list(eval_cli.SCENARIOS))

@@ -123,6 +123,8 @@ def run_episode_end(args) -> int:
     if not args.episodes:
         palettes = args.palettes or episodes.default_palettes(args.random_palettes)
         jobs = episodes.episode_end_jobs(args.heights, palettes, args.seeds)
+        if args.scene_sets:
+            jobs += episodes.scene_set_end_jobs(args.heights, palettes, args.seeds, args.scene_sets)
         params = attention_fit.attention_params(args.out)
         episodes.collect_end_episodes(jobs, args.out / "episode_end_episodes.jsonl", args.checkpoint, params,
                                       progress=not args.no_progress)
@@ -220,6 +222,10 @@ def parse_args(argv=None):
     p.add_argument("--heights", type=float, nargs="+", default=list(episodes.HEIGHTS),
                    help="min_cluster_height values tried, m (default "
                         f"{' '.join(f'{h:g}' for h in episodes.HEIGHTS)})")
+    p.add_argument("--scene-sets", nargs="+", default=[], metavar="SET",
+                   help="also --seeds scenes per layout of each of these scene sets (ur5_driver_sim.core."
+                        "scenes.SCENE_SETS, e.g. tall flat sparse dense clean; SET@LOW-HIGH: piece heights "
+                        "in mm) on their tuning seeds")
     p.set_defaults(run=run_episode_end)
 
     p = add("colour-reference", "measure the simulator's colour statistics for colour adaptation",

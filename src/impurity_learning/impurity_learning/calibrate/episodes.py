@@ -229,13 +229,35 @@ def episode_end_jobs(heights, palettes, seeds: int) -> list:
     return [(float(height), *job) for height in heights for job in scenes]
 
 
+def scene_set_end_jobs(heights, palettes, seeds: int, names) -> list:
+    """(height, (scenario, targets, objects, 0, scene set), palette, seed) for every height, scene set of
+    `names` (ur5_driver_sim.core.scenes.SCENE_SETS, or <set>@<lowest>-<highest> mm) and layout
+    (scenes.UPRIGHT_LAYOUTS), on the scene sets' tuning seeds splits.scene_set_seeds("tuning", seeds), the
+    palettes cycled; counts drawn by the set from the seed, the action limit the cell's (max_actions 0)."""
+    from ur5_driver_sim.core.scenes import UPRIGHT_LAYOUTS, scene_set_named
+
+    check_palettes(palettes)
+    seed_list = splits.scene_set_seeds("tuning", seeds)
+    check_seeds(seed_list)
+    scenes = []
+    for name in names:
+        chosen = scene_set_named(name)
+        for scenario in UPRIGHT_LAYOUTS:
+            for palette, seed in zip(itertools.cycle(palettes), seed_list):
+                draw = chosen.draw(seed)
+                scenes.append(((scenario, draw.num_targets, draw.num_objects, 0, chosen.name), palette, seed))
+    return [(float(height), *job) for height in heights for job in scenes]
+
+
 def collect_end_episodes(jobs: list, out: pathlib.Path, checkpoint, params, progress: bool = True) -> None:
-    """Run the jobs (attention `params` with the job's min_cluster_height) and append each episode's end to
-    `out` (jobs already there are skipped)."""
+    """Run the jobs (attention `params` with the job's min_cluster_height; a scene of a scene set, the
+    fifth field of a job's scene, with the set's piece heights) and append each episode's end to `out`
+    (jobs already there are skipped)."""
     from tqdm import tqdm
 
     from impurity_policy.core import picking
     from impurity_policy.core.episode import EpisodeRequest
+    from ur5_driver_sim.core.scenes import scene_set_named
     from ur5_driver_sim.core.world import CellWorld
 
     from ..agents import make_agent
@@ -246,19 +268,22 @@ def collect_end_episodes(jobs: list, out: pathlib.Path, checkpoint, params, prog
     world = CellWorld(mode="floating")
     agent = make_agent("ours", pathlib.Path(checkpoint), "cell")
     with out.open("a") as sink:
-        for height, (scenario, targets, objects, max_actions), palette, seed in tqdm(
+        for height, (scenario, targets, objects, max_actions, *scene_set), palette, seed in tqdm(
                 jobs, desc="episode-end episodes", disable=not progress):
-            if (height, scenario, targets, objects, palette, seed) in done:
+            scene_set = scene_set[0] if scene_set else ""
+            if (height, scenario, targets, objects, palette, seed, scene_set) in done:
                 continue
             tried = dataclasses.replace(params, density=dataclasses.replace(params.density,
                                                                             min_cluster_height=height))
-            cell = PerceptionSimCell(world, agent, attention_params=tried)
+            heights = scene_set_named(scene_set).heights if scene_set else None
+            cell = PerceptionSimCell(world, agent, attention_params=tried, piece_heights=heights)
             request = EpisodeRequest(scenario, seed=seed, num_targets=targets, num_objects=objects,
                                      max_actions=max_actions, palette=palette)
             summary = picking.run_episode(cell, request, f"{scenario}-{seed}", picking.EpisodeLimits(),
                                           on_error=_reraise)
             sink.write(json.dumps({"height": height, "scenario": scenario, "num_targets": targets,
                                    "num_objects": objects, "palette": palette, "seed": seed,
+                                   **({"scene_set": scene_set} if scene_set else {}),
                                    "termination": summary["termination_reason"],
                                    "actions": summary["actions"],
                                    "picked": summary["targets_picked"],
@@ -273,7 +298,8 @@ def key_of(row: dict) -> tuple:
 
 
 def scene_of(row: dict) -> tuple:
-    return row["scenario"], row["num_targets"], row["num_objects"], row["palette"], row["seed"]
+    return (row["scenario"], row["num_targets"], row["num_objects"], row["palette"], row["seed"],
+            row.get("scene_set", ""))
 
 
 def end_figures(rows: list) -> dict:

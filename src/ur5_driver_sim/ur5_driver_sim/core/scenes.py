@@ -4,6 +4,15 @@ Each generator is pure: (rng, counts, colours) -> list of BlockSpec, where `colo
 appearance.BlockColours (product blocks draw their jitter from `rng`).
 The world spawns them, lets them settle and checks the scenario's invariants (all in the workspace;
 invisible: no target pixel).
+
+Scene sets (SCENE_SETS) are families of scenes beyond the paper's blocks, for fitting and measuring what
+must hold across piece sizes: pieces taller or flatter than ours, a handful of pieces, dense scenes, scenes
+with no impurity. A set draws each scene's counts from its seed and, with `heights`, gives every piece
+(impurity and product alike) a height in that range, standing upright (random and challenging layouts):
+
+    draw = SCENE_SETS["tall"].draw(seed=70_003)   # SceneDraw(num_targets, num_objects, heights)
+    world.reset_scene("random", seed=70_003, num_targets=draw.num_targets, num_objects=draw.num_objects,
+                      piece_heights=draw.heights)
 """
 
 from __future__ import annotations
@@ -11,6 +20,8 @@ from __future__ import annotations
 import json
 import math
 import pathlib
+from dataclasses import dataclass, replace
+from typing import NamedTuple
 
 import numpy as np
 
@@ -29,6 +40,7 @@ DROP_HALF_SIZE = 0.13
 # challenging: a packed grid of footprint-sized blocks.
 PACK_FOOTPRINT = (0.036, 0.043)  # m, block footprint edge / diameter
 PACK_GAP = (0.002, 0.006)  # m between neighbours
+PACK_SHAPES = ("cube", "cylinder", "prism", "half_cylinder")  # the last not with piece heights given
 # invisible: heaps of a row of small targets boxed in by two bars and two pillars under a cover slab.
 HEAP_TARGET_EDGE = 0.026
 HEAP_WALL_GAP = 0.004
@@ -37,6 +49,11 @@ HEAP_CENTER_HALF_RANGE = (0.10, 0.11)  # x, y around the workspace centre
 HEAP_BLOCKS_PER_HEAP = 5  # 2 bars, 2 pillars, 1 cover slab
 HEAP_LOOSE_RADIUS = (0.065, 0.09)  # m from a heap centre where half of the other blocks lean
 HEAP_TOP_Z = 0.058  # m: top of a heap's cover slab, where the other half is piled
+# Pieces of a scene set with heights: these shapes, footprints from shapes' ranges, the height drawn apart
+# (a half cylinder's height is its radius: not drawn apart, not used).
+UPRIGHT_SHAPES = ("cube", "slab", "bar", "cylinder", "prism")
+UPRIGHT_LAYOUTS = ("random", "challenging")  # the layouts that take piece heights
+PIECE_HEIGHT_LIMITS = (0.005, 0.1)  # m: piece heights a scene set may ask (the gripper's finger length)
 
 
 def random_quaternion(rng: np.random.Generator) -> tuple:
@@ -89,13 +106,30 @@ def stack_without_overlap(specs, xy_points, rng, base_z=cell.TABLE_Z, random_ori
     return specs
 
 
-def random_layout(rng, num_targets, num_objects, colours):
+def upright_dims(shape: str, heights: tuple, rng) -> tuple:
+    """Extents of a piece of `shape` standing upright: the footprint from the shape's size ranges, the height
+    (z extent) drawn from `heights` (m, lowest and highest)."""
+    dims = random_dims(shape, rng)
+    return (dims[0], dims[1], float(rng.uniform(*heights)))
+
+
+def _upright_block(rng, is_target, colours, heights) -> BlockSpec:
+    shape = UPRIGHT_SHAPES[rng.integers(len(UPRIGHT_SHAPES))]
+    return _block(rng, shape, is_target, colours, upright_dims(shape, heights, rng))
+
+
+def random_layout(rng, num_targets, num_objects, colours, heights=None):
+    """Blocks dropped in a square around the workspace centre. heights (m, lowest and highest): every
+    piece is an upright one (UPRIGHT_SHAPES) of a height in that range, dropped with a random yaw only."""
     flags = [True] * num_targets + [False] * num_objects
     rng.shuffle(flags)
-    specs = [_block(rng, SHAPES[rng.integers(len(SHAPES))], is_target, colours) for is_target in flags]
+    if heights is None:
+        specs = [_block(rng, SHAPES[rng.integers(len(SHAPES))], is_target, colours) for is_target in flags]
+    else:
+        specs = [_upright_block(rng, is_target, colours, heights) for is_target in flags]
     points = [(CENTER[0] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE),
                CENTER[1] + rng.uniform(-DROP_HALF_SIZE, DROP_HALF_SIZE)) for _ in specs]
-    return stack_without_overlap(specs, points, rng)
+    return stack_without_overlap(specs, points, rng, random_orientation=heights is None)
 
 
 def _rotate(dx, dy, yaw):
@@ -103,8 +137,9 @@ def _rotate(dx, dy, yaw):
     return c * dx - s * dy, s * dx + c * dy
 
 
-def challenging_layout(rng, num_targets, num_objects, colours):
-    """Blocks standing side by side on a grid with gaps of a few mm; targets in interior cells."""
+def challenging_layout(rng, num_targets, num_objects, colours, heights=None):
+    """Blocks standing side by side on a grid with gaps of a few mm; targets in interior cells. heights (m,
+    lowest and highest): block heights drawn from that range, and no half cylinders."""
     total = num_targets + num_objects
     if total == 0:
         return []
@@ -128,9 +163,10 @@ def challenging_layout(rng, num_targets, num_objects, colours):
     cy = CENTER[1] + rng.uniform(-min(half_free[1], 0.04), min(half_free[1], 0.04))
     specs = []
     for cell_rc, is_target in [(rc, True) for rc in target_cells] + [(rc, False) for rc in object_cells]:
-        shape = ("cube", "cylinder", "prism", "half_cylinder")[rng.integers(4)]
+        shapes = PACK_SHAPES if heights is None else PACK_SHAPES[:3]
+        shape = shapes[rng.integers(len(shapes))]
         edge = rng.uniform(*PACK_FOOTPRINT)
-        height = rng.uniform(0.03, 0.045)
+        height = rng.uniform(0.03, 0.045) if heights is None else rng.uniform(*heights)
         dims = {"cube": (edge, edge, height), "cylinder": (edge, edge, height), "prism": (edge, edge, height),
                 "half_cylinder": (edge, edge, edge / 2)}[shape]
         spec = _block(rng, shape, is_target, colours, dims)
@@ -222,3 +258,83 @@ def load_scene_file(path) -> list:
 
 def save_scene_file(path, specs) -> None:
     pathlib.Path(path).write_text(json.dumps({"blocks": [s.to_json() for s in specs]}, indent=1))
+
+
+# ------------------------------------------------------------------------------------------------ scene sets
+SCENE_SET_STREAM = 7_919  # a scene set draws its counts from default_rng([SCENE_SET_STREAM, seed])
+
+
+class SceneDraw(NamedTuple):
+    """One scene of a set: its counts and piece heights (m, lowest and highest; None: the shapes' own
+    sizes). Counts of -1 are the scenario's defaults."""
+    num_targets: int
+    num_objects: int
+    heights: tuple | None
+
+
+@dataclass(frozen=True)
+class SceneSet:
+    """A family of scenes: piece heights (m, lowest and highest; None: the shapes' own sizes, the paper's
+    blocks), impurities and pieces in all (inclusive ranges, drawn per seed; None: the scenario's
+    defaults)."""
+    name: str
+    meaning: str
+    heights: tuple | None = None
+    targets: tuple | None = None
+    pieces: tuple | None = None
+
+    def draw(self, seed: int) -> SceneDraw:
+        """The counts and heights of the scene of `seed`: the same seed draws the same counts."""
+        if self.targets is None:
+            return SceneDraw(-1, -1, self.heights)
+        rng = np.random.default_rng([SCENE_SET_STREAM, int(seed)])
+        targets = int(rng.integers(self.targets[0], self.targets[1] + 1))
+        pieces = int(rng.integers(self.pieces[0], self.pieces[1] + 1))
+        return SceneDraw(targets, pieces - targets, self.heights)
+
+    def with_heights(self, heights: tuple) -> SceneSet:
+        """This set with piece heights `heights` (m); its name says them in mm ("sparse@50-50")."""
+        check_piece_heights(heights)
+        low, high = (round(1000 * h) for h in heights)
+        return replace(self, name=f"{self.name.split('@')[0]}@{low}-{high}", heights=tuple(heights),
+                       meaning=f"{self.meaning.split('; ')[0]}; pieces {low}-{high} mm tall here")
+
+
+WIDE_HEIGHTS = (0.015, 0.060)  # m: pieces flatter and taller than ours
+SCENE_SETS = {s.name: s for s in (
+    SceneSet("paper", "the paper's scenes: our blocks (25-100 mm), the scenario's counts"),
+    SceneSet("tall", "pieces 40-60 mm tall (taller than ours), 2 impurities among 20", (0.040, 0.060), (2, 2),
+             (22, 22)),
+    SceneSet("flat", "pieces 15-25 mm tall (flatter than ours), 2 impurities among 20", (0.015, 0.025),
+             (2, 2), (22, 22)),
+    SceneSet("mixed", "pieces 15-60 mm tall, 2 impurities among 20", WIDE_HEIGHTS, (2, 2), (22, 22)),
+    SceneSet("sparse", "a handful of pieces (5-10, 1-2 impurities), 15-60 mm tall", WIDE_HEIGHTS, (1, 2),
+             (5, 10)),
+    SceneSet("dense", "40-50 pieces (2-4 impurities), 15-60 mm tall", WIDE_HEIGHTS, (2, 4), (40, 50)),
+    SceneSet("clean", "no impurity: 5-40 pieces of product, 15-60 mm tall", WIDE_HEIGHTS, (0, 0), (5, 40)),
+)}
+
+
+def check_piece_heights(heights) -> None:
+    """ValueError naming the limits unless heights is (lowest, highest) m within PIECE_HEIGHT_LIMITS."""
+    low, high = heights
+    if not PIECE_HEIGHT_LIMITS[0] <= low <= high <= PIECE_HEIGHT_LIMITS[1]:
+        raise ValueError(f"piece heights {low * 1000:g}-{high * 1000:g} mm: need "
+                         f"{PIECE_HEIGHT_LIMITS[0] * 1000:g} <= lowest <= highest <= "
+                         f"{PIECE_HEIGHT_LIMITS[1] * 1000:g} mm")
+
+
+def scene_set_named(name: str) -> SceneSet:
+    """A set of SCENE_SETS by name, or "<set>@<lowest>-<highest>" (mm) for that set with those piece
+    heights. ValueError naming the sets for anything else."""
+    base, _, heights = name.partition("@")
+    if base not in SCENE_SETS:
+        raise ValueError(f"unknown scene set {name!r} (expected one of {', '.join(SCENE_SETS)}, optionally "
+                         "with @<lowest>-<highest> piece heights in mm)")
+    if not heights:
+        return SCENE_SETS[base]
+    try:
+        low, high = (float(v) / 1000 for v in heights.split("-"))
+    except ValueError as error:
+        raise ValueError(f"scene set {name!r}: piece heights are <lowest>-<highest> in mm") from error
+    return SCENE_SETS[base].with_heights((low, high))

@@ -47,6 +47,7 @@ class SceneInfo:
     targets_outside_workspace: int = 0  # of num_targets: outside the workspace or off the table
     objects_outside_workspace: int = 0
     palette: str = "blocks"  # appearance.Palette name
+    piece_heights: tuple | None = None  # m, lowest and highest (reset_scene's); None: the shapes' own sizes
 
 
 @dataclass
@@ -135,11 +136,18 @@ class CellWorld:
     # ---------------------------------------------------------------------------------------- scenes
     def reset_scene(self, scenario: str = "random", seed: int = 0, num_targets: int = -1,
                     num_objects: int = -1, scene_file: str | None = None,
-                    palette: str | appearance.Palette = "") -> SceneInfo:
+                    palette: str | appearance.Palette = "", piece_heights: tuple | None = None) -> SceneInfo:
         """Build a new scene under `palette` (a Palette, or a name for appearance.palette_named: "" is
-        the default). Raises ValueError for an unknown scenario or palette, or impossible counts."""
+        the default). piece_heights (m, lowest and highest; random and challenging only): every piece stands
+        upright with a height in that range (scenes.random_layout); None: the shapes' own sizes. Raises
+        ValueError for an unknown scenario or palette, impossible counts or heights."""
         if scenario not in scenes.SCENARIOS:
             raise ValueError(f"unknown scenario {scenario!r} (expected one of {scenes.SCENARIOS})")
+        if piece_heights is not None:
+            scenes.check_piece_heights(piece_heights)
+            if scenario not in scenes.UPRIGHT_LAYOUTS + ("empty",):
+                raise ValueError(f"piece_heights applies to the {' and '.join(scenes.UPRIGHT_LAYOUTS)} "
+                                 f"scenarios, not {scenario!r}")
         chosen = palette if isinstance(palette, appearance.Palette) else appearance.palette_named(palette)
         started = time.perf_counter()
         if scenario == "file":
@@ -163,12 +171,12 @@ class CellWorld:
             if scenario == "empty" or n_targets + n_objects == 0:
                 break
             if scenario == "random":
-                self._spawn(scenes.random_layout(rng, n_targets, n_objects, colours))
+                self._spawn(scenes.random_layout(rng, n_targets, n_objects, colours, piece_heights))
                 self._settle()
-                if self._keep_inside_workspace(rng):
+                if self._keep_inside_workspace(rng, upright=piece_heights is not None):
                     break
             elif scenario == "challenging":
-                self._spawn(scenes.challenging_layout(rng, n_targets, n_objects, colours))
+                self._spawn(scenes.challenging_layout(rng, n_targets, n_objects, colours, piece_heights))
                 self._settle(200)
                 if self._all_in_workspace():
                     break
@@ -187,7 +195,8 @@ class CellWorld:
                                time.perf_counter() - started,
                                targets_outside_workspace=sum(not self._in_workspace(b) for b in targets),
                                objects_outside_workspace=sum(not self._in_workspace(b) for b in others),
-                               palette=chosen.name)
+                               palette=chosen.name,
+                               piece_heights=tuple(piece_heights) if piece_heights is not None else None)
         return self.scene
 
     def _spawn(self, specs) -> None:
@@ -201,8 +210,9 @@ class CellWorld:
     def _all_in_workspace(self) -> bool:
         return all(self._in_workspace(b) for b in self.specs)
 
-    def _keep_inside_workspace(self, rng, rounds: int = 4) -> bool:
-        """Random drops: re-drop any block that bounced out of the workspace."""
+    def _keep_inside_workspace(self, rng, rounds: int = 4, upright: bool = False) -> bool:
+        """Random drops: re-drop any block that bounced out of the workspace (upright: with a random yaw
+        only, as pieces of a given height are dropped)."""
         for _ in range(rounds):
             outside = [b for b in self.specs if not self._in_workspace(b)]
             if not outside:
@@ -210,7 +220,9 @@ class CellWorld:
             for body in outside:
                 x = scenes.CENTER[0] + rng.uniform(-scenes.DROP_HALF_SIZE, scenes.DROP_HALF_SIZE)
                 y = scenes.CENTER[1] + rng.uniform(-scenes.DROP_HALF_SIZE, scenes.DROP_HALF_SIZE)
-                self.pb.resetBasePositionAndOrientation(body, (x, y, 0.15), scenes.random_quaternion(rng))
+                orientation = (scenes.yaw_quaternion(rng.uniform(0, math.pi)) if upright
+                               else scenes.random_quaternion(rng))
+                self.pb.resetBasePositionAndOrientation(body, (x, y, 0.15), orientation)
                 self.pb.resetBaseVelocity(body, (0, 0, 0), (0, 0, 0))
             self._settle()
         return self._all_in_workspace()
