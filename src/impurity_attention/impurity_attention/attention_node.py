@@ -13,8 +13,10 @@ The node's parameters are AttentionParams' fields (declared from the core datacl
 density.*) and two of its own (AttentionNodeParameters).
 """
 
+import copy
 from dataclasses import dataclass
 
+import numpy as np
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
@@ -113,11 +115,15 @@ class AttentionNode(Node):
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
             grid = grid_from_heightmap(msg)
+            unknown = np.isnan(height)
             output = attend(color, height, self.params, grid, known_product=self._known_product,
-                            closer=self._closer)
+                            closer=self._closer, unknown=unknown if unknown.any() else None)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))
             return
+        if unknown.any():  # downstream reads heights, never NaN: the ones the decision read
+            msg = copy.copy(msg)
+            msg.height = numpy_to_image(output.height, "32FC1", msg.header)
         self._result_pub.publish(to_message(msg, output))
         if self.params.publish_debug_image and self._debug_pub.get_subscription_count() > 0:
             self._debug_pub.publish(numpy_to_image(debug_image(color, output), "rgb8", msg.header))

@@ -22,6 +22,7 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
 from impurity_attention.core.heightmap import (
@@ -29,11 +30,14 @@ from impurity_attention.core.heightmap import (
     DepthFormatError,
     HeightmapParams,
     ProjectorCache,
+    brightness_jump,
     depth_problem,
     depth_to_meters,
     exposure_problem,
+    mean_brightness,
 )
 from impurity_attention.core.sync import StampPairer, StreamWatch, UnpairedFrame
+from impurity_attention.core.unknown_height import unknown_height_warning, unknown_regions
 from impurity_common import names
 from impurity_common.conversions import (
     RGB_ENCODINGS,
@@ -75,6 +79,7 @@ class HeightmapNode(Node):
         self._warned_clock = False
         self._stopped_clock = StoppedClockGate(self)
         self._warned_footprint = None  # the projector the footprint warning was given for
+        self._brightness = None  # the last colour frame's mean brightness
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
         self._reference = LabStatistics(params.colour_reference_mean, params.colour_reference_std)
@@ -90,6 +95,7 @@ class HeightmapNode(Node):
             self.create_timer(params.frame_timeout, self._check_streams)
         self._publisher = self.create_publisher(
             Heightmap, names.HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
+        self._dropped = self.create_publisher(String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
         grid = self._grid
         self.get_logger().info(
             f"ready: {grid.rows}x{grid.cols} cells of {grid.resolution * 1000:.1f} mm over "
@@ -99,6 +105,12 @@ class HeightmapNode(Node):
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"frame dropped: {reason}",
                                   throttle_duration_sec=self.params.log_throttle)
+
+    def _drop_unusable(self, reason: str) -> None:
+        """Drop a frame that cannot make a heightmap, and say why on /heightmap/dropped (the episode ends
+        on it, naming the reason)."""
+        self._drop(reason)
+        self._dropped.publish(String(data=reason))
 
     def _check_streams(self) -> None:
         silent = self._watch.silent(time.monotonic(), self.params.frame_timeout)
@@ -188,7 +200,7 @@ class HeightmapNode(Node):
         try:
             heightmap = self._make_heightmap(color_msg, depth_msg)
         except (ImageFormatError, DepthFormatError, ValueError) as error:
-            self._drop(str(error))
+            self._drop_unusable(str(error))
             return
         if heightmap is not None:
             self._publisher.publish(heightmap)
@@ -210,26 +222,41 @@ class HeightmapNode(Node):
         intrinsics = np.array(info.k).reshape(3, 3)
         projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
         self._check_footprint(projector)
-        maps = projector.project(color, depth)
+        self._check_brightness(color)
         problem = depth_problem(projector.check_depth(depth), depth_msg.encoding, self.params.depth_scale)
         if problem is not None:
-            self.get_logger().warning(f"depth does not fit the table: {problem}",
-                                      throttle_duration_sec=self.params.log_throttle)
+            self._drop_unusable(f"depth does not fit the table: {problem}")
+            return None
+        maps = projector.project(color, depth)
         exposure = exposure_problem(maps.color, maps.height)
         if exposure is not None:
             self.get_logger().warning(f"colour badly exposed: {exposure}",
                                       throttle_duration_sec=self.params.log_throttle)
+        holes = unknown_height_warning(unknown_regions(maps.color, maps.height, maps.unknown),
+                                       self._grid.resolution)
+        if holes is not None:
+            self.get_logger().warning(f"colour without depth: {holes}",
+                                      throttle_duration_sec=self.params.log_throttle)
         color_map = maps.color
         if self.params.colour_adaptation:
-            color_map = reinhard_transfer(color_map, self._reference, valid=maps.known)
+            color_map = reinhard_transfer(color_map, self._reference, valid=maps.known | maps.unknown)
         msg = Heightmap()
         msg.header.stamp = color_msg.header.stamp
         msg.header.frame_id = names.BASE_FRAME
         msg.resolution = float(self._grid.resolution)
         msg.origin.x, msg.origin.y, msg.origin.z = self._grid.x_min, self._grid.y_min, self._grid.table_z
         msg.color = numpy_to_image(color_map, "rgb8", msg.header)
-        msg.height = numpy_to_image(maps.height, "32FC1", msg.header)
+        msg.height = numpy_to_image(maps.height_or_unknown(), "32FC1", msg.header)
         return msg
+
+    def _check_brightness(self, color) -> None:
+        """Warn (throttled) when the mean brightness jumps between consecutive frames (auto exposure)."""
+        brightness = mean_brightness(color)
+        jump = brightness_jump(self._brightness, brightness)
+        self._brightness = brightness
+        if jump is not None:
+            self.get_logger().warning(f"colour brightness unsteady: {jump}",
+                                      throttle_duration_sec=self.params.log_throttle)
 
     def _check_footprint(self, projector) -> None:
         """Warn once per camera geometry when a pixel covers more of the table than a cell."""
