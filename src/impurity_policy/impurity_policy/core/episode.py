@@ -45,9 +45,10 @@ TERMINATION_NOTHING_LEFT = "no_target_or_cluster_left"
 COUNTED_BY_TRUTH = "truth"
 COUNTED_BY_PERCEPTION = "perception"
 # Reasons of episodes that ended because the cell failed, not because of the picking: "node_lost: ..."
-# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "driver_lost: ..."
-# (the arm driver lost the robot mid-motion), "error: ...".
-FAILURE_PREFIXES = ("node_lost", "stale_input", "driver_lost", "error")
+# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "unusable_input: ..."
+# (camera frames the heightmap node drops: depth units, a camera pose that does not fit the table),
+# "driver_lost: ..." (the arm driver lost the robot mid-motion), "error: ...".
+FAILURE_PREFIXES = ("node_lost", "stale_input", "unusable_input", "driver_lost", "error")
 
 
 def is_failure(termination_reason: str) -> bool:

@@ -1,0 +1,189 @@
+"""What a real depth camera does not measure, and frames that cannot make a heightmap: black or glossy
+pieces with no depth on their pixels (0 in 16UC1, NaN in 32FC1) reach the heightmap as height unknown and
+attention takes them as candidates; a camera tilted against its calibration shows a sloped table and its
+frames are unusable; the colour's brightness jumping between frames is named. No ROS, no simulator."""
+
+import math
+
+import cv2
+import numpy as np
+import pytest
+
+from impurity_attention.core import heightmap as hm
+from impurity_attention.core.attention import attend
+from impurity_attention.core.synthetic import Box, footprint_labels, random_boxes, render_boxes
+from impurity_attention.core.unknown_height import UNKNOWN_HEIGHT, unknown_height_warning, unknown_regions
+from impurity_common.enums import AttentionMode
+
+GRID = hm.HeightmapGrid()
+BLACK = (25, 25, 28)
+
+
+def frame_with_a_black_piece(seed: int, encoding: str, product_color=None):
+    """Product blocks and one black impurity whose pixels have no depth, as the camera driver publishes it;
+    (boxes, frame, depth in metres as the heightmap node reads it)."""
+    kwargs = {} if product_color is None else {"product_color": product_color}
+    boxes = random_boxes(seed, num_product=12, num_impurities=1, impurity_color=BLACK, **kwargs)
+    frame = render_boxes(boxes)
+    hole = frame.labels == boxes[-1].label
+    if encoding == "16UC1":
+        raw = np.round(frame.depth * 1000.0).astype(np.uint16)
+        raw[hole] = 0
+    else:
+        raw = frame.depth.copy()
+        raw[hole] = np.nan
+    return boxes, frame, hm.depth_to_meters(raw, encoding)
+
+
+def projector_of(frame, pose=None) -> hm.HeightmapProjector:
+    return hm.HeightmapProjector(frame.intrinsics, frame.camera_pose if pose is None else pose,
+                                 frame.depth.shape, GRID)
+
+
+def on_the_piece(mask: np.ndarray, box: Box) -> bool:
+    """`mask` lies on `box`'s footprint, give or take the parallax of pixels placed on the table plane (a
+    3 cm top 0.3 m off the optical axis of a camera 0.75 m up: 13 mm, 7 cells)."""
+    piece = (footprint_labels([box], GRID) > 0).astype(np.uint8)
+    near = cv2.dilate(piece, np.ones((15, 15), np.uint8)) > 0
+    return bool(mask.any()) and np.count_nonzero(mask & near) == np.count_nonzero(mask)
+
+
+# ---------------------------------------------------------------- colour without depth: height unknown
+
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+def test_colour_without_depth_reaches_the_heightmap_as_height_unknown_with_its_colour(encoding):
+    boxes, frame, depth = frame_with_a_black_piece(3, encoding)
+    maps = projector_of(frame).project(frame.color, depth)
+    full = projector_of(frame).project(frame.color, frame.depth)
+    piece = footprint_labels(boxes[-1:], GRID) > 0
+    inner = piece.copy()  # the piece but its edge: where parallax may put its pixels
+    for axis in (0, 1):
+        for shift in (-3, 3):
+            inner &= np.roll(piece, shift, axis=axis)
+    assert maps.unknown[inner].all() and not maps.seen[inner].any()  # not table, not unseen
+    assert (maps.color[inner] == BLACK).all()  # with its colour
+    message_height = maps.height_or_unknown()
+    assert np.isnan(message_height[inner]).all()
+    near = piece.copy()
+    for axis in (0, 1):
+        for shift in (-4, 4):
+            near |= np.roll(piece, shift, axis=axis)
+    elsewhere = ~maps.unknown & ~near
+    assert np.allclose(message_height[elsewhere], full.height[elsewhere], atol=1e-3)  # (16UC1: mm)
+    assert np.count_nonzero(maps.unknown) < 1.3 * np.count_nonzero(piece)  # the piece, not more
+
+
+def test_full_depth_leaves_no_cell_of_unknown_height():
+    frame = render_boxes(random_boxes(4, num_product=20, num_impurities=2, heap=True))
+    maps = projector_of(frame).project(frame.color, frame.depth)
+    assert not maps.unknown.any() and maps.height_or_unknown() is maps.height
+
+
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+@pytest.mark.parametrize("seed", range(5))
+def test_a_black_piece_without_depth_is_a_target(seed, encoding):
+    """Without the unknown cells attention answers NONE here (the piece is table to it)."""
+    boxes, frame, depth = frame_with_a_black_piece(seed, encoding)
+    maps = projector_of(frame).project(frame.color, depth)
+    height = maps.height_or_unknown()
+    output = attend(maps.color, height, grid=GRID, unknown=np.isnan(height))
+    assert output.mode == AttentionMode.TARGET, output.reason
+    assert on_the_piece(output.target_mask, boxes[-1])
+    assert not np.isnan(output.height).any()
+    piece = footprint_labels(boxes[-1:], GRID) > 0
+    assert float(output.height[piece].max()) == pytest.approx(UNKNOWN_HEIGHT)
+
+
+def test_an_unknown_region_the_verifier_does_not_take_is_still_looked_at():
+    """The piece without depth is coloured like the dark product around it: no salient region is an
+    impurity and no heap could hide one - NONE, but for the region whose height nobody knows."""
+    boxes, frame, depth = frame_with_a_black_piece(2, "32FC1", product_color=BLACK)
+    maps = projector_of(frame).project(frame.color, depth)
+    height = maps.height_or_unknown()
+    output = attend(maps.color, height, grid=GRID, unknown=np.isnan(height))
+    assert output.mode == AttentionMode.TARGET and output.last_look, output.reason
+    assert "unknown height" in output.reason
+    assert on_the_piece(output.target_mask, boxes[-1])
+
+
+def test_holes_that_are_no_piece_are_no_candidates():
+    """A stereo shadow (a line of cells beside a block), specks, and a hole on the bare table (glare)."""
+    frame = render_boxes([Box(0.45, 0.0, 0.03, 0.03, 0.03, (40, 120, 200), 1)])
+    depth = frame.depth.copy()
+    depth[200:260, 300:302] = np.nan  # shadow: 2 px (2.4 mm) wide
+    depth[100:102, 100:102] = np.nan  # a speck
+    depth[330:370, 420:460] = np.nan  # bare table, 5 cm x 5 cm
+    maps = projector_of(frame).project(frame.color, depth)
+    assert maps.unknown.sum() > 500
+    assert unknown_regions(maps.color, maps.height, maps.unknown) == []
+    assert unknown_height_warning([], GRID.resolution) is None
+
+
+def test_the_warning_names_the_cause_and_the_camera_settings():
+    _, frame, depth = frame_with_a_black_piece(1, "16UC1")
+    maps = projector_of(frame).project(frame.color, depth)
+    warning = unknown_height_warning(unknown_regions(maps.color, maps.height, maps.unknown), GRID.resolution)
+    assert warning is not None and "black or glossy" in warning
+    for setting in ("laser_power", "exposure", "hole_filling"):
+        assert setting in warning
+
+
+# ---------------------------------------------------------------- a table that is not where it should be
+
+def rotation(axis: str, degrees: float) -> np.ndarray:
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    turn = np.eye(4)
+    if axis == "x":
+        turn[1:3, 1:3] = [[c, -s], [s, c]]
+    else:
+        turn[[0, 0, 2, 2], [0, 2, 0, 2]] = [c, s, -s, c]
+    return turn
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_a_camera_tilted_against_its_calibration_is_unusable_naming_the_pose(seed):
+    """Tilted 12 deg + 12 deg, calibrated as straight down: the table reads as a slope; the object cells
+    of such a map match the truth poorly, and nothing else said so."""
+    boxes = random_boxes(seed, num_product=20, num_impurities=1)
+    straight = hm.default_camera_pose()
+    frame = render_boxes(boxes, camera_pose=straight @ rotation("x", 12.0) @ rotation("y", 12.0))
+    check = projector_of(frame, straight).check_depth(frame.depth)
+    assert check.far <= hm.MOST  # the far-points check alone does not see it
+    problem = hm.depth_problem(check)
+    assert problem is not None, check
+    assert "tilted 16.9 deg" in problem and "camera_orientation" in problem and "recalibrate" in problem
+
+
+@pytest.mark.parametrize("heap", [False, True])
+@pytest.mark.parametrize("seed", range(3))
+def test_a_camera_where_its_calibration_says_passes_scattered_and_heaped(seed, heap):
+    frame = render_boxes(random_boxes(seed, num_product=40, num_impurities=2, heap=heap))
+    check = projector_of(frame).check_depth(frame.depth)
+    assert check.table is not None and check.table.deviation < 1e-4
+    assert hm.depth_problem(check) is None
+
+
+def test_a_table_lower_than_table_z_is_unusable():
+    frame = render_boxes(random_boxes(5))
+    lower = hm.pose_matrix((0.5, 0.0, 0.735), (1.0, 0.0, 0.0, 0.0))  # calibrated 15 mm too low
+    problem = hm.depth_problem(projector_of(frame, lower).check_depth(frame.depth))
+    assert problem is not None and "-15 mm at its centre" in problem
+
+
+# ---------------------------------------------------------------- brightness between frames
+
+def test_a_jump_of_the_mean_brightness_names_the_auto_exposure_settings():
+    dim, bright = np.full((48, 64, 3), 100, np.uint8), np.full((48, 64, 3), 140, np.uint8)
+    assert hm.brightness_jump(None, hm.mean_brightness(dim)) is None
+    jump = hm.brightness_jump(hm.mean_brightness(dim), hm.mean_brightness(bright))
+    assert jump is not None and "from 100 to 140" in jump
+    for setting in ("rgb_camera.enable_auto_exposure", "rgb_camera.exposure", "power_line_frequency"):
+        assert setting in jump
+
+
+def test_steady_brightness_and_the_arm_crossing_the_view_are_not_a_jump():
+    scene = render_boxes(random_boxes(6)).color
+    crossed = scene.copy()
+    crossed[:60, :200] = 30  # a dark arm over a corner of the view
+    assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(scene)) is None
+    assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(crossed)) is None
