@@ -2,17 +2,22 @@
 colour and depth stamped apart, depth in 0.1 mm, frames stamped on the camera's own clock, four-channel
 colour, pixels coarser than the cells. Each behaviour is seen on /heightmap or in the node's log."""
 
+import dataclasses
+
 import numpy as np
 import pytest
+from action_msgs.msg import GoalStatus
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
 from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_common.grid import HeightmapGrid
+from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.msg import Heightmap
-from ros_harness import TopicRecorder, ros_args, spin_until, wait_for_subscribers
+from ros_harness import ActionHelper, TopicRecorder, ros_args, spin_until, wait_for_subscribers
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 PERIOD_15HZ = 1_000_000_000 // 15
@@ -151,15 +156,58 @@ def test_a_tolerance_below_the_offset_is_warned_with_the_offset_and_the_paramete
     assert "frame(s) dropped unpaired" in process.output() and not heightmaps.messages
 
 
-def test_d405_depth_needs_depth_scale_and_says_so(ros_node, heightmap_graph):
-    """16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value."""
+def test_d405_depth_needs_depth_scale_and_its_frames_are_dropped_saying_so(ros_node, heightmap_graph):
+    """16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value, and no heightmap
+    comes of such a frame: each is dropped with its reason on /heightmap/dropped."""
     start, camera = heightmap_graph
     process, heightmaps = start()
+    dropped = TopicRecorder(ros_node, String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
     _, frame = scene()
     camera(frame, now_ns(ros_node), depth_units=0.0001).start((process,))
-    logged(ros_node, process, "depth does not fit the table")
+    logged(ros_node, process, "frame dropped: depth does not fit the table")
     assert "these depths fit depth_scale=0.0001" in process.output()
-    heightmaps.wait_for(1, WAIT, processes=(process,))  # warned, not dropped
+    reasons = dropped.wait_for(3, WAIT, processes=(process,))
+    assert all("depth_scale=0.0001" in reason.data for reason in reasons)
+    assert not heightmaps.messages
+    dropped.destroy()
+
+
+def test_depth_in_millimetres_ends_the_episode_naming_the_units(ros_node, heightmap_graph, launch, tmp_path):
+    """32FC1 in mm, on a cell that counts by perception: the episode ends unusable_input with the heightmap
+    node's reason, not "nothing left" and not at its decision timeout (120 s here)."""
+    start, camera = heightmap_graph
+    process, _ = start()
+    episode = launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(tmp_path), "use_ground_truth": False, "scene_service_timeout": 0.0,
+         "decision_timeout": 120.0}))
+    _, frame = scene()
+    camera(dataclasses.replace(frame, depth=frame.depth * 1000.0), now_ns(ros_node)).start((process,))
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode, process])
+    handle, wrapped = action.run(RunEpisode.Goal(scenario="random", seed=1), timeout=WAIT)
+    assert handle.accepted and wrapped.status == GoalStatus.STATUS_ABORTED
+    reason = wrapped.result.termination_reason
+    assert reason.startswith("unusable_input: the heightmap node dropped 3 camera frames in a row"), reason
+    assert "Likely cause: the depth units: 32FC1 depth must be metres" in reason
+    assert wrapped.result.actions == 0
+    action.destroy()
+
+
+def test_a_camera_tilted_against_its_calibration_is_dropped_naming_the_pose(ros_node, heightmap_graph):
+    """Tilted 12 deg about x and 12 deg about y, calibrated as looking straight down."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    dropped = TopicRecorder(ros_node, String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
+    boxes = random_boxes(11, num_product=15, num_impurities=1)
+    turn = np.eye(4)
+    c, s = np.cos(np.radians(12.0)), np.sin(np.radians(12.0))
+    turn[:3, :3] = np.array([[1, 0, 0], [0, c, -s], [0, s, c]]) @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    intrinsics, pose = overhead_camera()
+    tilted = render_boxes(boxes, intrinsics=intrinsics, camera_pose=pose @ turn)
+    camera(tilted, now_ns(ros_node)).start((process,))
+    reasons = dropped.wait_for(2, WAIT, processes=(process,))
+    assert all("tilted 16.9 deg" in reason.data and "camera_orientation" in reason.data for reason in reasons)
+    assert not heightmaps.messages
+    dropped.destroy()
 
 
 def test_d405_depth_with_depth_scale_gives_the_right_map(ros_node, heightmap_graph):

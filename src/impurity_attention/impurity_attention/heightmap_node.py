@@ -36,7 +36,7 @@ from impurity_attention.core.heightmap import (
     exposure_problem,
     mean_brightness,
 )
-from impurity_attention.core.sync import StampPairer, StreamWatch, UnpairedFrame
+from impurity_attention.core.sync import StampPairer, StreamWatch, unpaired_warning
 from impurity_attention.core.unknown_height import unknown_height_warning, unknown_regions
 from impurity_common import names
 from impurity_common.conversions import (
@@ -136,44 +136,19 @@ class HeightmapNode(Node):
 
     def _on_depth(self, msg: Image) -> None:
         self._watch.seen(names.DEPTH_TOPIC, time.monotonic())
-        self._pairs(self._pairer.add_depth(time_to_ns(msg.header.stamp), msg))
+        stamp = time_to_ns(msg.header.stamp) - int(round(self.params.depth_offset * 1e9))
+        self._pairs(self._pairer.add_depth(stamp, msg))
 
     def _pairs(self, pairs: list) -> None:
         """Process the pairs a frame completed; say why frames went unpaired."""
         unpaired = self._pairer.take_unpaired()
         if unpaired:
-            self.get_logger().warning(self._unpaired_text(unpaired),
-                                      throttle_duration_sec=self.params.log_throttle)
+            self.get_logger().warning(
+                unpaired_warning(unpaired, self._pairer, self.params.sync_tolerance, self.params.depth_offset,
+                                 names.COLOR_TOPIC, names.DEPTH_TOPIC),
+                throttle_duration_sec=self.params.log_throttle)
         for color_msg, depth_msg in pairs:
             self._process(color_msg, depth_msg)
-
-    def _unpaired_text(self, unpaired: list[UnpairedFrame]) -> str:
-        """Why frames went unpaired: the other stream is missing, the stamps lie further apart than the
-        tolerance (name it and the measured offset), or partners were lost on the way."""
-        last = unpaired[-1]
-        other = "depth" if last.side == "color" else "colour"
-        topic = names.DEPTH_TOPIC if last.side == "color" else names.COLOR_TOPIC
-        sides = sorted({"colour" if frame.side == "color" else "depth" for frame in unpaired})
-        text = (f"{len(unpaired)} {' and '.join(sides)} frame(s) dropped unpaired "
-                f"({self._pairer.dropped} so far): ")
-        if last.offset_ns is None:
-            return text + f"no {other} frame has arrived on {topic} (is that stream enabled?)"
-        offset, tolerance = last.offset_ns / 1e6, last.tolerance_ns / 1e6
-        period = self._pairer.period_ns
-        if self.params.sync_tolerance > 0:
-            rule = f"sync_tolerance={self.params.sync_tolerance:g} s"
-            advice = "set sync_tolerance above the offset, or to 0.0 to pair within half the frame period"
-        else:
-            rule = "sync_tolerance=0.0: half the frame period, " + (
-                f"{period / 1e6:.1f} ms measured" if period else "exact stamps until the period is measured")
-            advice = "set sync_tolerance (s) above the offset"
-        if not last.partner_lost:
-            return (text + f"depth is stamped {offset:+.1f} ms from its nearest colour frame, beyond the "
-                    f"pairing tolerance of {tolerance:.1f} ms ({rule}); {advice}")
-        taken = ", paired with another frame" if last.nearest_paired else ""
-        return (text + "their partners never arrived (lost by the best-effort transport or a busy node, or a "
-                f"frame came twice): the nearest {other} frame is {offset:+.1f} ms away{taken}; other frames "
-                f"pair within {tolerance:.1f} ms ({rule})")
 
     def _check_clock(self, stamp_ns: int) -> None:
         """Warn once when frames are stamped on another clock than this node's."""

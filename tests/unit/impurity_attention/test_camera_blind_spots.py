@@ -11,6 +11,7 @@ import pytest
 
 from impurity_attention.core import heightmap as hm
 from impurity_attention.core.attention import attend
+from impurity_attention.core.sync import StampPairer, unpaired_warning
 from impurity_attention.core.synthetic import Box, footprint_labels, random_boxes, render_boxes
 from impurity_attention.core.unknown_height import UNKNOWN_HEIGHT, unknown_height_warning, unknown_regions
 from impurity_common.enums import AttentionMode
@@ -187,3 +188,44 @@ def test_steady_brightness_and_the_arm_crossing_the_view_are_not_a_jump():
     crossed[:60, :200] = 30  # a dark arm over a corner of the view
     assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(scene)) is None
     assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(crossed)) is None
+
+
+# ---------------------------------------------------------------- a colour-depth offset near a frame period
+
+PERIOD_30HZ = 33_333_333
+
+
+def stream(pairer: StampPairer, depth_offset_ns: int, frames: int = 60, lose_depth: int | None = None):
+    """30 Hz: colour frame k stamped k periods, its depth depth_offset_ns later; (pairs, unpaired)."""
+    pairs, unpaired = [], []
+    for k in range(frames):
+        pairs += pairer.add_color(k * PERIOD_30HZ, k)
+        if k != lose_depth:
+            pairs += pairer.add_depth(k * PERIOD_30HZ + depth_offset_ns, k)
+        unpaired += pairer.take_unpaired()
+    return pairs, unpaired
+
+
+def test_an_offset_near_one_frame_period_is_named_with_the_parameter_to_set():
+    """Depth stamped 30 ms after its colour frame at 30 Hz: each colour frame pairs with the depth of the
+    frame before, and the frame left over was said to have lost its partner."""
+    pairer = StampPairer()
+    pairs, unpaired = stream(pairer, 30_000_000)
+    assert all(depth == color - 1 for color, depth in pairs[1:])  # paired one frame apart
+    warning = unpaired_warning(unpaired, pairer, sync_tolerance=0.0)
+    assert "depth is stamped +30.0 ms from the nearest colour frame" in warning
+    assert "about one frame period (33.3 ms) off" in warning and "set depth_offset to 0.0300 s" in warning
+
+
+def test_with_depth_offset_set_every_colour_frame_pairs_with_its_own_depth():
+    """The node takes depth_offset off the depth stamps before pairing."""
+    offset = int(round(hm.HeightmapParams(depth_offset=0.03).depth_offset * 1e9))
+    pairs, unpaired = stream(StampPairer(), 30_000_000 - offset)
+    assert all(depth == color for color, depth in pairs) and len(pairs) == 60 and not unpaired
+
+
+def test_a_lost_depth_frame_is_still_said_to_be_lost():
+    pairer = StampPairer()
+    _, unpaired = stream(pairer, 0, lose_depth=40)
+    warning = unpaired_warning(unpaired, pairer, sync_tolerance=0.0)
+    assert "their partners never arrived" in warning

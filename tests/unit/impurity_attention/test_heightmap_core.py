@@ -64,8 +64,10 @@ def test_holes_stay_empty_never_spikes(hole_value):
     maps = project(frame, hm.depth_to_meters(depth, "32FC1"))
     assert np.all(np.isfinite(maps.height))
     assert maps.height.max() <= 0.05 + 1e-4
-    assert np.all(maps.height[~maps.seen] == 0.0) and np.all(maps.color[~maps.seen] == 0)
-    assert np.count_nonzero(~maps.seen) > 100
+    assert np.all(maps.height[~maps.seen] == 0.0)
+    # cells no pixel reached are black; those of the hole's pixels keep their colour, as height unknown
+    assert np.all(maps.color[~maps.seen & ~maps.unknown] == 0) and not np.any(maps.unknown & maps.seen)
+    assert np.count_nonzero(maps.unknown) > 100 and np.all(maps.color[maps.unknown].any(axis=1))
 
 
 def test_all_holes_give_an_empty_map():

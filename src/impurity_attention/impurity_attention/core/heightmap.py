@@ -104,6 +104,10 @@ class HeightmapParams:
     sync_tolerance: float = param(0.0, "Largest stamp difference (s) for a colour and a depth frame to pair; "
                                   "0.0 = automatic: half the frame period measured from the stamps (any "
                                   "colour-depth offset of the driver below half a period)", low=0.0, high=1.0)
+    depth_offset: float = param(0.0, "s by which the camera driver stamps a depth frame after the colour "
+                                "frame it was taken with; taken off depth stamps before pairing (an offset "
+                                "near a frame period otherwise pairs each colour frame with a neighbouring "
+                                "frame's depth)", low=-1.0, high=1.0)
     depth_scale: float = param(DEFAULT_DEPTH_SCALE, "Metres per unit of integer depth (16UC1, mono16); not "
                                "on the topic: RealSense D4xx 0.001 (mm), D405 0.0001. 32FC1 is always metres",
                                low=1e-7, high=1.0)
@@ -303,7 +307,8 @@ def fit_table(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: HeightmapGrid) 
     if best is None or best.sum() < MIN_TABLE_BLOCKS:
         return None
     (slope_x, slope_y, offset), *_ = np.linalg.lstsq(design[best], points[best, 2], rcond=None)
-    corners = [slope_x * dx + slope_y * dy + offset for dx in (-width / 2, width / 2) for dy in (-depth / 2, depth / 2)]
+    corners = [slope_x * dx + slope_y * dy + offset
+               for dx in (-width / 2, width / 2) for dy in (-depth / 2, depth / 2)]
     return TableFit(float(slope_x), float(slope_y), float(offset), int(best.sum()),
                     float(max(abs(c) for c in corners)))
 
@@ -406,8 +411,8 @@ def exposure_problem(color: np.ndarray, height: np.ndarray,
     return None
 
 
-# brightness_jump: the mean brightness of consecutive colour frames (every channel, 0-255) should not change by
-# more than BRIGHTNESS_JUMP of the brighter one and BRIGHTNESS_STEP levels at once on a fixed cell: the arm
+# brightness_jump: the mean brightness of consecutive colour frames (every channel, 0-255) should not change
+# by more than BRIGHTNESS_JUMP of the brighter one and BRIGHTNESS_STEP levels at once on a fixed cell: the arm
 # crossing part of the view changes it by a few percent; auto exposure hunting, or a short exposure beating
 # with mains-powered light, by more.
 BRIGHTNESS_JUMP = 0.15

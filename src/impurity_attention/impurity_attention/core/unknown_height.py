@@ -103,9 +103,9 @@ def unknown_height_warning(regions: list, resolution: float) -> str | None:
     if not regions:
         return None
     sizes = ", ".join(f"{r.area * resolution * resolution * 1e4:.1f} cm^2" for r in regions[:3])
-    return (f"{len(regions)} object-sized region(s) ({sizes}) coloured unlike the table have no depth: a black "
-            "or glossy piece the depth camera does not measure. They reach the heightmap as height unknown "
-            "(NaN) and attention takes them as candidates at a guessed height. Help the depth camera "
+    return (f"{len(regions)} object-sized region(s) ({sizes}) coloured unlike the table have no depth: a "
+            "black or glossy piece the depth camera does not measure. They reach the heightmap as height "
+            "unknown (NaN) and attention takes them as candidates at a guessed height. Help the depth camera "
             "(realsense-ros): raise the projector's laser power (depth_module.emitter_enabled 1, "
             "depth_module.laser_power), lengthen the depth exposure (depth_module.enable_auto_exposure, "
             "depth_module.exposure), or fill holes (hole_filling_filter.enable true: a hole then takes its "
