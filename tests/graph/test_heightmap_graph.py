@@ -33,13 +33,17 @@ def colour_bytes(rgb: np.ndarray, encoding: str) -> np.ndarray:
 
 class StreamingCamera:
     """Publishes one synthetic scene as a 15 Hz stream (stamps a period apart, sent as often) until
-    `frames` were sent: colour stamped t, depth stamped t + depth_offset_ns, camera_info."""
+    `frames` were sent: colour stamped t, depth stamped t + depth_offset_ns, camera_info; with `flicker`,
+    every other colour frame is that much brighter (x 1 + flicker)."""
 
     def __init__(self, node, frame, first_stamp_ns: int, frames: int = 1000, depth_offset_ns: int = 0,
-                 color_encoding: str = "rgb8", depth_units: float | None = None):
+                 color_encoding: str = "rgb8", depth_units: float | None = None, flicker: float = 0.0):
         self.node, self.frames, self.sent = node, frames, []
+        brighter = np.clip(frame.color * (1.0 + flicker), 0, 255).astype(np.uint8)
+        self.colors = [numpy_to_image(colour_bytes(rgb, color_encoding), color_encoding)
+                       for rgb in ((frame.color, brighter) if flicker else (frame.color,))]
         self.first_stamp_ns, self.depth_offset_ns = first_stamp_ns, depth_offset_ns
-        self.color = numpy_to_image(colour_bytes(frame.color, color_encoding), color_encoding)
+        self.color = self.colors[0]
         self.depth = (numpy_to_image(frame.depth, "32FC1") if depth_units is None else
                       numpy_to_image(np.round(frame.depth / depth_units).astype(np.uint16), "16UC1"))
         self.info = CameraInfo(width=frame.color.shape[1], height=frame.color.shape[0])
@@ -60,6 +64,8 @@ class StreamingCamera:
         if len(self.sent) >= self.frames:
             return
         stamp = self.first_stamp_ns + len(self.sent) * PERIOD_15HZ
+        self.color = self.colors[len(self.sent) % len(self.colors)]
+        self.color.header.frame_id = names.CAMERA_OPTICAL_FRAME
         self.info.header.stamp = self.color.header.stamp = ns_to_time(stamp)
         self.depth.header.stamp = ns_to_time(stamp + self.depth_offset_ns)
         self.info_pub.publish(self.info)
@@ -154,6 +160,38 @@ def test_a_tolerance_below_the_offset_is_warned_with_the_offset_and_the_paramete
                               "tolerance of 10.0 ms (sync_tolerance=0.01 s); set sync_tolerance above the "
                               "offset")
     assert "frame(s) dropped unpaired" in process.output() and not heightmaps.messages
+
+
+def test_an_offset_near_one_frame_period_is_named_and_depth_offset_pairs_the_right_frames(
+        ros_node, heightmap_graph):
+    """Depth stamped 60 ms after its colour frame at 15 Hz (66.7 ms): each colour frame pairs with the
+    depth of the frame before; the warning names the offset and depth_offset. Set, frames pair as taken."""
+    start, camera = heightmap_graph
+    process, _ = start()
+    _, frame = scene(width=320, height=240)
+    first = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=60_000_000)
+    first.start((process,))
+    logged(ros_node, process, "set depth_offset to 0.0600 s")
+    first.frames = len(first.sent)  # stops it
+    assert "depth is stamped +60.0 ms from the nearest colour frame, about one frame period (66.7 ms) off" \
+        in process.output()
+    process.stop()  # its heightmaps would mix with the next node's
+    fixed, heightmaps = start({"depth_offset": 0.06})
+    stream = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=60_000_000)
+    stream.start((fixed,))
+    received = heightmaps.wait_for(10, WAIT, processes=(fixed,))
+    assert {time_to_ns(m.header.stamp) for m in received} <= set(stream.sent)
+
+
+def test_brightness_flickering_between_frames_is_warned_naming_the_auto_exposure(ros_node, heightmap_graph):
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    _, frame = scene(width=320, height=240)
+    camera(frame, now_ns(ros_node), frames=300, flicker=0.3).start((process,))
+    logged(ros_node, process, "colour brightness unsteady")
+    assert "rgb_camera.enable_auto_exposure" in process.output()
+    assert "power_line_frequency" in process.output()
+    heightmaps.wait_for(1, WAIT, processes=(process,))  # warned, not dropped
 
 
 def test_d405_depth_needs_depth_scale_and_its_frames_are_dropped_saying_so(ros_node, heightmap_graph):

@@ -32,9 +32,11 @@ from impurity_attention.core.heightmap import (
     ProjectorCache,
     brightness_jump,
     depth_problem,
+    depth_sample,
     depth_to_meters,
     exposure_problem,
     mean_brightness,
+    still_scene,
 )
 from impurity_attention.core.sync import StampPairer, StreamWatch, unpaired_warning
 from impurity_attention.core.unknown_height import unknown_height_warning, unknown_regions
@@ -79,7 +81,7 @@ class HeightmapNode(Node):
         self._warned_clock = False
         self._stopped_clock = StoppedClockGate(self)
         self._warned_footprint = None  # the projector the footprint warning was given for
-        self._brightness = None  # the last colour frame's mean brightness
+        self._brightness = None  # (mean brightness, depth_sample) of the last frame
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
         self._reference = LabStatistics(params.colour_reference_mean, params.colour_reference_std)
@@ -197,7 +199,7 @@ class HeightmapNode(Node):
         intrinsics = np.array(info.k).reshape(3, 3)
         projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
         self._check_footprint(projector)
-        self._check_brightness(color)
+        self._check_brightness(color, depth)
         problem = depth_problem(projector.check_depth(depth), depth_msg.encoding, self.params.depth_scale)
         if problem is not None:
             self._drop_unusable(f"depth does not fit the table: {problem}")
@@ -224,11 +226,14 @@ class HeightmapNode(Node):
         msg.height = numpy_to_image(maps.height_or_unknown(), "32FC1", msg.header)
         return msg
 
-    def _check_brightness(self, color) -> None:
-        """Warn (throttled) when the mean brightness jumps between consecutive frames (auto exposure)."""
-        brightness = mean_brightness(color)
-        jump = brightness_jump(self._brightness, brightness)
-        self._brightness = brightness
+    def _check_brightness(self, color, depth) -> None:
+        """Warn (throttled) when the mean brightness jumps between consecutive frames of a still scene (auto
+        exposure, flicker)."""
+        brightness, sample = mean_brightness(color), depth_sample(depth)
+        previous, self._brightness = self._brightness, (brightness, sample)
+        if previous is None or not still_scene(previous[1], sample):
+            return
+        jump = brightness_jump(previous[0], brightness)
         if jump is not None:
             self.get_logger().warning(f"colour brightness unsteady: {jump}",
                                       throttle_duration_sec=self.params.log_throttle)

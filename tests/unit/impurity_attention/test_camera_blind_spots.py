@@ -182,12 +182,15 @@ def test_a_jump_of_the_mean_brightness_names_the_auto_exposure_settings():
         assert setting in jump
 
 
-def test_steady_brightness_and_the_arm_crossing_the_view_are_not_a_jump():
-    scene = render_boxes(random_boxes(6)).color
-    crossed = scene.copy()
-    crossed[:60, :200] = 30  # a dark arm over a corner of the view
-    assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(scene)) is None
-    assert hm.brightness_jump(hm.mean_brightness(scene), hm.mean_brightness(crossed)) is None
+def test_steady_brightness_is_no_jump_and_only_a_still_scene_is_judged():
+    frame, other = render_boxes(random_boxes(6)), render_boxes(random_boxes(7))
+    assert hm.brightness_jump(hm.mean_brightness(frame.color), hm.mean_brightness(frame.color)) is None
+    noisy = frame.depth + np.random.default_rng(0).normal(0.0, 0.002, frame.depth.shape).astype(np.float32)
+    assert hm.still_scene(hm.depth_sample(frame.depth), hm.depth_sample(noisy))  # depth noise: still
+    assert not hm.still_scene(hm.depth_sample(frame.depth), hm.depth_sample(other.depth))  # a new scene
+    crossed = frame.depth.copy()
+    crossed[:120, :200] = 0.3  # the arm over a corner of the view
+    assert not hm.still_scene(hm.depth_sample(frame.depth), hm.depth_sample(crossed))
 
 
 # ---------------------------------------------------------------- a colour-depth offset near a frame period

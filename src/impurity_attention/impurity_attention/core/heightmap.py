@@ -411,12 +411,30 @@ def exposure_problem(color: np.ndarray, height: np.ndarray,
     return None
 
 
-# brightness_jump: the mean brightness of consecutive colour frames (every channel, 0-255) should not change
-# by more than BRIGHTNESS_JUMP of the brighter one and BRIGHTNESS_STEP levels at once on a fixed cell: the arm
-# crossing part of the view changes it by a few percent; auto exposure hunting, or a short exposure beating
-# with mains-powered light, by more.
+# brightness_jump: the mean brightness of consecutive colour frames (every channel, 0-255) of a still scene
+# (still_scene) should not change by more than BRIGHTNESS_JUMP of the brighter one and BRIGHTNESS_STEP levels
+# at once; auto exposure hunting, or a short exposure beating with mains-powered light, does. A scene that
+# moved (the arm crossing the view, a new scene: another palette's table is 25 % brighter) is not judged.
 BRIGHTNESS_JUMP = 0.15
 BRIGHTNESS_STEP = 8.0
+# still_scene: two depth images show the same scene when at most STILL_SHARE of their pixels (every 8th row
+# and column) changed depth by more than STILL_DEPTH (5 x a RealSense D435's depth noise at 0.75 m).
+STILL_DEPTH = 0.01  # m
+STILL_SHARE = 0.01
+
+
+def depth_sample(depth_m: np.ndarray) -> np.ndarray:
+    """Every 8th row and column of a depth image (metres, NaN holes): what still_scene compares."""
+    return np.asarray(depth_m)[::8, ::8].copy()
+
+
+def still_scene(previous: np.ndarray | None, current: np.ndarray) -> bool:
+    """Whether two depth_samples show the same scene (module constants STILL_*); False without a previous."""
+    if previous is None or previous.shape != current.shape:
+        return False
+    with np.errstate(invalid="ignore"):
+        changed = ~(np.abs(current - previous) <= STILL_DEPTH) & ~(np.isnan(current) & np.isnan(previous))
+    return float(np.mean(changed)) <= STILL_SHARE
 
 
 def mean_brightness(color: np.ndarray) -> float:
