@@ -1,13 +1,15 @@
 """Attention node: /heightmap -> /attention/result (paper Algorithm 1) and /attention/debug_image.
 
 Thin shell around impurity_attention.core.attention.attend: one AttentionResult per heightmap, with the
-heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line, and every heightmap while
-`use_sim_time` is true and no /clock has arrived (said once: impurity_common.sim_time). A heightmap on
-/attention/known_product (transient local; the episode node sends the episode's first view when it showed no
-target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
-cells, sent at each episode's reset) clears it. /attention/look_closer (std_srvs/SetBool; the episode
-node's stall look, core/picking.py) set true makes the heightmaps that follow attended with closer=True (the
-verifier's threshold lowered to its model's stall_look) until it is set false.
+heightmap's stamp; NaN heights (colour without depth) are attended as unknown (attend's unknown) and the
+result's heightmap holds the heights attention read instead; a malformed heightmap is dropped with one
+rate-limited log line, and every heightmap while `use_sim_time` is true and no /clock has arrived (said once:
+impurity_common.sim_time). A heightmap on /attention/known_product (transient local; the episode node sends
+the episode's first view when it showed no target) becomes the known product (core/product_memory.py) for the
+heightmaps that follow; an empty one (no cells, sent at each episode's reset) clears it.
+/attention/look_closer (std_srvs/SetBool; the episode node's stall look, core/picking.py) set true makes the
+heightmaps that follow attended with closer=True (the verifier's threshold lowered to its model's stall_look)
+until it is set false.
 
 The node's parameters are AttentionParams' fields (declared from the core dataclass, nested saliency.* and
 density.*) and two of its own (AttentionNodeParameters).

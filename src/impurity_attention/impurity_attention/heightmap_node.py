@@ -2,13 +2,19 @@
 height maps of the workspace in base_link).
 
 Thin shell around impurity_attention.core.heightmap: it converts messages, pairs colour and depth by
-stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback).
+stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback). A frame
+that cannot make a heightmap - a bad image, depth that does not fit the table and the camera pose (units,
+too few depths, the table fitted through the depth tilted or offset from table_z) - is dropped with its
+reason also sent on /heightmap/dropped (std_msgs/String), on which the episode node ends an episode.
+Pixels with colour and no depth reach the heightmap as height unknown (NaN; core.unknown_height).
 The camera pose in base_link is a parameter: a real cell sets it from its hand-eye calibration.
 
 What a real camera does differently from the simulated one is said in the log, each with its cause
 and the parameter to change: frames that go unpaired (rate-limited, with the measured stamp offset:
-`sync_tolerance`), depth that does not fit the table and the camera pose (rate-limited: `depth_scale`,
-`camera_position`, `camera_orientation`), pixels coarser than the cells (once: the gaps between
+`sync_tolerance`, or `depth_offset` when it is near one frame period), depth that does not fit the table and
+the camera pose (rate-limited: `depth_scale`, `camera_position`, `camera_orientation`), object-sized regions
+of colour without depth and brightness jumping between frames of a still scene (rate-limited, naming the
+camera's settings), pixels coarser than the cells (once: the gaps between
 samples are filled), frames stamped on another clock than the node's (once: `use_sim_time`, the
 driver's timestamp setting), a camera topic with no message for `frame_timeout` s (rate-limited, naming the
 topics: the camera driver is not running or publishes other names). With `use_sim_time:=true` and no /clock,

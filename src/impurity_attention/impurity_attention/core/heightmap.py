@@ -3,7 +3,9 @@
 Every valid depth pixel is back-projected to a 3-D point in `base_link` and dropped straight down
 onto a grid over the workspace; a grid cell keeps its highest point (what a camera looking straight
 down along gravity would see) and that point's colour. Cells that no pixel reaches (shadows behind
-tall objects, depth holes) stay empty: height 0 and black, never a spike. The same projection carries
+tall objects, depth holes) stay empty: height 0 and black, never a spike; a pixel with a colour and no
+depth puts its colour where its ray meets the table plane, on a cell no depth reached, as height unknown
+(`Heightmaps.unknown`; NaN in the /heightmap message: core.unknown_height). The same projection carries
 any per-pixel label image along (the simulator's segmentation), which is how ground truth reaches
 heightmap coordinates.
 
@@ -18,7 +20,8 @@ is filled and the maps are exactly the projection.
 `HeightmapProjector.check_depth` tells whether a frame's depth fits the configured camera pose and
 table at all (`depth_problem` words the likely cause): integer depth in other units than
 `depth_scale` says (a D405 publishes 0.1 mm), or a wrong camera pose, puts most points far from the
-table plane.
+table plane; a camera tilted against its calibration shows a sloped table (`fit_table`, `table_problem`).
+`brightness_jump` and `still_scene` tell auto exposure hunting from a scene that moved.
 
 `HeightmapParams` holds every setting of the projection (grid, camera pose, depth units), of pairing colour
 and depth frames and of the optional colour adaptation: the heightmap node's parameters of the same names.
