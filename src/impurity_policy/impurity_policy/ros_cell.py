@@ -110,7 +110,7 @@ class RosCell:
         self._attention_heard: collections.deque[tuple[int, int]] = collections.deque(maxlen=ATTENTION_KEPT)
         self._should_stop = None  # the loop's cancel check, polled in every wait
         # (received ns on this node's clock, reason) of the frames dropped since the last attention result
-        self._unusable: list[tuple[int, str]] = []
+        self._unusable: collections.deque[tuple[int, str]] = collections.deque(maxlen=ATTENTION_KEPT)
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         node.create_subscription(AttentionResult, names.ATTENTION_TOPIC, self._on_attention, reliable,
                                  callback_group=callback_group)
