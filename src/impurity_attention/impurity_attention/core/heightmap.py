@@ -297,17 +297,15 @@ def fit_table(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: HeightmapGrid) 
     points -= centre
     design = np.column_stack([points[:, 0], points[:, 1], np.ones(len(points))])
     rng = np.random.default_rng(0)
-    best = None
-    for _ in range(TABLE_TRIALS):
-        triple = rng.choice(len(points), 3, replace=False)
-        try:
-            plane = np.linalg.solve(design[triple], points[triple, 2])
-        except np.linalg.LinAlgError:
-            continue
-        inliers = np.abs(design @ plane - points[:, 2]) <= TABLE_INLIER
-        if best is None or inliers.sum() > best.sum():
-            best = inliers
-    if best is None or best.sum() < MIN_TABLE_BLOCKS:
+    triples = np.array([rng.choice(len(points), 3, replace=False) for _ in range(TABLE_TRIALS)])
+    systems = design[triples]  # (trials, 3, 3): the plane through each triple
+    solvable = np.abs(np.linalg.det(systems)) > 1e-12
+    if not solvable.any():
+        return None
+    planes = np.linalg.solve(systems[solvable], points[triples[solvable], 2][..., None])[..., 0]
+    inliers = np.abs(planes @ design.T - points[:, 2]) <= TABLE_INLIER  # (trials, blocks)
+    best = inliers[int(np.argmax(inliers.sum(axis=1)))]  # the first of the most supported
+    if best.sum() < MIN_TABLE_BLOCKS:
         return None
     (slope_x, slope_y, offset), *_ = np.linalg.lstsq(design[best], points[best, 2], rcond=None)
     corners = [slope_x * dx + slope_y * dy + offset
