@@ -65,7 +65,8 @@ def camera_messages(frame, stamp_ns, depth_encoding="32FC1", color_encoding="rgb
     header.frame_id = names.CAMERA_OPTICAL_FRAME
     color = frame.color if color_encoding == "rgb8" else frame.color[..., 0]
     color_msg = numpy_to_image(color, color_encoding, header)
-    depth = frame.depth if depth_encoding == "32FC1" else np.round(frame.depth * 1000).astype(np.uint16)
+    depth = (frame.depth if depth_encoding == "32FC1"
+             else np.round(np.nan_to_num(frame.depth) * 1000).astype(np.uint16))  # no depth: 0
     depth_msg = numpy_to_image(depth, depth_encoding, header)
     info = CameraInfo(header=header, width=frame.color.shape[1], height=frame.color.shape[0])
     info.k = [float(v) for v in frame.intrinsics.reshape(-1)]
@@ -135,17 +136,37 @@ def test_bad_frames_are_dropped_with_a_reason_and_the_next_good_one_goes_through
     camera.show(color, depth, info)
     logged("differ")
     nan_depth = frame.depth.copy()
-    nan_depth[:] = np.nan  # a blind camera: an empty heightmap and NONE, not an error
+    nan_depth[:] = np.nan  # a blind camera: unusable, dropped saying so (not an empty heightmap and NONE)
     color, depth, _ = camera_messages(frame, 2_400_000_000)
     camera.show(color, numpy_to_image(nan_depth, "32FC1", depth.header), info)
-    blind = results.wait_for(1, 30.0, with_stamp(2_400_000_000), processes)[0]
-    assert blind.mode == AttentionMode.NONE
+    logged("frame dropped: depth does not fit the table: only 0% of the")
     camera.show(*camera_messages(frame, 2_500_000_000))
     good = results.wait_for(1, 30.0, with_stamp(2_500_000_000), processes)[0]
     assert good.mode == AttentionMode.TARGET
-    bad_stamps = {2_000_000_000, 2_100_000_000, 2_200_000_000, 2_300_000_000}
+    bad_stamps = {2_000_000_000, 2_100_000_000, 2_200_000_000, 2_300_000_000, 2_400_000_000}
     assert not bad_stamps & {time_to_ns(m.header.stamp) for m in heightmaps.messages}
     assert all(process.alive for process in processes)
+
+
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+def test_a_black_piece_without_depth_is_a_target_and_no_nan_goes_past_attention(perception, encoding):
+    """The driver gives no depth on a black piece's pixels (0 in 16UC1, NaN in 32FC1): /heightmap carries
+    its colour at NaN height, attention targets it, and its result carries heights only."""
+    camera, heightmaps, results, processes = perception
+    boxes = random_boxes(3, num_product=12, num_impurities=1, impurity_color=(25, 25, 28))
+    frame = render_boxes(boxes)
+    frame.depth[frame.labels == boxes[-1].label] = np.nan  # camera_messages: NaN -> 0 in 16UC1
+    stamp = 3_000_000_000 + (encoding == "16UC1")
+    camera.show(*camera_messages(frame, stamp, encoding))
+    heightmap = heightmaps.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
+    unknown = np.isnan(image_to_numpy(heightmap.height, ("32FC1",)))
+    piece = image_to_numpy(heightmap.color, ("rgb8",))[unknown]
+    assert unknown.sum() > 150 and (piece == (25, 25, 28)).all()
+    result = results.wait_for(1, 30.0, with_stamp(stamp), processes)[0]
+    assert result.mode == AttentionMode.TARGET
+    assert unknown[result.center_row, result.center_col]
+    assert not np.isnan(image_to_numpy(result.heightmap.height, ("32FC1",))).any()
+    assert "colour without depth" in processes[0].output() and "laser_power" in processes[0].output()
 
 
 def heightmap_message(stamp_ns, color, height, height_encoding="32FC1"):

@@ -2,17 +2,22 @@
 colour and depth stamped apart, depth in 0.1 mm, frames stamped on the camera's own clock, four-channel
 colour, pixels coarser than the cells. Each behaviour is seen on /heightmap or in the node's log."""
 
+import dataclasses
+
 import numpy as np
 import pytest
+from action_msgs.msg import GoalStatus
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from impurity_attention.core.synthetic import overhead_camera, random_boxes, render_boxes
 from impurity_common import names
 from impurity_common.conversions import image_to_numpy, ns_to_time, numpy_to_image, time_to_ns
 from impurity_common.grid import HeightmapGrid
+from impurity_interfaces.action import RunEpisode
 from impurity_interfaces.msg import Heightmap
-from ros_harness import TopicRecorder, ros_args, spin_until, wait_for_subscribers
+from ros_harness import ActionHelper, TopicRecorder, ros_args, spin_until, wait_for_subscribers
 
 RELIABLE = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
 PERIOD_15HZ = 1_000_000_000 // 15
@@ -28,13 +33,17 @@ def colour_bytes(rgb: np.ndarray, encoding: str) -> np.ndarray:
 
 class StreamingCamera:
     """Publishes one synthetic scene as a 15 Hz stream (stamps a period apart, sent as often) until
-    `frames` were sent: colour stamped t, depth stamped t + depth_offset_ns, camera_info."""
+    `frames` were sent: colour stamped t, depth stamped t + depth_offset_ns, camera_info; with `flicker`,
+    every other colour frame is that much brighter (x 1 + flicker)."""
 
     def __init__(self, node, frame, first_stamp_ns: int, frames: int = 1000, depth_offset_ns: int = 0,
-                 color_encoding: str = "rgb8", depth_units: float | None = None):
+                 color_encoding: str = "rgb8", depth_units: float | None = None, flicker: float = 0.0):
         self.node, self.frames, self.sent = node, frames, []
+        brighter = np.clip(frame.color * (1.0 + flicker), 0, 255).astype(np.uint8)
+        self.colors = [numpy_to_image(colour_bytes(rgb, color_encoding), color_encoding)
+                       for rgb in ((frame.color, brighter) if flicker else (frame.color,))]
         self.first_stamp_ns, self.depth_offset_ns = first_stamp_ns, depth_offset_ns
-        self.color = numpy_to_image(colour_bytes(frame.color, color_encoding), color_encoding)
+        self.color = self.colors[0]
         self.depth = (numpy_to_image(frame.depth, "32FC1") if depth_units is None else
                       numpy_to_image(np.round(frame.depth / depth_units).astype(np.uint16), "16UC1"))
         self.info = CameraInfo(width=frame.color.shape[1], height=frame.color.shape[0])
@@ -55,6 +64,8 @@ class StreamingCamera:
         if len(self.sent) >= self.frames:
             return
         stamp = self.first_stamp_ns + len(self.sent) * PERIOD_15HZ
+        self.color = self.colors[len(self.sent) % len(self.colors)]
+        self.color.header.frame_id = names.CAMERA_OPTICAL_FRAME
         self.info.header.stamp = self.color.header.stamp = ns_to_time(stamp)
         self.depth.header.stamp = ns_to_time(stamp + self.depth_offset_ns)
         self.info_pub.publish(self.info)
@@ -151,15 +162,90 @@ def test_a_tolerance_below_the_offset_is_warned_with_the_offset_and_the_paramete
     assert "frame(s) dropped unpaired" in process.output() and not heightmaps.messages
 
 
-def test_d405_depth_needs_depth_scale_and_says_so(ros_node, heightmap_graph):
-    """16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value."""
+def test_an_offset_near_one_frame_period_is_named_and_depth_offset_pairs_the_right_frames(
+        ros_node, heightmap_graph):
+    """Depth stamped 60 ms after its colour frame at 15 Hz (66.7 ms): each colour frame pairs with the
+    depth of the frame before; the warning names the offset and depth_offset. Set, frames pair as taken."""
+    start, camera = heightmap_graph
+    process, _ = start()
+    _, frame = scene(width=320, height=240)
+    first = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=60_000_000)
+    first.start((process,))
+    logged(ros_node, process, "set depth_offset to 0.0600 s")
+    first.frames = len(first.sent)  # stops it
+    assert "depth is stamped +60.0 ms from the nearest colour frame, about one frame period (66.7 ms) off" \
+        in process.output()
+    process.stop()  # its heightmaps would mix with the next node's
+    fixed, heightmaps = start({"depth_offset": 0.06})
+    stream = camera(frame, now_ns(ros_node), frames=300, depth_offset_ns=60_000_000)
+    stream.start((fixed,))
+    received = heightmaps.wait_for(10, WAIT, processes=(fixed,))
+    assert {time_to_ns(m.header.stamp) for m in received} <= set(stream.sent)
+
+
+def test_brightness_flickering_between_frames_is_warned_naming_the_auto_exposure(ros_node, heightmap_graph):
     start, camera = heightmap_graph
     process, heightmaps = start()
+    _, frame = scene(width=320, height=240)
+    camera(frame, now_ns(ros_node), frames=300, flicker=0.3).start((process,))
+    logged(ros_node, process, "colour brightness unsteady")
+    assert "rgb_camera.enable_auto_exposure" in process.output()
+    assert "power_line_frequency" in process.output()
+    heightmaps.wait_for(1, WAIT, processes=(process,))  # warned, not dropped
+
+
+def test_d405_depth_needs_depth_scale_and_its_frames_are_dropped_saying_so(ros_node, heightmap_graph):
+    """16UC1 in 0.1 mm. With the default depth_scale the log names it and the right value, and no heightmap
+    comes of such a frame: each is dropped with its reason on /heightmap/dropped."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    dropped = TopicRecorder(ros_node, String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
     _, frame = scene()
     camera(frame, now_ns(ros_node), depth_units=0.0001).start((process,))
-    logged(ros_node, process, "depth does not fit the table")
+    logged(ros_node, process, "frame dropped: depth does not fit the table")
     assert "these depths fit depth_scale=0.0001" in process.output()
-    heightmaps.wait_for(1, WAIT, processes=(process,))  # warned, not dropped
+    reasons = dropped.wait_for(3, WAIT, processes=(process,))
+    assert all("depth_scale=0.0001" in reason.data for reason in reasons)
+    assert not heightmaps.messages
+    dropped.destroy()
+
+
+def test_depth_in_millimetres_ends_the_episode_naming_the_units(ros_node, heightmap_graph, launch, tmp_path):
+    """32FC1 in mm, on a cell that counts by perception: the episode ends unusable_input with the heightmap
+    node's reason, not "nothing left" and not at its decision timeout (120 s here)."""
+    start, camera = heightmap_graph
+    process, _ = start()
+    episode = launch("impurity_policy", "episode_node", ros_args(
+        {"record_dir": str(tmp_path), "use_ground_truth": False, "scene_service_timeout": 0.0,
+         "decision_timeout": 120.0}))
+    _, frame = scene()
+    camera(dataclasses.replace(frame, depth=frame.depth * 1000.0), now_ns(ros_node)).start((process,))
+    action = ActionHelper(ros_node, RunEpisode, "/episode/run", processes=[episode, process])
+    handle, wrapped = action.run(RunEpisode.Goal(scenario="random", seed=1), timeout=WAIT)
+    assert handle.accepted and wrapped.status == GoalStatus.STATUS_ABORTED
+    reason = wrapped.result.termination_reason
+    assert reason.startswith("unusable_input: the heightmap node dropped 3 camera frames in a row"), reason
+    assert "Likely cause: the depth units: 32FC1 depth must be metres" in reason
+    assert wrapped.result.actions == 0
+    action.destroy()
+
+
+def test_a_camera_tilted_against_its_calibration_is_dropped_naming_the_pose(ros_node, heightmap_graph):
+    """Tilted 12 deg about x and 12 deg about y, calibrated as looking straight down."""
+    start, camera = heightmap_graph
+    process, heightmaps = start()
+    dropped = TopicRecorder(ros_node, String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
+    boxes = random_boxes(11, num_product=15, num_impurities=1)
+    turn = np.eye(4)
+    c, s = np.cos(np.radians(12.0)), np.sin(np.radians(12.0))
+    turn[:3, :3] = np.array([[1, 0, 0], [0, c, -s], [0, s, c]]) @ np.array([[c, 0, s], [0, 1, 0], [-s, 0, c]])
+    intrinsics, pose = overhead_camera()
+    tilted = render_boxes(boxes, intrinsics=intrinsics, camera_pose=pose @ turn)
+    camera(tilted, now_ns(ros_node)).start((process,))
+    reasons = dropped.wait_for(2, WAIT, processes=(process,))
+    assert all("tilted 16.9 deg" in reason.data and "camera_orientation" in reason.data for reason in reasons)
+    assert not heightmaps.messages
+    dropped.destroy()
 
 
 def test_d405_depth_with_depth_scale_gives_the_right_map(ros_node, heightmap_graph):

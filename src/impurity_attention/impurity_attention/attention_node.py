@@ -1,20 +1,24 @@
 """Attention node: /heightmap -> /attention/result (paper Algorithm 1) and /attention/debug_image.
 
 Thin shell around impurity_attention.core.attention.attend: one AttentionResult per heightmap, with the
-heightmap's stamp; a malformed heightmap is dropped with one rate-limited log line, and every heightmap while
-`use_sim_time` is true and no /clock has arrived (said once: impurity_common.sim_time). A heightmap on
-/attention/known_product (transient local; the episode node sends the episode's first view when it showed no
-target) becomes the known product (core/product_memory.py) for the heightmaps that follow; an empty one (no
-cells, sent at each episode's reset) clears it. /attention/look_closer (std_srvs/SetBool; the episode
-node's stall look, core/picking.py) set true makes the heightmaps that follow attended with closer=True (the
-verifier's threshold lowered to its model's stall_look) until it is set false.
+heightmap's stamp; NaN heights (colour without depth) are attended as unknown (attend's unknown) and the
+result's heightmap holds the heights attention read instead; a malformed heightmap is dropped with one
+rate-limited log line, and every heightmap while `use_sim_time` is true and no /clock has arrived (said once:
+impurity_common.sim_time). A heightmap on /attention/known_product (transient local; the episode node sends
+the episode's first view when it showed no target) becomes the known product (core/product_memory.py) for the
+heightmaps that follow; an empty one (no cells, sent at each episode's reset) clears it.
+/attention/look_closer (std_srvs/SetBool; the episode node's stall look, core/picking.py) set true makes the
+heightmaps that follow attended with closer=True (the verifier's threshold lowered to its model's stall_look)
+until it is set false.
 
 The node's parameters are AttentionParams' fields (declared from the core dataclass, nested saliency.* and
 density.*) and two of its own (AttentionNodeParameters).
 """
 
+import copy
 from dataclasses import dataclass
 
+import numpy as np
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
@@ -124,11 +128,15 @@ class AttentionNode(Node):
             color = image_to_numpy(msg.color, ("rgb8",))
             height = image_to_numpy(msg.height, ("32FC1",))
             grid = grid_from_heightmap(msg)
+            unknown = np.isnan(height)
             output = attend(color, height, self.params, grid, known_product=self._known_product,
-                            closer=self._closer)
+                            closer=self._closer, unknown=unknown if unknown.any() else None)
         except (ImageFormatError, ValueError) as error:
             self._drop(str(error))
             return
+        if unknown.any():  # downstream reads heights, never NaN: the ones the decision read
+            msg = copy.copy(msg)
+            msg.height = numpy_to_image(output.height, "32FC1", msg.header)
         self._result_pub.publish(to_message(msg, output))
         self._attended.tick()
         if self.params.publish_debug_image and self._debug_pub.get_subscription_count() > 0:

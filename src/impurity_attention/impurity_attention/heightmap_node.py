@@ -2,13 +2,19 @@
 height maps of the workspace in base_link).
 
 Thin shell around impurity_attention.core.heightmap: it converts messages, pairs colour and depth by
-stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback).
+stamp, and drops bad frames with one rate-limited log line each (never raises out of a callback). A frame
+that cannot make a heightmap - a bad image, depth that does not fit the table and the camera pose (units,
+too few depths, the table fitted through the depth tilted or offset from table_z) - is dropped with its
+reason also sent on /heightmap/dropped (std_msgs/String), on which the episode node ends an episode.
+Pixels with colour and no depth reach the heightmap as height unknown (NaN; core.unknown_height).
 The camera pose in base_link is a parameter: a real cell sets it from its hand-eye calibration.
 
 What a real camera does differently from the simulated one is said in the log, each with its cause
 and the parameter to change: frames that go unpaired (rate-limited, with the measured stamp offset:
-`sync_tolerance`), depth that does not fit the table and the camera pose (rate-limited: `depth_scale`,
-`camera_position`, `camera_orientation`), pixels coarser than the cells (once: the gaps between
+`sync_tolerance`, or `depth_offset` when it is near one frame period), depth that does not fit the table and
+the camera pose (rate-limited: `depth_scale`, `camera_position`, `camera_orientation`), object-sized regions
+of colour without depth and brightness jumping between frames of a still scene (rate-limited, naming the
+camera's settings), pixels coarser than the cells (once: the gaps between
 samples are filled), frames stamped on another clock than the node's (once: `use_sim_time`, the
 driver's timestamp setting), a camera topic with no message for `frame_timeout` s (rate-limited, naming the
 topics: the camera driver is not running or publishes other names). With `use_sim_time:=true` and no /clock,
@@ -22,6 +28,7 @@ import numpy as np
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_sensor_data
 from sensor_msgs.msg import CameraInfo, Image
+from std_msgs.msg import String
 
 from impurity_attention.core.colour_adaptation import LabStatistics, reinhard_transfer
 from impurity_attention.core.heightmap import (
@@ -29,11 +36,16 @@ from impurity_attention.core.heightmap import (
     DepthFormatError,
     HeightmapParams,
     ProjectorCache,
+    brightness_jump,
     depth_problem,
+    depth_sample,
     depth_to_meters,
     exposure_problem,
+    mean_brightness,
+    still_scene,
 )
-from impurity_attention.core.sync import StampPairer, StreamWatch, UnpairedFrame
+from impurity_attention.core.sync import StampPairer, StreamWatch, unpaired_warning
+from impurity_attention.core.unknown_height import unknown_height_warning, unknown_regions
 from impurity_common import names
 from impurity_common.conversions import (
     RGB_ENCODINGS,
@@ -76,6 +88,7 @@ class HeightmapNode(Node):
         self._warned_clock = False
         self._stopped_clock = StoppedClockGate(self)
         self._warned_footprint = None  # the projector the footprint warning was given for
+        self._brightness = None  # (mean brightness, depth_sample) of the last frame
         self._projectors = ProjectorCache()
         self._camera_info: CameraInfo | None = None
         self._reference = LabStatistics(params.colour_reference_mean, params.colour_reference_std)
@@ -93,6 +106,7 @@ class HeightmapNode(Node):
             Heightmap, names.HEIGHTMAP_TOPIC, QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE))
         self._frame_rate, self._heightmap_rate = RateMeter(), RateMeter()
         self.diagnostics = Diagnostics(self, self._status)
+        self._dropped = self.create_publisher(String, names.HEIGHTMAP_DROPPED_TOPIC, 10)
         grid = self._grid
         self.get_logger().info(
             f"ready: {grid.rows}x{grid.cols} cells of {grid.resolution * 1000:.1f} mm over "
@@ -114,6 +128,12 @@ class HeightmapNode(Node):
     def _drop(self, reason: str) -> None:
         self.get_logger().warning(f"frame dropped: {reason}",
                                   throttle_duration_sec=self.params.log_throttle)
+
+    def _drop_unusable(self, reason: str) -> None:
+        """Drop a frame that cannot make a heightmap, and say why on /heightmap/dropped (the episode ends
+        on it, naming the reason)."""
+        self._drop(reason)
+        self._dropped.publish(String(data=reason))
 
     def _check_streams(self) -> None:
         silent = self._watch.silent(time.monotonic(), self.params.frame_timeout)
@@ -140,44 +160,19 @@ class HeightmapNode(Node):
 
     def _on_depth(self, msg: Image) -> None:
         self._watch.seen(names.DEPTH_TOPIC, time.monotonic())
-        self._pairs(self._pairer.add_depth(time_to_ns(msg.header.stamp), msg))
+        stamp = time_to_ns(msg.header.stamp) - int(round(self.params.depth_offset * 1e9))
+        self._pairs(self._pairer.add_depth(stamp, msg))
 
     def _pairs(self, pairs: list) -> None:
         """Process the pairs a frame completed; say why frames went unpaired."""
         unpaired = self._pairer.take_unpaired()
         if unpaired:
-            self.get_logger().warning(self._unpaired_text(unpaired),
-                                      throttle_duration_sec=self.params.log_throttle)
+            self.get_logger().warning(
+                unpaired_warning(unpaired, self._pairer, self.params.sync_tolerance, self.params.depth_offset,
+                                 names.COLOR_TOPIC, names.DEPTH_TOPIC),
+                throttle_duration_sec=self.params.log_throttle)
         for color_msg, depth_msg in pairs:
             self._process(color_msg, depth_msg)
-
-    def _unpaired_text(self, unpaired: list[UnpairedFrame]) -> str:
-        """Why frames went unpaired: the other stream is missing, the stamps lie further apart than the
-        tolerance (name it and the measured offset), or partners were lost on the way."""
-        last = unpaired[-1]
-        other = "depth" if last.side == "color" else "colour"
-        topic = names.DEPTH_TOPIC if last.side == "color" else names.COLOR_TOPIC
-        sides = sorted({"colour" if frame.side == "color" else "depth" for frame in unpaired})
-        text = (f"{len(unpaired)} {' and '.join(sides)} frame(s) dropped unpaired "
-                f"({self._pairer.dropped} so far): ")
-        if last.offset_ns is None:
-            return text + f"no {other} frame has arrived on {topic} (is that stream enabled?)"
-        offset, tolerance = last.offset_ns / 1e6, last.tolerance_ns / 1e6
-        period = self._pairer.period_ns
-        if self.params.sync_tolerance > 0:
-            rule = f"sync_tolerance={self.params.sync_tolerance:g} s"
-            advice = "set sync_tolerance above the offset, or to 0.0 to pair within half the frame period"
-        else:
-            rule = "sync_tolerance=0.0: half the frame period, " + (
-                f"{period / 1e6:.1f} ms measured" if period else "exact stamps until the period is measured")
-            advice = "set sync_tolerance (s) above the offset"
-        if not last.partner_lost:
-            return (text + f"depth is stamped {offset:+.1f} ms from its nearest colour frame, beyond the "
-                    f"pairing tolerance of {tolerance:.1f} ms ({rule}); {advice}")
-        taken = ", paired with another frame" if last.nearest_paired else ""
-        return (text + "their partners never arrived (lost by the best-effort transport or a busy node, or a "
-                f"frame came twice): the nearest {other} frame is {offset:+.1f} ms away{taken}; other frames "
-                f"pair within {tolerance:.1f} ms ({rule})")
 
     def _check_clock(self, stamp_ns: int) -> None:
         """Warn once when frames are stamped on another clock than this node's."""
@@ -204,7 +199,7 @@ class HeightmapNode(Node):
         try:
             heightmap = self._make_heightmap(color_msg, depth_msg)
         except (ImageFormatError, DepthFormatError, ValueError) as error:
-            self._drop(str(error))
+            self._drop_unusable(str(error))
             return
         if heightmap is not None:
             self._publisher.publish(heightmap)
@@ -227,26 +222,44 @@ class HeightmapNode(Node):
         intrinsics = np.array(info.k).reshape(3, 3)
         projector = self._projectors.get(intrinsics, self._camera_pose, depth.shape, self._grid)
         self._check_footprint(projector)
-        maps = projector.project(color, depth)
+        self._check_brightness(color, depth)
         problem = depth_problem(projector.check_depth(depth), depth_msg.encoding, self.params.depth_scale)
         if problem is not None:
-            self.get_logger().warning(f"depth does not fit the table: {problem}",
-                                      throttle_duration_sec=self.params.log_throttle)
+            self._drop_unusable(f"depth does not fit the table: {problem}")
+            return None
+        maps = projector.project(color, depth)
         exposure = exposure_problem(maps.color, maps.height)
         if exposure is not None:
             self.get_logger().warning(f"colour badly exposed: {exposure}",
                                       throttle_duration_sec=self.params.log_throttle)
+        holes = unknown_height_warning(unknown_regions(maps.color, maps.height, maps.unknown),
+                                       self._grid.resolution)
+        if holes is not None:
+            self.get_logger().warning(f"colour without depth: {holes}",
+                                      throttle_duration_sec=self.params.log_throttle)
         color_map = maps.color
         if self.params.colour_adaptation:
-            color_map = reinhard_transfer(color_map, self._reference, valid=maps.known)
+            color_map = reinhard_transfer(color_map, self._reference, valid=maps.known | maps.unknown)
         msg = Heightmap()
         msg.header.stamp = color_msg.header.stamp
         msg.header.frame_id = names.BASE_FRAME
         msg.resolution = float(self._grid.resolution)
         msg.origin.x, msg.origin.y, msg.origin.z = self._grid.x_min, self._grid.y_min, self._grid.table_z
         msg.color = numpy_to_image(color_map, "rgb8", msg.header)
-        msg.height = numpy_to_image(maps.height, "32FC1", msg.header)
+        msg.height = numpy_to_image(maps.height_or_unknown(), "32FC1", msg.header)
         return msg
+
+    def _check_brightness(self, color, depth) -> None:
+        """Warn (throttled) when the mean brightness jumps between consecutive frames of a still scene (auto
+        exposure, flicker)."""
+        brightness, sample = mean_brightness(color), depth_sample(depth)
+        previous, self._brightness = self._brightness, (brightness, sample)
+        if previous is None or not still_scene(previous[1], sample):
+            return
+        jump = brightness_jump(previous[0], brightness)
+        if jump is not None:
+            self.get_logger().warning(f"colour brightness unsteady: {jump}",
+                                      throttle_duration_sec=self.params.log_throttle)
 
     def _check_footprint(self, projector) -> None:
         """Warn once per camera geometry when a pixel covers more of the table than a cell."""

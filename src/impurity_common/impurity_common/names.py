@@ -20,6 +20,9 @@ CAMERA_INFO_TOPIC = "camera/camera/color/camera_info"  # sensor_msgs/CameraInfo
 
 # Perception
 HEIGHTMAP_TOPIC = "heightmap"  # impurity_interfaces/Heightmap
+# std_msgs/String: why the heightmap node dropped a camera frame as unusable (depth units, the table not where
+# the camera pose puts it, a bad image), one message per frame dropped; the episode node ends on them
+HEIGHTMAP_DROPPED_TOPIC = "heightmap/dropped"
 ATTENTION_TOPIC = "attention/result"  # impurity_interfaces/AttentionResult
 ATTENTION_DEBUG_TOPIC = "attention/debug_image"  # sensor_msgs/Image rgb8, the saliency overlay
 # impurity_interfaces/Heightmap, transient local: the episode's first view when attention found no target in

@@ -23,6 +23,9 @@
 Every wait is bounded; a node that does not answer ends the episode with EpisodeAborted("node_lost: ...").
 Inputs stamped on another clock than this node's (a camera on its device clock, use_sim_time on some
 nodes only) end it with "stale_input: ..." naming the gap, measured on the attention results it hears.
+Camera frames the heightmap node drops as unusable (/heightmap/dropped: depth units, a camera pose that does
+not fit the table), UNUSABLE_FRAMES in a row with no attention result between them while a view is awaited,
+end it with "unusable_input: ..." and the node's reason.
 Every wait also polls the loop's should_stop (set_should_stop) at least every CANCEL_POLL s and raises
 picking.EpisodeCanceled; a cancel during a motion is forwarded to the driver, whose result (the motion
 stopped) is still awaited so that the step is recorded and the arm is parked before the episode ends.
@@ -37,6 +40,7 @@ import time
 from dataclasses import dataclass
 
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_msgs.msg import String
 from std_srvs.srv import SetBool
 
 from impurity_common import names
@@ -69,6 +73,9 @@ MAX_STAMP_LEAD = 1.0
 # node's clock (at receipt) make the reason "stale_input" (the policy node refuses them: its max_age).
 STALE_GAP = 2.0
 ATTENTION_SILENT = 5.0  # s without attention results at the decision timeout: their stream stopped
+# Frames dropped as unusable in a row, no attention result between them, that end the episode: as many as
+# the NONE answers that end it by perception (core/episode.py), so that one odd frame does not.
+UNUSABLE_FRAMES = 3
 CLOCK_HINT = "camera clock? use_sim_time / the driver's timestamp setting"
 
 
@@ -102,10 +109,14 @@ class RosCell:
         # (received ns on this node's clock, stamp ns) of the last attention results: the stamp gap
         self._attention_heard: collections.deque[tuple[int, int]] = collections.deque(maxlen=ATTENTION_KEPT)
         self._should_stop = None  # the loop's cancel check, polled in every wait
+        # (received ns on this node's clock, reason) of the frames dropped since the last attention result
+        self._unusable: collections.deque[tuple[int, str]] = collections.deque(maxlen=ATTENTION_KEPT)
         reliable = QoSProfile(depth=5, reliability=ReliabilityPolicy.RELIABLE)
         node.create_subscription(AttentionResult, names.ATTENTION_TOPIC, self._on_attention, reliable,
                                  callback_group=callback_group)
         node.create_subscription(Primitive, names.PRIMITIVE_TOPIC, self._on_primitive, reliable,
+                                 callback_group=callback_group)
+        node.create_subscription(String, names.HEIGHTMAP_DROPPED_TOPIC, self._on_dropped, 10,
                                  callback_group=callback_group)
         self._driver = RaceFreeActionClient(node, ExecutePrimitive, names.EXECUTE_PRIMITIVE_ACTION,
                                             callback_group=callback_group)
@@ -128,8 +139,14 @@ class RosCell:
             stamp_ns = time_to_ns(msg.header.stamp)
             self._attention_heard.append((self.node.get_clock().now().nanoseconds, stamp_ns))
             self._attention_by_stamp[stamp_ns] = msg
+            self._unusable.clear()
             while len(self._attention_by_stamp) > ATTENTION_KEPT:
                 self._attention_by_stamp.popitem(last=False)
+            self._condition.notify_all()
+
+    def _on_dropped(self, msg: String) -> None:
+        with self._condition:
+            self._unusable.append((self.node.get_clock().now().nanoseconds, msg.data))
             self._condition.notify_all()
 
     def _on_primitive(self, msg: Primitive) -> None:
@@ -393,6 +410,10 @@ class RosCell:
                 if (newest is not None and after_ns < time_to_ns(newest.header.stamp) <= lead_limit
                         and newest.mode == AttentionResult.MODE_NONE):
                     return newest, None
+                dropped = [reason for received, reason in self._unusable if received >= waiting_since_ns]
+                if len(dropped) >= UNUSABLE_FRAMES:
+                    raise EpisodeAborted(f"unusable_input: the heightmap node dropped {len(dropped)} camera "
+                                         f"frames in a row ({self._name(names.HEIGHTMAP_DROPPED_TOPIC)}): {dropped[-1]}")
                 self._check_cancel(f"a fresh decision on {self._name(names.PRIMITIVE_TOPIC)}")
                 remaining = deadline - time.monotonic()
                 if self.node.count_publishers(names.PRIMITIVE_TOPIC) > 0:

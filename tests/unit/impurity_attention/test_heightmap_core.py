@@ -64,14 +64,19 @@ def test_holes_stay_empty_never_spikes(hole_value):
     maps = project(frame, hm.depth_to_meters(depth, "32FC1"))
     assert np.all(np.isfinite(maps.height))
     assert maps.height.max() <= 0.05 + 1e-4
-    assert np.all(maps.height[~maps.seen] == 0.0) and np.all(maps.color[~maps.seen] == 0)
-    assert np.count_nonzero(~maps.seen) > 100
+    assert np.all(maps.height[~maps.seen] == 0.0)
+    # cells no pixel reached are black; those of the hole's pixels keep their colour, as height unknown
+    assert np.all(maps.color[~maps.seen & ~maps.unknown] == 0) and not np.any(maps.unknown & maps.seen)
+    assert np.count_nonzero(maps.unknown) > 100 and np.all(maps.color[maps.unknown].any(axis=1))
 
 
-def test_all_holes_give_an_empty_map():
+def test_all_holes_give_a_map_of_unknown_height():
+    """Nothing seen and no height anywhere; the colour is there, of unknown height (the heightmap node drops
+    such a frame: too few pixels have a depth)."""
     frame = scene()
     maps = project(frame, np.full_like(frame.depth, np.nan))
-    assert not maps.seen.any() and not maps.height.any() and not maps.color.any()
+    assert not maps.seen.any() and not maps.height.any() and maps.unknown.all()
+    assert np.isnan(maps.height_or_unknown()).all()
 
 
 def test_points_above_max_height_and_outside_the_workspace_are_dropped():

@@ -175,6 +175,8 @@ def test_failure_reasons_are_the_cells_not_the_pickings():
     assert is_failure("node_lost: driver did not answer the goal")
     assert is_failure("stale_input: attention results are stamped 1000.2 s before this node's clock")
     assert is_failure("error: driver rejected the primitive")
+    assert is_failure("unusable_input: the heightmap node dropped 3 camera frames in a row "
+                      "(/heightmap/dropped): depth does not fit the table")
     assert not any(is_failure(reason) for reason in (TERMINATION_ALL_PICKED, TERMINATION_REACHABLE_PICKED,
                                                      TERMINATION_ACTION_LIMIT, "canceled"))
 

@@ -51,6 +51,7 @@ from .saliency import (
     opponent_colour,
     vocus2,
 )
+from .unknown_height import UNKNOWN_HEIGHT, unknown_regions
 from .verifier import RegionVerifier, candidate_features, default_verifier
 
 CANDIDATE_FRACTION = 0.5  # relative_saliency: the peak's region, cells above this x the peak
@@ -127,6 +128,8 @@ class AttentionOutput:
     cluster: Cluster | None = None
     reason: str = ""  # one line: why this mode
     last_look: bool = False  # TARGET from a last look (no heap left; the decision itself said no target)
+    height: np.ndarray | None = None  # (rows, cols) float32 m: the height map the decision read (unknown
+    #                                   regions at UNKNOWN_HEIGHT, other unknown cells 0)
 
 
 def sanitize(color: np.ndarray, height: np.ndarray) -> tuple:
@@ -359,11 +362,21 @@ class Heaps:
 
 def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = AttentionParams(),
            grid: HeightmapGrid = HeightmapGrid(),
-           known_product: ProductReference | None = None, closer: bool = False) -> AttentionOutput:
+           known_product: ProductReference | None = None, closer: bool = False,
+           unknown: np.ndarray | None = None) -> AttentionOutput:
     """Algorithm 1 on a colour heightmap (H, W, 3) uint8 and a height map (H, W) float32 m (module docstring).
     known_product: the colours of an earlier view that showed product only (product_memory); closer: a stall
-    look (the picking loop's, after pushes that found nothing), judged at the model's stall_look threshold.
+    look (the picking loop's, after pushes that found nothing), judged at the model's stall_look threshold;
+    unknown: (H, W) bool, cells of colour without depth (the /heightmap message's NaN heights): the unknown
+    regions among them (core.unknown_height) are objects of UNKNOWN_HEIGHT, judged with the others, and the
+    largest is a TARGET to look at (last_look) where the answer would otherwise be NONE.
     ValueError for bad shapes or types."""
+    holes = [] if unknown is None else unknown_regions(color, height, unknown, params.density.occupied_height,
+                                                       params.min_region_area)
+    if holes:
+        height = np.nan_to_num(np.asarray(height, dtype=np.float32), nan=0.0)
+        for hole in holes:
+            height[hole.mask] = np.maximum(height[hole.mask], np.float32(UNKNOWN_HEIGHT))
     scene = find_regions(color, height, params)
     heaps = Heaps(scene.height, grid.resolution, params.density)
     masks: dict = {}
@@ -408,6 +421,12 @@ def attend(color: np.ndarray, height: np.ndarray, params: AttentionParams = Atte
     clusters, chosen = heaps.clusters, heaps.occluded_region
     if chosen is None and looked_at is not None:
         return target(*looked_at, clusters, looked=True)
+    if chosen is None and holes:
+        hole = holes[0]
+        return _output(AttentionMode.TARGET, float(scene.saliency[hole.mask].mean()), hole.centroid, scene,
+                       params, grid, clusters=clusters, mask_cells=hole.mask, last_look=True,
+                       reason=f"{no_target}; look at a region of unknown height ({hole.area} px coloured "
+                              f"unlike the table, delta E {hole.delta_e:.0f}, no depth: black or glossy?)")
     if chosen is not None:
         return _output(AttentionMode.OCCLUDED_REGION, chosen.height, chosen.centroid, scene, params, grid,
                        clusters=clusters, cluster=chosen,
@@ -448,7 +467,7 @@ def _output(mode, score, centroid, scene: Scene, params, grid, clusters=(), targ
         color_crop=color_crop, height_crop=height_crop.astype(np.float32), mask=mask, saliency=saliency,
         regions=list(regions), clusters=list(clusters), target_region=target_region,
         target_mask=mask_cells if mode == AttentionMode.TARGET else None, cluster=cluster,
-        reason=reason, last_look=last_look)
+        reason=reason, last_look=last_look, height=height)
 
 
 MODE_COLORS = {AttentionMode.TARGET: (255, 40, 40), AttentionMode.OCCLUDED_REGION: (255, 200, 0),

@@ -3,7 +3,9 @@
 Every valid depth pixel is back-projected to a 3-D point in `base_link` and dropped straight down
 onto a grid over the workspace; a grid cell keeps its highest point (what a camera looking straight
 down along gravity would see) and that point's colour. Cells that no pixel reaches (shadows behind
-tall objects, depth holes) stay empty: height 0 and black, never a spike. The same projection carries
+tall objects, depth holes) stay empty: height 0 and black, never a spike; a pixel with a colour and no
+depth puts its colour where its ray meets the table plane, on a cell no depth reached, as height unknown
+(`Heightmaps.unknown`; NaN in the /heightmap message: core.unknown_height). The same projection carries
 any per-pixel label image along (the simulator's segmentation), which is how ground truth reaches
 heightmap coordinates.
 
@@ -18,7 +20,8 @@ is filled and the maps are exactly the projection.
 `HeightmapProjector.check_depth` tells whether a frame's depth fits the configured camera pose and
 table at all (`depth_problem` words the likely cause): integer depth in other units than
 `depth_scale` says (a D405 publishes 0.1 mm), or a wrong camera pose, puts most points far from the
-table plane.
+table plane; a camera tilted against its calibration shows a sloped table (`fit_table`, `table_problem`).
+`brightness_jump` and `still_scene` tell auto exposure hunting from a scene that moved.
 
 `HeightmapParams` holds every setting of the projection (grid, camera pose, depth units), of pairing colour
 and depth frames and of the optional colour adaptation: the heightmap node's parameters of the same names.
@@ -62,6 +65,20 @@ UNSEEN_LABEL = -1  # label of heightmap cells that no pixel reached
 FAR_BELOW_TABLE = 0.05  # m
 MOST = 0.5
 MIN_VALID_FRACTION = 0.1
+# Where the table is (HeightmapProjector.check_depth): the workspace is cut into TABLE_BLOCKS x TABLE_BLOCKS
+# blocks; in each, the point at the TABLE_QUANTILE of height (the table wherever a little of it shows
+# between the objects) stands for it. The plane through most of those points within TABLE_INLIER (a
+# RANSAC over TABLE_TRIALS triples, seeded) is the table, when at least MIN_TABLE_BLOCKS of them lie on it
+# (else the table does not show enough to tell). It must lie within TABLE_LIMIT of table_z everywhere over
+# the workspace: beyond the occupied height, table reads as object on one side, and thin pieces sink into
+# the table on the other (a tilt of 1.5 deg over the 448 mm workspace).
+TABLE_BLOCKS = 8
+TABLE_QUANTILE = 0.1
+TABLE_INLIER = 0.003  # m
+TABLE_TRIALS = 200
+MIN_TABLE_BLOCKS = 16
+TABLE_LIMIT = cell.OCCUPIED_HEIGHT  # m
+TABLE_POINTS = 8000  # at most this many depth points (an even subsample) go into the table fit
 
 
 # Lab statistics (colour_adaptation.lab_statistics) of the seen cells of sim-rendered heightmaps of 70 tuning
@@ -90,6 +107,10 @@ class HeightmapParams:
     sync_tolerance: float = param(0.0, "Largest stamp difference (s) for a colour and a depth frame to pair; "
                                   "0.0 = automatic: half the frame period measured from the stamps (any "
                                   "colour-depth offset of the driver below half a period)", low=0.0, high=1.0)
+    depth_offset: float = param(0.0, "s by which the camera driver stamps a depth frame after the colour "
+                                "frame it was taken with; taken off depth stamps before pairing (an offset "
+                                "near a frame period otherwise pairs each colour frame with a neighbouring "
+                                "frame's depth)", low=-1.0, high=1.0)
     depth_scale: float = param(DEFAULT_DEPTH_SCALE, "Metres per unit of integer depth (16UC1, mono16); not "
                                "on the topic: RealSense D4xx 0.001 (mm), D405 0.0001. 32FC1 is always metres",
                                low=1e-7, high=1.0)
@@ -131,13 +152,23 @@ class Heightmaps:
     table, 0 where unseen; seen: bool, cells some pixel reached; labels: int32 per cell (the label of
     the highest point, UNSEEN_LABEL where unseen) when a label image was projected, else None;
     filled: bool, cells no pixel reached that took their values from the seen cells around them
-    (sampling gaps of a camera coarser than the cells; never set where `seen`; None: not computed)."""
+    (sampling gaps of a camera coarser than the cells; never set where `seen`; None: not computed);
+    unknown: bool, cells of height unknown - neither seen nor filled, reached by a pixel with a colour and
+    no depth (placed where its ray meets the table plane), whose colour the cell takes (core.unknown_height;
+    None: not computed)."""
 
     color: np.ndarray
     height: np.ndarray
     seen: np.ndarray
     labels: np.ndarray | None = None
     filled: np.ndarray | None = None
+    unknown: np.ndarray | None = None
+
+    def height_or_unknown(self) -> np.ndarray:
+        """The height map as the /heightmap message carries it: NaN on the unknown cells."""
+        if self.unknown is None or not self.unknown.any():
+            return self.height
+        return np.where(self.unknown, np.float32(np.nan), self.height).astype(np.float32)
 
     @property
     def known(self) -> np.ndarray:
@@ -213,11 +244,74 @@ class DepthCheck:
     below: float  # fraction of the valid ones lying more than FAR_BELOW_TABLE below the table plane
     above: float  # fraction lying higher than the grid's max_height above it
     depth_ratio: float  # median of measured depth / the table plane's depth along the same ray; NaN: none
+    table: TableFit | None = None  # the table plane the depth shows (None: too little table in view)
 
     @property
     def far(self) -> float:
         """Fraction of the valid points far from where the table and the objects on it can be."""
         return self.below + self.above
+
+
+@dataclass(frozen=True)
+class TableFit:
+    """The table plane fitted through a frame's depth points, z = slope_x * x + slope_y * y + offset in
+    base_link, heights from table_z (HeightmapProjector.check_depth; module constants TABLE_*)."""
+
+    slope_x: float  # dz/dx
+    slope_y: float  # dz/dy
+    offset: float  # m: the plane's height above table_z at the workspace's centre
+    blocks: int  # workspace blocks whose low point lies on the plane
+    deviation: float  # m: the largest |height above table_z| of the plane over the workspace's corners
+
+    @property
+    def tilt_deg(self) -> float:
+        return math.degrees(math.atan(math.hypot(self.slope_x, self.slope_y)))
+
+    def rising_towards(self) -> str:
+        """The base_link direction in which the fitted table rises, e.g. '+x -y'."""
+        parts = [f"{'+' if slope > 0 else '-'}{axis}" for axis, slope in (("x", self.slope_x),
+                                                                        ("y", self.slope_y))
+                 if abs(slope) >= 0.25 * max(abs(self.slope_x), abs(self.slope_y))]
+        return " ".join(parts)
+
+
+def fit_table(x: np.ndarray, y: np.ndarray, z: np.ndarray, grid: HeightmapGrid) -> TableFit | None:
+    """The table plane through depth points (x, y in base_link, z above table_z; m) over `grid`'s
+    workspace, or None when too little table shows (module constants TABLE_*)."""
+    width, depth = grid.x_max - grid.x_min, grid.y_max - grid.y_min
+    bx = np.floor((x - grid.x_min) / width * TABLE_BLOCKS).astype(np.int64)
+    by = np.floor((y - grid.y_min) / depth * TABLE_BLOCKS).astype(np.int64)
+    inside = (bx >= 0) & (bx < TABLE_BLOCKS) & (by >= 0) & (by < TABLE_BLOCKS) & np.isfinite(z)
+    x, y, z, block = x[inside], y[inside], z[inside], (by * TABLE_BLOCKS + bx)[inside]
+    if len(z) == 0:
+        return None
+    order = np.lexsort((z, block))  # by block, then by height within it
+    counts = np.bincount(block, minlength=TABLE_BLOCKS * TABLE_BLOCKS)
+    starts = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    used = counts >= 20
+    low = order[starts[used] + np.floor(TABLE_QUANTILE * (counts[used] - 1)).astype(np.int64)]
+    points = np.stack([x[low], y[low], z[low]], axis=1).astype(np.float64)
+    if len(points) < MIN_TABLE_BLOCKS:
+        return None
+    centre = np.array([(grid.x_min + grid.x_max) / 2, (grid.y_min + grid.y_max) / 2, 0.0])
+    points -= centre
+    design = np.column_stack([points[:, 0], points[:, 1], np.ones(len(points))])
+    rng = np.random.default_rng(0)
+    triples = np.array([rng.choice(len(points), 3, replace=False) for _ in range(TABLE_TRIALS)])
+    systems = design[triples]  # (trials, 3, 3): the plane through each triple
+    solvable = np.abs(np.linalg.det(systems)) > 1e-12
+    if not solvable.any():
+        return None
+    planes = np.linalg.solve(systems[solvable], points[triples[solvable], 2][..., None])[..., 0]
+    inliers = np.abs(planes @ design.T - points[:, 2]) <= TABLE_INLIER  # (trials, blocks)
+    best = inliers[int(np.argmax(inliers.sum(axis=1)))]  # the first of the most supported
+    if best.sum() < MIN_TABLE_BLOCKS:
+        return None
+    (slope_x, slope_y, offset), *_ = np.linalg.lstsq(design[best], points[best, 2], rcond=None)
+    corners = [slope_x * dx + slope_y * dy + offset
+               for dx in (-width / 2, width / 2) for dy in (-depth / 2, depth / 2)]
+    return TableFit(float(slope_x), float(slope_y), float(offset), int(best.sum()),
+                    float(max(abs(c) for c in corners)))
 
 
 def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float = DEFAULT_DEPTH_SCALE
@@ -233,7 +327,7 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
                 f"workspace have a depth: the camera sees nothing there (covered, out of its range, an empty "
                 f"depth stream) or looks elsewhere: check {pose}")
     if check.far <= MOST:
-        return None
+        return table_problem(check.table)
     ratio = check.depth_ratio
     if encoding in INTEGER_DEPTH_ENCODINGS:
         units = (f"the depth units: {encoding} depth is read with depth_scale={depth_scale:g} m per unit "
@@ -250,6 +344,22 @@ def depth_problem(check: DepthCheck, encoding: str = "32FC1", depth_scale: float
             f"table plane ({check.below:.0%} more than {FAR_BELOW_TABLE * 100:.0f} cm below table_z, "
             f"{check.above:.0%} higher than max_height), at {ratio:.4g} times the table's distance along "
             f"their rays. Likely cause: {causes}")
+
+
+def table_problem(table: TableFit | None) -> str | None:
+    """None when the table the depth shows lies where the configuration says (within TABLE_LIMIT of
+    table_z over the workspace), or too little of it shows to tell; else one line saying where it is and
+    what to change."""
+    if table is None or table.deviation <= TABLE_LIMIT:
+        return None
+    tilt = table.tilt_deg
+    sloped = f"tilted {tilt:.1f} deg (rising towards {table.rising_towards()}), " if tilt >= 0.1 else ""
+    return (f"the table the depth shows ({table.blocks} of {TABLE_BLOCKS * TABLE_BLOCKS} workspace blocks) "
+            f"lies up to {table.deviation * 1000:.0f} mm from table_z over the workspace ({sloped}"
+            f"{table.offset * 1000:+.0f} mm at its centre), beyond {TABLE_LIMIT * 1000:.0f} mm: table would "
+            "read as object and thin pieces sink into it. Likely cause: the camera pose (camera_position, "
+            "camera_orientation: the optical frame in base_link) does not match the mounted camera - "
+            "recalibrate it (hand-eye); or table_z")
 
 
 # exposure_problem: an 8-bit channel at CLIPPED_LEVEL or more reads the same whatever the light (the
@@ -300,6 +410,53 @@ def exposure_problem(color: np.ndarray, height: np.ndarray,
                 "255): colours cannot be compared there. Raise the camera's exposure or gain (realsense-ros: "
                 "rgb_camera.exposure, rgb_camera.gain) or the light")
     return None
+
+
+# brightness_jump: the mean brightness of consecutive colour frames (every channel, 0-255) of a still scene
+# (still_scene) should not change by more than BRIGHTNESS_JUMP of the brighter one and BRIGHTNESS_STEP levels
+# at once; auto exposure hunting, or a short exposure beating with mains-powered light, does. A scene that
+# moved (the arm crossing the view, a new scene: another palette's table is 25 % brighter) is not judged.
+BRIGHTNESS_JUMP = 0.15
+BRIGHTNESS_STEP = 8.0
+# still_scene: two depth images show the same scene when at most STILL_SHARE of their pixels (every 8th row
+# and column) changed depth by more than STILL_DEPTH (5 x a RealSense D435's depth noise at 0.75 m).
+STILL_DEPTH = 0.01  # m
+STILL_SHARE = 0.01
+
+
+def depth_sample(depth_m: np.ndarray) -> np.ndarray:
+    """Every 8th row and column of a depth image (metres, NaN holes): what still_scene compares."""
+    return np.asarray(depth_m)[::8, ::8].copy()
+
+
+def still_scene(previous: np.ndarray | None, current: np.ndarray) -> bool:
+    """Whether two depth_samples show the same scene (module constants STILL_*); False without a previous."""
+    if previous is None or previous.shape != current.shape:
+        return False
+    with np.errstate(invalid="ignore"):
+        changed = ~(np.abs(current - previous) <= STILL_DEPTH) & ~(np.isnan(current) & np.isnan(previous))
+    return float(np.mean(changed)) <= STILL_SHARE
+
+
+def mean_brightness(color: np.ndarray) -> float:
+    """The mean of every channel of a colour image (H, W, 3) uint8 (every 4th row and column)."""
+    return float(np.asarray(color)[::4, ::4].mean())
+
+
+def brightness_jump(previous: float | None, current: float) -> str | None:
+    """None when a frame's mean brightness (mean_brightness) is near the previous frame's (None: the first
+    frame); else one line naming the jump and the camera's exposure settings."""
+    if previous is None:
+        return None
+    step = current - previous
+    if abs(step) < BRIGHTNESS_STEP or abs(step) < BRIGHTNESS_JUMP * max(previous, current):
+        return None
+    return (f"the colour image's mean brightness jumped from {previous:.0f} to {current:.0f} of 255 "
+            f"({step / max(previous, 1.0):+.0%}) between consecutive frames: the camera's auto exposure is "
+            "hunting, or a short exposure beats with mains-powered light, and colours of one view cannot be "
+            "compared with the next. Fix the exposure (realsense-ros: rgb_camera.enable_auto_exposure false, "
+            "rgb_camera.exposure) and set the power-line frequency to the mains' "
+            "(rgb_camera.power_line_frequency: 1 = 50 Hz, 2 = 60 Hz)")
 
 
 # Along a row and along a column. Not the diagonals: between two objects that meet at a right angle an
@@ -409,6 +566,11 @@ class HeightmapProjector:
         in_workspace = (x >= grid.x_min) & (x < grid.x_max) & (y >= grid.y_min) & (y < grid.y_max)
         self._workspace_pixels = np.flatnonzero(in_workspace)
         self._table_depth = depth[self._workspace_pixels].astype(np.float32)
+        # the cell where each of those pixels' rays meets the table plane: where a pixel without depth goes
+        table_col = np.floor((x[self._workspace_pixels] - grid.x_min) / grid.resolution).astype(np.int64)
+        table_row = np.floor((y[self._workspace_pixels] - grid.y_min) / grid.resolution).astype(np.int64)
+        rows, cols = grid.shape
+        self._table_cells = np.clip(table_row, 0, rows - 1) * cols + np.clip(table_col, 0, cols - 1)
         self._workspace_ray_z = self._rays[2, self._workspace_pixels]
         # a pixel's footprint: the extent along x and y of the parallelogram between neighbouring
         # pixels' table points. When it is at most a cell everywhere, every cell holds a sample.
@@ -476,11 +638,21 @@ class HeightmapProjector:
             label_map = np.full(rows * cols, UNSEEN_LABEL, dtype=np.int32)
             label_map[seen_cells] = labels.reshape(-1)[source_pixel[seen_cells]]
             label_map = label_map.reshape(rows, cols)
+        # pixels that look at the workspace and have no depth: their colour goes where their ray meets the
+        # table plane, on cells no depth reached, as height unknown
+        holes = ~valid[self._workspace_pixels]
+        unknown = np.zeros(rows * cols, dtype=bool)
+        if holes.any():
+            hole_cells, hole_pixels = self._table_cells[holes], self._workspace_pixels[holes]
+            free = ~seen[hole_cells]
+            unknown[hole_cells[free]] = True
+            color_map[hole_cells[free]] = color.reshape(-1, 3)[hole_pixels[free]]
         maps = Heightmaps(color=color_map.reshape(rows, cols, 3), height=height_map.reshape(rows, cols),
                           seen=seen.reshape(rows, cols), labels=label_map,
-                          filled=np.zeros((rows, cols), dtype=bool))
+                          filled=np.zeros((rows, cols), dtype=bool), unknown=unknown.reshape(rows, cols))
         if fill_gaps and self.gap_reach > 0:
             fill_sampling_gaps(maps, self.gap_reach)
+            maps.unknown &= ~maps.filled
         return maps
 
     def check_depth(self, depth_m: np.ndarray) -> DepthCheck:
@@ -499,10 +671,14 @@ class HeightmapProjector:
         z = self._origin[2] + d * self._workspace_ray_z[valid] - np.float32(self.grid.table_z)
         step = max(1, count // 8000)  # the median of ~8000 evenly spread points is plenty
         ratio = float(np.median(d[::step] / self._table_depth[valid][::step]))
+        step = max(1, count // TABLE_POINTS)
+        pixels = self._workspace_pixels[valid][::step]
+        table = fit_table(self._origin[0] + d[::step] * self._rays[0, pixels],
+                          self._origin[1] + d[::step] * self._rays[1, pixels], z[::step], self.grid)
         return DepthCheck(pixels=len(self._workspace_pixels), valid=count,
                           below=float(np.count_nonzero(z < -FAR_BELOW_TABLE)) / count,
                           above=float(np.count_nonzero(z > self.grid.max_height)) / count,
-                          depth_ratio=ratio)
+                          depth_ratio=ratio, table=table)
 
 
 class ProjectorCache:

@@ -61,6 +61,7 @@ class StampPairer:
         self._gaps = {side: deque(maxlen=PERIOD_SAMPLES) for side in SIDES}
         self._paired = {side: deque(maxlen=PERIOD_SAMPLES) for side in SIDES}  # stamps that paired
         self._outcomes = deque(maxlen=PERIOD_SAMPLES)  # per frame gone: True paired, False dropped
+        self._pair_offsets = deque(maxlen=PERIOD_SAMPLES)  # depth - colour stamp of the latest pairs
         self._unpaired: list[UnpairedFrame] = []
         self.dropped = 0  # frames discarded unpaired (overflow or overtaken)
         self.paired = 0
@@ -77,6 +78,13 @@ class StampPairer:
         # a lost frame makes a step of two periods: wait until the shortest step was seen a few times
         confirmed = sum(1 for gap in gaps if gap <= shortest * 1.1) >= CONFIRMATIONS
         return int(shortest) if confirmed else None
+
+    @property
+    def pair_offset_ns(self) -> int | None:
+        """The median depth - colour stamp difference of the latest pairs; None before the first."""
+        if not self._pair_offsets:
+            return None
+        return int(sorted(self._pair_offsets)[len(self._pair_offsets) // 2])
 
     @property
     def tolerance_ns(self) -> int:
@@ -132,6 +140,7 @@ class StampPairer:
             pairs.append((colors.pop(color_stamp), depths.pop(depth_stamp)))
             self._paired["color"].append(color_stamp)
             self._paired["depth"].append(depth_stamp)
+            self._pair_offsets.append(depth_stamp - color_stamp)
             self._outcomes.extend((True, True))
             self.paired += 1
             # everything older than the pair on either side can never pair any more
@@ -181,3 +190,46 @@ class StreamWatch:
         if timeout <= 0:
             return {}
         return {stream: now - last for stream, last in self._last.items() if now - last > timeout}
+
+
+def unpaired_warning(unpaired: list, pairer: StampPairer, sync_tolerance: float, depth_offset: float = 0.0,
+                     color_topic: str = "colour", depth_topic: str = "depth") -> str:
+    """Why frames went unpaired (`unpaired`, from pairer.take_unpaired(), not empty), in one line naming the
+    parameter to change: the other stream is missing; the stamps lie further apart than the tolerance
+    (sync_tolerance, s; 0: automatic) - the measured offset; or partners were lost on the way - unless the
+    nearest frame of the other stream lies about a frame period away and pairs with another frame, which is
+    also what a constant colour-depth offset near one frame period does (every colour frame pairs with a
+    neighbouring frame's depth): then that offset is named, and depth_offset (s, in force) to set."""
+    last = unpaired[-1]
+    other = "depth" if last.side == "color" else "colour"
+    topic = depth_topic if last.side == "color" else color_topic
+    sides = sorted({"colour" if frame.side == "color" else "depth" for frame in unpaired})
+    text = f"{len(unpaired)} {' and '.join(sides)} frame(s) dropped unpaired ({pairer.dropped} so far): "
+    if last.offset_ns is None:
+        return text + f"no {other} frame has arrived on {topic} (is that stream enabled?)"
+    offset, tolerance = last.offset_ns / 1e6, last.tolerance_ns / 1e6
+    period = pairer.period_ns
+    if sync_tolerance > 0:
+        rule = f"sync_tolerance={sync_tolerance:g} s"
+        advice = "set sync_tolerance above the offset, or to 0.0 to pair within half the frame period"
+    else:
+        rule = "sync_tolerance=0.0: half the frame period, " + (
+            f"{period / 1e6:.1f} ms measured" if period else "exact stamps until the period is measured")
+        advice = "set sync_tolerance (s) above the offset"
+    if not last.partner_lost:
+        return (text + f"depth is stamped {offset:+.1f} ms from its nearest colour frame, beyond the pairing "
+                f"tolerance of {tolerance:.1f} ms ({rule}); {advice}")
+    taken = ", paired with another frame" if last.nearest_paired else ""
+    lost = ("their partners never arrived (lost by the best-effort transport or a busy node, or a frame came "
+            f"twice): the nearest {other} frame is {offset:+.1f} ms away{taken}; other frames pair within "
+            f"{tolerance:.1f} ms ({rule})")
+    pairs = pairer.pair_offset_ns
+    if not (last.nearest_paired and period and pairs is not None and abs(last.offset_ns) > last.tolerance_ns):
+        return text + lost
+    stamped = offset + depth_offset * 1e3  # as the driver stamps it
+    return (text + f"depth is stamped {offset:+.1f} ms from the nearest colour frame, about one frame "
+            f"period ({period / 1e6:.1f} ms) off, and pairs {pairs / 1e6:+.1f} ms from another colour frame. "
+            "A constant colour-depth offset of the driver near one frame period does that: every colour "
+            "frame is paired with a neighbouring frame's depth. If the driver stamps depth "
+            f"{stamped:+.1f} ms from its colour frame, set depth_offset to {stamped / 1e3:.4f} s (now "
+            f"{depth_offset:g} s); otherwise {lost}")

@@ -53,9 +53,10 @@ COUNTED_BY_PERCEPTION = "perception"
 # nothing: its record says so, with targets_total -1 (no count).
 COUNTED_BY_NOTHING = "nothing"
 # Reasons of episodes that ended because the cell failed, not because of the picking: "node_lost: ..."
-# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "driver_lost: ..."
-# (the arm driver lost the robot mid-motion), "error: ...".
-FAILURE_PREFIXES = ("node_lost", "stale_input", "driver_lost", "error")
+# (a node stopped answering), "stale_input: ..." (inputs stamped on another clock), "unusable_input: ..."
+# (camera frames the heightmap node drops: depth units, a camera pose that does not fit the table),
+# "driver_lost: ..." (the arm driver lost the robot mid-motion), "error: ...".
+FAILURE_PREFIXES = ("node_lost", "stale_input", "unusable_input", "driver_lost", "error")
 
 
 def is_failure(termination_reason: str) -> bool:
