@@ -412,8 +412,9 @@ class RosCell:
                     return newest, None
                 dropped = [reason for received, reason in self._unusable if received >= waiting_since_ns]
                 if len(dropped) >= UNUSABLE_FRAMES:
+                    topic = self._name(names.HEIGHTMAP_DROPPED_TOPIC)
                     raise EpisodeAborted(f"unusable_input: the heightmap node dropped {len(dropped)} camera "
-                                         f"frames in a row ({self._name(names.HEIGHTMAP_DROPPED_TOPIC)}): {dropped[-1]}")
+                                         f"frames in a row ({topic}): {dropped[-1]}")
                 self._check_cancel(f"a fresh decision on {self._name(names.PRIMITIVE_TOPIC)}")
                 remaining = deadline - time.monotonic()
                 if self.node.count_publishers(names.PRIMITIVE_TOPIC) > 0:

@@ -231,8 +231,8 @@ class EpisodeLimits:
                                   "it", low=1, high=1000)
     search_pushes: int = param(DEFAULT_SEARCH_PUSHES, "Counting by perception: pushes in a row at heaps "
                                "that showed no impurity after which the bin is taken as clean (the end of "
-                               "the search, module docstring); more leaves fewer hidden impurities behind and "
-                               "costs more actions", low=1, high=1000)
+                               "the search, module docstring); more leaves fewer hidden impurities behind "
+                               "and costs more actions", low=1, high=1000)
 
     def __post_init__(self):
         check_fields(self)
