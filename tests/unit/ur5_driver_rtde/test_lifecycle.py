@@ -6,6 +6,8 @@ configure can be tried again); goals are refused until activate; deactivate refu
 and shutdown stop the arm and disconnect. /diagnostics says the state, the robot and safety modes and the
 gripper's state."""
 
+import socket
+
 import pytest
 from rclpy.lifecycle import TransitionCallbackReturn
 from rclpy.parameter import Parameter
@@ -95,13 +97,15 @@ def test_a_controller_that_refuses_the_connection_fails_configure_with_the_reaso
     assert node.trigger_configure() == SUCCESS and node.failure is None and node.state == "inactive"
 
 
-def test_an_unreachable_gripper_fails_configure_and_leaves_the_controller_disconnected(driver, urcap):
-    urcap.close()  # nothing listens on its port any more
-    controller = Controller()
-    node = driver(controller, quick_robotiq, dry_run=False, robot_ip="127.0.0.1", gripper_port=urcap.port)
-    assert node.trigger_configure() == FAILURE
+def test_an_unreachable_gripper_fails_configure_and_leaves_the_controller_disconnected(driver):
+    with socket.socket() as held:  # bound, never listening: connections refused, no other test can take it
+        held.bind(("127.0.0.1", 0))
+        port = held.getsockname()[1]
+        controller = Controller()
+        node = driver(controller, quick_robotiq, dry_run=False, robot_ip="127.0.0.1", gripper_port=port)
+        assert node.trigger_configure() == FAILURE
     assert node.failure.startswith(f"configure failed: gripper: cannot reach the Robotiq URCap at "
-                                   f"127.0.0.1:{urcap.port}")
+                                   f"127.0.0.1:{port}")
     assert controller.connections == 1 and controller.commands() == ["disconnect"]
     assert node.diagnostics.current().level == ERROR
 
