@@ -258,6 +258,7 @@ def test_the_episode_end_subcommand_writes_the_chosen_height(tmp_path):
 @pytest.mark.parametrize("command, writes", [
     ("network", "OUT/impurity_net.pt"), ("verifier", "OUT/verifier.json"),
     ("verdict", "OUT/verdict.json"), ("episode-end", "OUT/episode_end.json"),
+    ("search-pushes", "OUT/search_pushes.json"),
     ("colour-reference", "OUT/colour_reference.json")])
 def test_each_subcommands_help_says_what_it_fits_on_which_data_and_what_it_writes(command, writes, capsys):
     with pytest.raises(SystemExit):

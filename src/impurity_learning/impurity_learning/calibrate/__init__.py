@@ -8,6 +8,8 @@ the earlier ones wrote there):
                       -> OUT/verifier.json (impurity_attention.core.verifier.write_verifier's format)
     verdict           the grasp verdict's colour test -> OUT/verdict.json
     episode-end       the height below which a cluster hides nothing -> OUT/episode_end.json
+    search-pushes     pushes at heaps without an impurity after which the bin is clean
+                      -> OUT/search_pushes.json
     colour-reference  the simulator's Lab statistics for the heightmap node's colour adaptation
                       -> OUT/colour_reference.json
 

@@ -1,4 +1,5 @@
-"""python -m impurity_learning.calibrate {network,verifier,verdict,episode-end,colour-reference} --out DIR
+"""python -m impurity_learning.calibrate {network,verifier,verdict,episode-end,search-pushes,colour-reference}
+    --out DIR
 
 Fits the cell's learned parts and thresholds to a product and camera, on the tuning split only; see the
 package docstring and each subcommand's --help. Exit status 0 on success, 2 when the data is refused or
@@ -12,7 +13,7 @@ import json
 import pathlib
 import sys
 
-from . import attention_fit, episodes, scenes
+from . import attention_fit, episodes, scenes, search
 from .scenes import CalibrationRefused
 
 COLOUR_REFERENCE_FILE = "colour_reference.json"
@@ -141,6 +142,37 @@ def run_episode_end(args) -> int:
     return 0
 
 
+def run_search_pushes(args) -> int:
+    if not args.episodes:
+        palettes = args.palettes or episodes.default_palettes(args.random_palettes)
+        jobs = search.search_jobs(palettes, args.seeds, args.scenarios)
+        params = attention_fit.attention_params(args.out)
+        search.collect_search_episodes(jobs, args.out / search.EPISODES_FILE, args.checkpoint, params,
+                                       args.max_actions, progress=not args.no_progress)
+    rows = episodes.read_episodes(_episode_files(args, search.EPISODES_FILE))
+    episodes.check_episodes(rows)
+    if not rows:
+        raise ValueError("no episodes to choose from")
+    lengths = sorted(length for row in rows for length in search.reveals(row["views"]))
+    table = search.search_table(rows, range(1, args.cap + 1))
+    total = search.impurities(rows)
+    print(f"{len(rows)} tuning episodes, {total} impurities, {len(lengths)} reveals (pushes at heaps before "
+          f"a hidden impurity showed: {' '.join(map(str, lengths)) or 'none'})")
+    print("search_pushes  left_behind  reveals_left  replayed  actions_saved")
+    for k, f in table.items():
+        print(f"{k:13d}  {f['left_behind']:11.1%}  {f['reveals_left']:12d}  {f['replayed']:8.1%}  "
+              f"{f['actions_saved']:13.2f}")
+    chosen, _ = search.choose_search_pushes(rows, args.max_left_behind, args.cap)
+    print(f"search_pushes {chosen}: the least that leaves at most {args.max_left_behind:.1%} of the "
+          f"impurities behind ({table[chosen]['left_behind']:.1%})")
+    _write_json(args.out / search.RESULT_FILE,
+                {"search_pushes": chosen, "max_left_behind": args.max_left_behind, "reveals": lengths,
+                 "impurities": total, "episodes": len(rows), "seeds": sorted({r["seed"] for r in rows}),
+                 "palettes": sorted({r["palette"] for r in rows}),
+                 "figures": {str(k): f for k, f in table.items()}})
+    return 0
+
+
 def _episode_options(parser, seeds: int, what: str) -> None:
     from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
 
@@ -159,7 +191,8 @@ def parse_args(argv=None):
     parser = argparse.ArgumentParser(
         prog="python -m impurity_learning.calibrate",
         description="Fit the cell to a product and camera, on the tuning split only. Run the subcommands "
-                    "in this order with the same --out: network, verifier, verdict, episode-end (and, for a "
+                    "in this order with the same --out: network, verifier, verdict, episode-end, "
+                    "search-pushes (and, for a "
                     "real camera with colour adaptation, colour-reference); each reads what the earlier ones "
                     "wrote there.")
     sub = parser.add_subparsers(dest="command", required=True, metavar="SUBCOMMAND")
@@ -227,6 +260,26 @@ def parse_args(argv=None):
                         "scenes.SCENE_SETS, e.g. tall flat sparse dense clean; SET@LOW-HIGH: piece heights "
                         "in mm) on their tuning seeds")
     p.set_defaults(run=run_episode_end)
+
+    p = add("search-pushes", "choose how many pushes at heaps without an impurity end the search",
+            "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) on the\n"
+            "random, challenging and invisible scenes with the search never ended, recording per view\n"
+            "attention's mode and the simulator's truth. A hidden impurity that showed after L pushes in a\n"
+            "row at heaps with none in view is left behind by search_pushes < L. Prints, per\n"
+            "search_pushes, the share of the impurities left behind (and replayed: the episodes cut where\n"
+            "they would have ended) and the actions saved per episode, and chooses the least search_pushes\n"
+            "leaving at most --max-left-behind behind (episode.search_pushes in bringup/config/cell.yaml).\n"
+            f"Writes OUT/{search.EPISODES_FILE} (resumable) and OUT/{search.RESULT_FILE}.")
+    _episode_options(p, 12, "scenario")
+    p.add_argument("--max-left-behind", type=float, default=0.02,
+                   help="the share of the impurities the end of the search may leave behind (default 0.02)")
+    p.add_argument("--scenarios", nargs="+", default=list(search.SEARCH_SCENARIOS),
+                   choices=search.SEARCH_SCENARIOS, help="scenarios run (default all three)")
+    p.add_argument("--max-actions", type=int, default=0,
+                   help="actions per episode (default 0: the loop's max_actions_uncounted)")
+    p.add_argument("--cap", type=int, default=search.SEARCH_PUSHES_CAP,
+                   help=f"the largest search_pushes chosen (default {search.SEARCH_PUSHES_CAP})")
+    p.set_defaults(run=run_search_pushes)
 
     p = add("colour-reference", "measure the simulator's colour statistics for colour adaptation",
             "Renders tuning scenes (or reads --views) and measures the mean and standard deviation of their\n"

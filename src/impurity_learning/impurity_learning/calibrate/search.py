@@ -1,0 +1,177 @@
+"""The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes), measured on fast-sim
+episodes counted as a real cell counts (evaluate.PerceptionSimCell, the policy with the `cell` rules) with
+the search never ended (search_pushes SEARCH_UNENDED): each view decided on is recorded with the mode
+attention decided on and the simulator's truth (targets remaining in the workspace).
+
+A reveal is a run of OCCLUDED_REGION views in a row (pushes at heaps that showed no impurity) that ends in
+a TARGET view while the truth still had a target remaining: a hidden impurity that showed after L pushes.
+With search_pushes = K the loop ends the episode on the (K + 1)-th such view in a row, so a reveal of
+L > K is left behind. A view answered NONE is not decided on and does not break a run (the loop's count
+goes on past it), so a run that ends in NONE views at the episode's end, or at its end, is no reveal.
+
+Share left behind at K: reveals with L > K over the impurities in all the episodes. Beside it the tool
+replays each episode cut where search_pushes = K would have ended it: the impurities still in the
+workspace there that the unended episode went on to pick (a reveal left behind can take later impurities
+of its episode with it), and the actions saved.
+
+An episode file is JSON lines, one episode each, appended as episodes finish (a run that stops resumes).
+"""
+
+from __future__ import annotations
+
+import itertools
+import json
+import pathlib
+
+from .episodes import read_episodes
+from .scenes import check_palettes, check_seeds
+
+SEARCH_SEED_BASE = 70_000  # tuning scene seeds, SEARCH_SEED_BASE + k
+SEARCH_SCENARIOS = ("random", "challenging", "invisible")  # the paper's, at its scene size
+SEARCH_UNENDED = 1000  # search_pushes while measuring: the search never ends an episode
+SEARCH_PUSHES_CAP = 20  # the largest search_pushes the tool chooses
+EPISODES_FILE = "search_episodes.jsonl"
+RESULT_FILE = "search_pushes.json"
+
+OCCLUDED, TARGET, NONE = "OCCLUDED_REGION", "TARGET", "NONE"
+
+
+# ------------------------------------------------------------------------------------------- statistics
+def decided(views) -> list:
+    """The views decided on: (mode, targets remaining) without the NONE views."""
+    return [(mode, remaining) for mode, remaining in views if mode != NONE]
+
+
+def reveals(views) -> list:
+    """The length of every reveal in one episode's views ((mode, targets remaining) in order): a run of
+    OCCLUDED_REGION views in a row ending in a TARGET view with targets remaining (module docstring)."""
+    found, run = [], 0
+    for mode, remaining in decided(views):
+        if mode == OCCLUDED:
+            run += 1
+            continue
+        if mode == TARGET and run and remaining > 0:
+            found.append(run)
+        run = 0
+    return found
+
+
+def cut_at(views, k: int) -> int | None:
+    """The index among the decided views of the one on which search_pushes = k ends the episode (the
+    (k + 1)-th OCCLUDED_REGION view in a row), or None when it never does."""
+    run = 0
+    for index, (mode, _) in enumerate(decided(views)):
+        run = run + 1 if mode == OCCLUDED else 0
+        if run > k:
+            return index
+    return None
+
+
+def replay(row: dict, k: int) -> tuple[int, int]:
+    """(impurities left behind, actions saved) had the recorded episode `row` run with search_pushes = k:
+    those in the workspace where it would have ended that the unended episode picked, and the actions it
+    took from there on."""
+    views = decided(row["views"])
+    cut = cut_at(views, k)
+    if cut is None:
+        return 0, 0
+    return max(0, views[cut][1] - row["remaining_end"]), max(0, row["actions"] - cut)
+
+
+def impurities(rows) -> int:
+    return sum(row["impurities"] for row in rows)
+
+
+def search_table(rows, ks) -> dict:
+    """{k: {"left_behind": share of the impurities whose reveal needed more than k pushes, "reveals_left":
+    their count, "replayed": share left behind replaying the episodes (replay), "actions_saved": mean
+    actions saved per episode}}. ValueError when the episodes hold no impurity."""
+    total = impurities(rows)
+    if total <= 0:
+        raise ValueError("no impurity in the episodes: run more episodes")
+    lengths = [length for row in rows for length in reveals(row["views"])]
+    table = {}
+    for k in ks:
+        replayed = [replay(row, k) for row in rows]
+        left = sum(length > k for length in lengths)
+        table[k] = {"left_behind": left / total, "reveals_left": left,
+                    "replayed": sum(lost for lost, _ in replayed) / total,
+                    "actions_saved": sum(saved for _, saved in replayed) / max(len(rows), 1)}
+    return table
+
+
+def choose_search_pushes(rows, max_left_behind: float, cap: int = SEARCH_PUSHES_CAP) -> tuple[int, dict]:
+    """(the least search_pushes in 1 ... cap whose share left behind is at most max_left_behind, the table
+    for 1 ... cap). ValueError naming --max-left-behind when none is."""
+    table = search_table(rows, range(1, cap + 1))
+    for k, figures in table.items():
+        if figures["left_behind"] <= max_left_behind + 1e-12:
+            return k, table
+    worst = max(length for row in rows for length in reveals(row["views"]))
+    raise ValueError(f"no search_pushes up to {cap} leaves at most {max_left_behind:.1%} of the impurities "
+                     f"behind (a reveal needed {worst} pushes): raise --max-left-behind or --cap")
+
+
+# ------------------------------------------------------------------------------------------ the episodes
+def search_jobs(palettes, seeds: int, scenarios=SEARCH_SCENARIOS) -> list:
+    """(scenario, palette, seed) per scenario, seeds SEARCH_SEED_BASE + k for k < seeds, the palettes
+    cycled. CalibrationRefused for a palette or seed outside the tuning split."""
+    check_palettes(palettes)
+    seed_list = [SEARCH_SEED_BASE + k for k in range(seeds)]
+    check_seeds(seed_list)
+    return [(scenario, palette, seed) for scenario in scenarios
+            for palette, seed in zip(itertools.cycle(palettes), seed_list)]
+
+
+def key_of(row: dict) -> tuple:
+    return row["scenario"], row["palette"], row["seed"], row["max_actions"]
+
+
+def collect_search_episodes(jobs: list, out: pathlib.Path, checkpoint, params, max_actions: int = 0,
+                            progress: bool = True) -> None:
+    """Run the jobs (attention `params`, search_pushes SEARCH_UNENDED, max_actions 0: the loop's default)
+    and append each episode's decided views to `out` (jobs already there are skipped)."""
+    from tqdm import tqdm
+
+    from impurity_common.enums import AttentionMode
+    from impurity_policy.core import picking
+    from impurity_policy.core.episode import EpisodeRequest
+    from ur5_driver_sim.core.world import CellWorld
+
+    from ..agents import make_agent
+    from ..evaluate import PerceptionSimCell, _reraise
+
+    class RecordingCell(PerceptionSimCell):
+        """Records each view decided on: attention's mode and the targets remaining in the workspace."""
+
+        def __init__(self, *args, **kwargs):
+            super().__init__(*args, **kwargs)
+            self.views = []
+
+        def decide(self, view):
+            self.views.append([AttentionMode(int(view.mode)).name, int(self.truth().targets_remaining)])
+            return super().decide(view)
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    done = {key_of(row) for row in read_episodes([out])} if out.exists() else set()
+    world = CellWorld(mode="floating")
+    agent = make_agent("ours", pathlib.Path(checkpoint), "cell")
+    limits = picking.EpisodeLimits(search_pushes=SEARCH_UNENDED)
+    try:
+        with out.open("a") as sink:
+            for scenario, palette, seed in tqdm(jobs, desc="search episodes", disable=not progress):
+                if (scenario, palette, seed, max_actions) in done:
+                    continue
+                cell = RecordingCell(world, agent, attention_params=params)
+                request = EpisodeRequest(scenario, seed=seed, max_actions=max_actions, palette=palette)
+                summary = picking.run_episode(cell, request, f"{scenario}-{seed}", limits, on_error=_reraise)
+                sink.write(json.dumps({"scenario": scenario, "palette": palette, "seed": seed,
+                                       "max_actions": max_actions,
+                                       "termination": summary["termination_reason"],
+                                       "actions": summary["actions"],
+                                       "impurities": summary["truth_targets_total"],
+                                       "remaining_end": int(cell.truth().targets_remaining),
+                                       "views": cell.views}) + "\n")
+                sink.flush()
+    finally:
+        world.close()
