@@ -117,3 +117,29 @@ def test_impurity_bringup_on_a_real_cell_depends_on_no_simulator_or_learning_pac
 
 def test_the_launch_file_imports_no_simulator_or_learning_code():
     assert not imported_top_levels(BRINGUP / "launch") & set(FORBIDDEN)
+
+
+# ------------------------------------------------------------------------ the runtime's tests on CPython 3.12
+# A CPython 3.12 venv sets up the runtime alone: no PyBullet (requirements.txt). The runtime's unit tests
+# that name the simulator must pass there, but for their cases marked `simulator` (tests/conftest.py skips
+# those on 3.12).
+BLOCK_PYBULLET = ("import sys\n"
+                  "for name in ('pybullet', 'pybullet_data', 'pybullet_utils'):\n"
+                  "    sys.modules[name] = None  # import raises ModuleNotFoundError\n"
+                  "import pytest\n"
+                  "sys.exit(pytest.main(sys.argv[1:]))\n")
+
+
+def runtime_tests_naming_the_simulator() -> list[str]:
+    return sorted(str(path.relative_to(ROOT)) for package in RUNTIME_PACKAGES
+                  for path in (ROOT / "tests" / "unit" / package).glob("test_*.py")
+                  if any(word in path.read_text() for word in ("ur5_driver_sim", "pybullet", "CellWorld")))
+
+
+def test_the_runtimes_unit_tests_pass_without_pybullet_but_for_the_simulators_cases():
+    files = runtime_tests_naming_the_simulator()
+    assert "tests/unit/ur5_driver_rtde/test_dry_run.py" in files
+    run = subprocess.run([sys.executable, "-c", BLOCK_PYBULLET, "-q", "-n", "0", "-p", "no:cacheprovider",
+                          "-m", "not simulator", *files],
+                         cwd=ROOT, capture_output=True, text=True, timeout=600)
+    assert run.returncode == 0, f"without PyBullet:\n{run.stdout[-4000:]}{run.stderr[-2000:]}"

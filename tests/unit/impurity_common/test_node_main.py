@@ -120,7 +120,9 @@ SPIN_NODE_NODES = {
 }
 
 
-@pytest.mark.parametrize("module_name", list(SPIN_NODE_NODES))
+@pytest.mark.parametrize("module_name", [
+    pytest.param(name, marks=pytest.mark.simulator) if name.startswith("ur5_driver_sim.") else name
+    for name in SPIN_NODE_NODES])
 def test_every_spin_node_node_lists_the_parameters_it_declares(module_name):
     module = importlib.import_module(module_name)
     node_class, parameters_class = SPIN_NODE_NODES[module_name]

@@ -3,6 +3,7 @@ line a bad value gets (no rclpy, no node)."""
 
 import array
 import enum
+import importlib
 import math
 import pathlib
 from dataclasses import dataclass
@@ -336,27 +337,37 @@ def test_a_long_description_is_wrapped_under_its_parameter():
 
 
 # ------------------------------------------------------------------------------------ the cell's nodes
-def node_parameter_classes():
-    from impurity_attention.attention_node import AttentionNodeParameters
-    from impurity_attention.heightmap_node import HeightmapNodeParameters
-    from impurity_bags.bag_recorder_node import BagRecorderParameters
-    from impurity_bags.bag_replay_node import BagReplayParameters
-    from ur5_driver_sim.sim_cell import SimCellParameters
+# Each node -> (module, its parameters dataclass), imported per case: the runtime's cases never import the
+# simulator (a CPython 3.12 venv has no PyBullet).
+NODE_PARAMETERS = {
+    "heightmap": ("impurity_attention.heightmap_node", "HeightmapNodeParameters"),
+    "attention": ("impurity_attention.attention_node", "AttentionNodeParameters"),
+    "sim_cell": ("ur5_driver_sim.sim_cell", "SimCellParameters"),
+    "bag_recorder": ("impurity_bags.bag_recorder_node", "BagRecorderParameters"),
+    "bag_replay": ("impurity_bags.bag_replay_node", "BagReplayParameters"),
+}
 
-    return {"heightmap": HeightmapNodeParameters, "attention": AttentionNodeParameters,
-            "sim_cell": SimCellParameters, "bag_recorder": BagRecorderParameters,
-            "bag_replay": BagReplayParameters}
+
+def node_parameters(node: str) -> type:
+    module, name = NODE_PARAMETERS[node]
+    return getattr(importlib.import_module(module), name)
 
 
-@pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell", "bag_recorder", "bag_replay"])
+def nodes(*names: str) -> list:
+    """The nodes as parametrize values, the simulator's marked as needing it."""
+    return [pytest.param(node, marks=pytest.mark.simulator) if NODE_PARAMETERS[node][0].startswith(
+        "ur5_driver_sim.") else node for node in names]
+
+
+@pytest.mark.parametrize("node", nodes(*NODE_PARAMETERS))
 def test_every_node_accepts_its_own_defaults(node):
-    cls = node_parameter_classes()[node]
+    cls = node_parameters(node)
     build(node, cls, {spec.name: spec.default for spec in parameter_specs(cls)})
 
 
-@pytest.mark.parametrize("node", ["heightmap", "attention", "sim_cell"])
+@pytest.mark.parametrize("node", nodes("heightmap", "attention", "sim_cell"))
 def test_cell_yaml_names_only_declared_parameters_with_allowed_values(node):
-    cls = node_parameter_classes()[node]
+    cls = node_parameters(node)
     config = flatten(yaml.safe_load((ROOT / "bringup" / "config" / "cell.yaml").read_text())["/**/" + node]
                      ["ros__parameters"])
     specs_by_name = {spec.name: spec for spec in parameter_specs(cls)}

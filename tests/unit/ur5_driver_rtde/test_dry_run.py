@@ -115,6 +115,7 @@ def assert_commands_carry_out(step: motion.Step, commands: list) -> None:
         pytest.fail(f"unexpected step kind {step.kind}")
 
 
+@pytest.mark.simulator
 @pytest.mark.parametrize("request_", [GRASP, PUSH], ids=["grasp", "push"])
 def test_dry_run_commands_are_the_plan_the_simulated_arm_executed(request_, sim_executed):
     plan = motion.plan_primitive(*request_)
@@ -129,6 +130,7 @@ def test_dry_run_commands_are_the_plan_the_simulated_arm_executed(request_, sim_
         assert_commands_carry_out(plan.steps[index], commands)
 
 
+@pytest.mark.simulator
 def test_a_descent_stopped_on_an_object_is_cut_short_as_in_the_simulator(sim_executed):
     simulated, contact_height = sim_executed["push_on_block"]
     plan = motion.plan_primitive(*PUSH)
