@@ -24,7 +24,8 @@ BRINGUP_RUNTIME_MODULES = ("cell_nodes.py", "launch_cell.py", "episode_client.py
 NEVER_IN_THE_IMAGE = ("pybullet", "ur5_driver_sim", "impurity_learning", "matplotlib", "pytest")
 # Distribution that provides an imported module, where the names differ.
 DISTRIBUTION_OF_MODULE = {"cv2": "opencv-python-headless", "sklearn": "scikit-learn", "yaml": "PyYAML",
-                          "rtde_control": "ur-rtde", "rtde_receive": "ur-rtde"}
+                          "rtde_control": "ur-rtde", "rtde_receive": "ur-rtde",
+                          "dashboard_client": "ur-rtde"}
 # Python packages of the ros-base image itself (no apt line needed).
 ROS_BASE_MODULES = {"rclpy", "builtin_interfaces", "rcl_interfaces", "ament_index_python"}
 

@@ -66,6 +66,7 @@ ROSDEP_KEYS = {
     "ray": None,  # ray (the cluster runtime of impurity_learning's --ray)
     "rtde_control": None,  # ur-rtde
     "rtde_receive": None,  # ur-rtde
+    "dashboard_client": None,  # ur-rtde
 }
 PYTHON_KEYS = {key for module, key in ROSDEP_KEYS.items() if key and key != module}
 # Keys that only the simulator, training and evaluation need.

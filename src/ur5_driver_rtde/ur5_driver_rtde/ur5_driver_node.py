@@ -20,6 +20,11 @@ the robot not running: core/arm.py, UrArm.unavailable, naming the safety and rob
 (the reason is logged) and nothing moves. A connection lost mid-motion aborts the goal with a message
 starting "driver_lost:" after telling the arm to stop; a protective stop mid-motion aborts it with
 "motion failed: protective stop during <move> (safety mode 3 PROTECTIVE_STOP, ...)".
+
+configure also reads the controller's PolyScope version (the dashboard server; the dry run's stand-in
+reports an e-Series one) and logs it and puts it on /diagnostics: below 5.4 (a CB3) the controller has no
+contact detection, and unless force_threshold_check is true every goal (each has a guarded descent) is
+refused, the reason naming the version and force_threshold_check (core/arm.py, contact_sensing_problem).
 """
 
 from __future__ import annotations
@@ -74,8 +79,9 @@ class Ur5DriverParameters:
     joint_speed: float = param(1.05, "Joint speed of the move home (rad/s)", low=0.1, high=3.0)
     force_threshold_check: bool = param(False, "Guarded descents also stop when the measured TCP force along "
                                         "+z exceeds the plan's threshold (besides the controller's contact "
-                                        "detection, which needs PolyScope 5.4+: the only contact sensing on "
-                                        "a CB3); the UR5's force estimate is noisy without an F/T sensor")
+                                        "detection, which needs PolyScope 5.4+: on a CB3 the only contact "
+                                        "sensing, and goals are refused without it); the UR5's force "
+                                        "estimate is noisy without an F/T sensor")
     bin_position: tuple[float, ...] = param(BIN_POSITION, "TCP position in base_link (m) where a held object "
                                             "is released after a grasp; within the UR5's reach",
                                             length=3, low=-2.0, high=2.0, check=motion.reach_problem)
@@ -88,23 +94,43 @@ class ConnectionFailed(RuntimeError):
 
 
 def _rtde_interfaces(robot_ip: str, frequency: float):
-    """(control, receive): ur-rtde's interfaces to the controller at robot_ip (RuntimeError when it does
-    not answer)."""
+    """(control, receive, polyscope): ur-rtde's interfaces to the controller at robot_ip (RuntimeError when
+    it does not answer), and the PolyScope version its dashboard server reports (None when that cannot be
+    read)."""
     import rtde_control  # ur-rtde (requirements.txt); only a real cell needs it
     import rtde_receive
 
     control = rtde_control.RTDEControlInterface(robot_ip, frequency)
     try:
-        return control, rtde_receive.RTDEReceiveInterface(robot_ip, frequency)
+        receive = rtde_receive.RTDEReceiveInterface(robot_ip, frequency)
     except RuntimeError:
         control.disconnect()
         raise
+    return control, receive, _polyscope(robot_ip)
+
+
+def _polyscope(robot_ip: str) -> str | None:
+    """The controller's PolyScope version from its dashboard server (port 29999), or None."""
+    import dashboard_client  # ur-rtde
+
+    dashboard = dashboard_client.DashboardClient(robot_ip)
+    try:
+        dashboard.connect()
+        return dashboard.polyscopeVersion()
+    except RuntimeError:
+        return None
+    finally:
+        try:
+            dashboard.disconnect()
+        except RuntimeError:
+            pass
 
 
 class Ur5DriverNode(LifecycleNode):
     """The driver as a lifecycle node: configure connects (ur-rtde and the gripper, or the dry run's
     stand-ins), activate lets goals in, deactivate refuses them again (and cancels a running one),
-    cleanup and shutdown disconnect. `rtde_interfaces(robot_ip, frequency) -> (control, receive)` and
+    cleanup and shutdown disconnect. `rtde_interfaces(robot_ip, frequency) -> (control, receive,
+    polyscope)` and
     `gripper_factory(host, port)` are ur-rtde's and Robotiq2F85 unless a test passes stand-ins;
     `node_options` go to rclpy's Node (context, parameter_overrides)."""
 
@@ -151,8 +177,12 @@ class Ur5DriverNode(LifecycleNode):
         logged = params.dry_run and params.dry_run_log
         where = f", commands appended to {params.dry_run_log}" if logged else ""
         gripper = params.gripper if not params.dry_run else "dry run"
-        self.get_logger().info(f"configured: {mode}, gripper {gripper}, speed scale "
-                               f"{params.speed_scale:g}{where}; goals refused until activated")
+        self.get_logger().info(f"configured: {mode}, PolyScope {self._arm.polyscope or 'unknown'}, gripper "
+                               f"{gripper}, speed scale {params.speed_scale:g}{where}; goals refused until "
+                               "activated")
+        problem = self._arm.contact_sensing_problem()
+        if problem is not None:
+            self.get_logger().error(problem)
         return TransitionCallbackReturn.SUCCESS
 
     def on_activate(self, state: LifecycleState) -> TransitionCallbackReturn:
@@ -198,9 +228,10 @@ class Ur5DriverNode(LifecycleNode):
                                 contact_height=None if params.dry_run_contact_height < 0
                                 else params.dry_run_contact_height, flange_to_tcp=params.flange_to_tcp)
             control, receive, gripper = robot.control, robot.receive, robot.gripper
+            polyscope = robot.polyscope
         else:
             try:
-                control, receive = self._rtde_interfaces(params.robot_ip, params.rtde_frequency)
+                control, receive, polyscope = self._rtde_interfaces(params.robot_ip, params.rtde_frequency)
             except RuntimeError as error:
                 raise ConnectionFailed(f"cannot connect to the UR controller at {params.robot_ip}: {error} "
                                        "(check robot_ip, and that the controller is on and in remote "
@@ -217,7 +248,8 @@ class Ur5DriverNode(LifecycleNode):
                     _close(control, receive)
                     raise ConnectionFailed(f"gripper: {error} (check gripper and gripper_port)") from None
         arm = UrArm(control, receive, joint_speed=params.joint_speed,
-                    force_threshold_check=params.force_threshold_check, flange_to_tcp=params.flange_to_tcp)
+                    force_threshold_check=params.force_threshold_check, polyscope=polyscope,
+                    flange_to_tcp=params.flange_to_tcp)
         try:
             arm.prepare()
         except DriverLost as error:
@@ -255,7 +287,7 @@ class Ur5DriverNode(LifecycleNode):
     def _status(self) -> Status:
         """Lifecycle state, robot and safety modes, the gripper's state: OK while active and able to move."""
         values = {"lifecycle state": self.state, "robot mode": "unknown (not connected)",
-                  "safety mode": "unknown (not connected)",
+                  "safety mode": "unknown (not connected)", "PolyScope version": "unknown (not connected)",
                   "gripper": "dry_run" if self.params.dry_run else self.params.gripper,
                   "gripper state": "not connected", "goals": self._goals}
         arm, gripper = self._arm, self._gripper
@@ -264,6 +296,7 @@ class Ur5DriverNode(LifecycleNode):
                 return Status(ERROR, f"{self.state}: {self.failure}", values)
             return Status(WARN, f"{self.state}: not connected (configure and activate the driver)", values)
         problems = []
+        values["PolyScope version"] = arm.polyscope or "unknown"
         try:
             safety, robot = arm.modes()
             values["safety mode"] = f"{safety} {SAFETY_MODES.get(safety, 'UNKNOWN')}"

@@ -10,7 +10,7 @@ import pytest
 
 from impurity_common import cell, names
 from impurity_common.enums import PrimitiveKind
-from ur5_driver_rtde.core.arm import SafetyStop, UrArm
+from ur5_driver_rtde.core.arm import MotionFailed, SafetyStop, UrArm, polyscope_version
 from ur5_driver_rtde.core.executor import PlanExecutor
 from ur5_driver_rtde.core.recording import CommandLog, DryRunControl, DryRunReceive, DryRunRobot
 from ur5_motion import motion
@@ -75,6 +75,7 @@ class PressedReceive(DryRunReceive):
 
 
 def arm_with(robot, **options):
+    options.setdefault("polyscope", robot.polyscope)
     arm = UrArm(robot.control, robot.receive, poll_period=0.0, **options)
     arm.prepare()
     return arm
@@ -182,3 +183,57 @@ def test_a_move_refused_in_a_protective_stop_says_so():
     robot.control = RefusingControl(robot.log, robot.state)
     with pytest.raises(SafetyStop, match=r"protective stop refusing moveL \(safety mode 3 PROTECTIVE_STOP"):
         descend(arm_with(robot), force_threshold=None)
+
+
+# ------------------------------------------------------------------------------------ contact sensing
+CB3_POLYSCOPE = "3.15.7.106331"  # a CB3 controller: no tool_contact, so no contact detection
+
+
+@pytest.mark.parametrize("answer,version", [("5.11.1.108318", (5, 11, 1)), ("3.15.7.106331", (3, 15, 7)),
+                                            ("URSoftware 5.4.0.80000 (Jun 01 2019)", (5, 4, 0)),
+                                            ("ERROR: unknown command", None), ("", None), (None, None)])
+def test_the_polyscope_version_is_read_from_the_dashboard_servers_answer(answer, version):
+    assert polyscope_version(answer) == version
+
+
+def test_a_controller_before_polyscope_5_4_refuses_guarded_descents_naming_force_threshold_check():
+    robot = DryRunRobot(CommandLog())
+    robot.control = control = RecordingControl(robot)
+    arm = arm_with(robot, polyscope=CB3_POLYSCOPE)
+    assert "force_threshold_check" in arm.unavailable() and "PolyScope 3.15.7" in arm.unavailable()
+    with pytest.raises(MotionFailed, match="force_threshold_check"):
+        descend(arm)
+    assert "moveL" not in control.calls  # refused before anything moved
+
+
+@pytest.mark.parametrize("polyscope", ["5.3.1.64192", None])
+def test_a_controller_without_contact_detection_or_of_unknown_version_counts_as_a_cb3(polyscope):
+    arm = arm_with(DryRunRobot(CommandLog()), polyscope=polyscope)
+    assert "force_threshold_check" in arm.unavailable()
+
+
+def test_on_a_cb3_with_force_threshold_check_the_force_alone_stops_the_descent():
+    robot = DryRunRobot(CommandLog())
+    robot.control = control = RecordingControl(robot, running_polls=4)
+    robot.receive = PressedReceive(robot.state, force_z=8.0)
+    arm = arm_with(robot, polyscope=CB3_POLYSCOPE, force_threshold_check=True)
+    assert arm.unavailable() is None
+    assert descend(arm, force_threshold=5.0) is False
+    assert "startContactDetection" not in control.calls  # it would report a contact at once there
+    assert control.calls[-1] == "stopL"
+
+
+def test_on_a_cb3_with_force_threshold_check_a_descent_without_force_runs_to_its_end():
+    robot = DryRunRobot(CommandLog())
+    robot.control = control = RecordingControl(robot, running_polls=4)
+    arm = arm_with(robot, polyscope=CB3_POLYSCOPE, force_threshold_check=True)
+    assert descend(arm, force_threshold=5.0) is True
+    assert not {"startContactDetection", "readContactDetection", "stopL"} & set(control.calls)
+
+
+def test_from_polyscope_5_4_the_controllers_contact_detection_guards_the_descent():
+    robot = DryRunRobot(CommandLog())
+    robot.control = control = RecordingControl(robot)
+    arm = arm_with(robot, polyscope="5.4.0.80000")
+    assert arm.unavailable() is None
+    assert descend(arm) is True and "startContactDetection" in control.calls

@@ -53,7 +53,8 @@ def dry_run(request, goal=1, robot=None, should_cancel=lambda: False, flange_to_
             **robot_options):
     log = robot.log if robot is not None else CommandLog()
     robot = robot or DryRunRobot(log, flange_to_tcp=flange_to_tcp, **robot_options)
-    arm = UrArm(robot.control, robot.receive, flange_to_tcp=flange_to_tcp, poll_period=0.0)
+    arm = UrArm(robot.control, robot.receive, polyscope=robot.polyscope, flange_to_tcp=flange_to_tcp,
+                poll_period=0.0)
     arm.prepare()
     result = PlanExecutor(arm, robot.gripper, log).execute(motion.plan_primitive(*request), goal,
                                                            should_cancel=should_cancel)

@@ -15,7 +15,7 @@ from test_robotiq import FakeUrcap
 
 from impurity_common.diagnostics import ERROR, OK, WARN
 from ur5_driver_rtde.core.gripper import Robotiq2F85
-from ur5_driver_rtde.core.recording import CommandLog, DryRunRobot
+from ur5_driver_rtde.core.recording import DRY_RUN_POLYSCOPE, CommandLog, DryRunRobot
 from ur5_driver_rtde.ur5_driver_node import Ur5DriverNode
 
 SUCCESS, FAILURE = TransitionCallbackReturn.SUCCESS, TransitionCallbackReturn.FAILURE
@@ -23,20 +23,21 @@ ROBOT_IP = "10.0.0.2"
 
 
 class Controller:
-    """The UR controller as ur-rtde's interfaces see it: the dry run's stand-ins, or a refusal to connect
-    as RTDEControlInterface raises it."""
+    """The UR controller as ur-rtde's interfaces see it: the dry run's stand-ins and the PolyScope version
+    its dashboard server reports (`polyscope`, None: it could not be read), or a refusal to connect as
+    RTDEControlInterface raises it."""
 
-    def __init__(self, refuse: str | None = None):
+    def __init__(self, refuse: str | None = None, polyscope: str | None = DRY_RUN_POLYSCOPE):
         self.log = CommandLog()
         self.robot = DryRunRobot(self.log)
-        self.refuse = refuse
+        self.refuse, self.polyscope = refuse, polyscope
         self.connections = 0
 
     def __call__(self, robot_ip, frequency):
         if self.refuse is not None:
             raise RuntimeError(self.refuse)
         self.connections += 1
-        return self.robot.control, self.robot.receive
+        return self.robot.control, self.robot.receive, self.polyscope
 
     def commands(self):
         return [record["command"] for record in self.log.records]
@@ -148,3 +149,41 @@ def test_diagnostics_name_the_lifecycle_state_robot_mode_safety_mode_and_gripper
     status = node.diagnostics.current()
     assert status.level == ERROR and "protective stop" in status.message
     assert status.values["safety mode"] == "3 PROTECTIVE_STOP"
+
+
+# ------------------------------------------------------------------------------------ contact sensing
+CB3_POLYSCOPE = "3.15.7.106331"  # a CB3 controller: no tool_contact, so no contact detection
+
+
+def test_on_a_cb3_goals_are_refused_without_force_threshold_check_naming_it_and_the_version(driver):
+    node = driver(Controller(polyscope=CB3_POLYSCOPE), dry_run=False, robot_ip=ROBOT_IP, gripper="dry_run")
+    assert node.trigger_configure() == SUCCESS and node.trigger_activate() == SUCCESS
+    reason = node.unavailable()
+    assert reason.startswith("guarded descents refused") and "PolyScope 3.15.7" in reason
+    assert "force_threshold_check" in reason
+    status = node.diagnostics.current()
+    assert status.level == ERROR and "force_threshold_check" in status.message
+    assert status.values["PolyScope version"] == CB3_POLYSCOPE
+
+
+def test_on_a_cb3_with_force_threshold_check_goals_are_accepted(driver):
+    node = driver(Controller(polyscope=CB3_POLYSCOPE), dry_run=False, robot_ip=ROBOT_IP, gripper="dry_run",
+                  force_threshold_check=True)
+    assert node.trigger_configure() == SUCCESS and node.trigger_activate() == SUCCESS
+    assert node.unavailable() is None
+    assert node.diagnostics.current().level == OK
+
+
+def test_a_controller_whose_version_cannot_be_read_counts_as_one_without_contact_detection(driver):
+    node = driver(Controller(polyscope=None), dry_run=False, robot_ip=ROBOT_IP, gripper="dry_run")
+    assert node.trigger_configure() == SUCCESS and node.trigger_activate() == SUCCESS
+    assert "PolyScope version is unknown" in node.unavailable()
+    assert node.diagnostics.current().values["PolyScope version"] == "unknown"
+
+
+def test_an_e_series_controller_and_the_dry_run_report_their_version_and_accept_goals(driver):
+    for node in (driver(Controller(polyscope="5.11.1.108318"), dry_run=False, robot_ip=ROBOT_IP,
+                        gripper="dry_run"), driver(dry_run=True)):
+        assert node.trigger_configure() == SUCCESS and node.trigger_activate() == SUCCESS
+        assert node.unavailable() is None
+    assert node.diagnostics.current().values["PolyScope version"] == DRY_RUN_POLYSCOPE

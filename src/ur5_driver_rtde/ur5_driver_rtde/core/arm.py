@@ -26,9 +26,12 @@ it ends, so the driver can stop the arm (stopL) on a cancel or when the connecti
 
 The controller's contact detection needs tool_contact, PolyScope 5.4 or later (e-Series): ur-rtde strips
 its lines from the control script on older controllers (script_client.cpp, removeUnsupportedFunctions),
-and there the contact thread reports a contact at once and nothing stops the move. On a CB3 controller
-a guarded descent therefore runs to its end and is reported as stopped on contact; force_threshold_check
-is the only contact sensing there.
+and there the contact thread reports a contact at once and nothing stops the move. force_threshold_check
+is the only contact sensing there, so the arm is told the controller's PolyScope version (what the
+dashboard server answers, ur-rtde's DashboardClient.polyscopeVersion): below 5.4, or when it could not be
+read, a guarded move starts no contact detection and stops on the TCP force alone, and without
+force_threshold_check guarded moves are refused (`contact_sensing_problem`, `unavailable`: new goals are
+refused naming the version and the parameter).
 
 `control` and `receive` are rtde_control.RTDEControlInterface and rtde_receive.RTDEReceiveInterface, or
 the dry run's recording stand-ins (recording.py): this code cannot tell them apart.
@@ -37,6 +40,7 @@ the dry run's recording stand-ins (recording.py): this code cannot tell them apa
 from __future__ import annotations
 
 import math
+import re
 import time
 
 from impurity_common import cell
@@ -56,11 +60,20 @@ SAFETY_MODES = {1: "NORMAL", 2: "REDUCED", 3: "PROTECTIVE_STOP", 4: "RECOVERY", 
                 13: "SYSTEM_THREE_POSITION_ENABLING_STOP"}
 ROBOT_MODES = {-1: "NO_CONTROLLER", 0: "DISCONNECTED", 1: "CONFIRM_SAFETY", 2: "BOOTING", 3: "POWER_OFF",
                4: "POWER_ON", 5: "IDLE", 6: "BACKDRIVE", 7: "RUNNING", 8: "UPDATING_FIRMWARE"}
+CONTACT_DETECTION_SINCE = (5, 4)  # PolyScope version with URScript's tool_contact (e-Series)
 MOVING_SAFETY_MODES = (1, 2)  # NORMAL, REDUCED: the arm may move
 ROBOT_RUNNING = 7
 SAFETY_STOPS = {3: "protective stop", 4: "safety recovery mode", 5: "safeguard stop", 6: "emergency stop",
                 7: "emergency stop", 8: "safety violation", 9: "safety fault",
                 12: "safeguard stop", 13: "three-position enabling stop"}
+
+
+def polyscope_version(text: str | None) -> tuple[int, int, int] | None:
+    """(major, minor, bugfix) from the dashboard server's answer to PolyscopeVersion, as ur-rtde's
+    DashboardClient.polyscopeVersion returns it ("5.11.1.108318", or the whole answer "URSoftware
+    3.15.7.106331 (Nov 03 2021)" when it finds no such number); None when it holds no version."""
+    match = re.search(r"(\d+)\.(\d+)\.(\d+)", text or "")
+    return None if match is None else (int(match[1]), int(match[2]), int(match[3]))
 
 
 class DriverLost(RuntimeError):
@@ -82,11 +95,16 @@ class MotionCancelled(RuntimeError):
 
 class UrArm:
     def __init__(self, control, receive, *, joint_speed: float = 1.05, joint_acceleration: float = 1.4,
-                 force_threshold_check: bool = False, flange_to_tcp: float = cell.FLANGE_TO_TCP,
-                 poll_period: float = POLL_PERIOD, clock=time.monotonic, sleep=time.sleep):
+                 force_threshold_check: bool = False, polyscope: str | None = None,
+                 flange_to_tcp: float = cell.FLANGE_TO_TCP, poll_period: float = POLL_PERIOD,
+                 clock=time.monotonic, sleep=time.sleep):
         self.control, self.receive = control, receive
         self.joint_speed, self.joint_acceleration = joint_speed, joint_acceleration
         self.force_threshold_check = force_threshold_check
+        self.polyscope = polyscope  # the controller's PolyScope version as read (None: not read)
+        version = polyscope_version(polyscope)
+        # the controller stops a guarded move on contact (tool_contact)
+        self.contact_detection = version is not None and version >= CONTACT_DETECTION_SINCE
         self.flange_to_tcp = flange_to_tcp  # m, the mounted gripper's TCP along tool0 z
         self.poll_period, self._clock, self._sleep = poll_period, clock, sleep
         self.yaw: float | None = None  # last commanded yaw (the wrist turns at most a quarter turn)
@@ -135,16 +153,34 @@ class UrArm:
         if problem is not None:
             raise SafetyStop(problem)
 
+    def contact_sensing_problem(self) -> str | None:
+        """Why guarded moves cannot sense a contact (a controller without contact detection and
+        force_threshold_check off), naming the version and the parameter; None when they can."""
+        if self.contact_detection or self.force_threshold_check:
+            return None
+        version = polyscope_version(self.polyscope)
+        if version is None:
+            controller = f"the controller's PolyScope version is unknown ({self.polyscope or 'not read'})"
+        else:
+            controller = f"the controller runs PolyScope {'.'.join(map(str, version))}"
+        since = ".".join(map(str, CONTACT_DETECTION_SINCE))
+        return (f"guarded descents refused: {controller}, and its contact detection needs PolyScope "
+                f"{since}+ (e-Series); set force_threshold_check to true to stop them on the measured TCP "
+                "force")
+
     def unavailable(self) -> str | None:
-        """Why a new goal must be refused (the controller does not answer, or it is not in normal
-        operation, naming the safety and robot modes), or None."""
+        """Why a new goal must be refused (the controller does not answer, it is not in normal
+        operation, naming the safety and robot modes, or guarded descents cannot sense a contact:
+        contact_sensing_problem), or None. Every primitive's plan has a guarded descent."""
         if not self.connected():
             return "driver_lost: the UR controller does not answer"
         try:
             problem = self.mode_problem()
         except DriverLost as error:
             return f"driver_lost: {error}"
-        return None if problem is None else f"robot not in normal operation: {problem}"
+        if problem is not None:
+            return f"robot not in normal operation: {problem}"
+        return self.contact_sensing_problem()
 
     def prepare(self) -> None:
         """Zero the controller's TCP offset: every pose the driver sends is tool0's (poses.py)."""
@@ -219,10 +255,14 @@ class UrArm:
     def move_linear(self, position, yaw: float, speed: float, acceleration: float,
                     force_threshold: float | None = None, should_stop=lambda: False) -> bool:
         """Straight tool move to the TCP pose (base_link, m, rad) at speed (m/s); with force_threshold
-        (N) the move is guarded: contact detection starts once moveL has been sent. Returns False when
-        a guarded move ended on contact."""
+        (N) the move is guarded: contact detection starts once moveL has been sent (on a controller that
+        has it), and with force_threshold_check the TCP force is watched. Returns False when a guarded
+        move ended on contact. A guarded move without contact sensing is refused (MotionFailed) before
+        anything is sent."""
         self._require_connection("moveL")
         self._require_normal("moveL")
+        if force_threshold is not None and (problem := self.contact_sensing_problem()) is not None:
+            raise MotionFailed(problem)
         start, _ = self.tcp()
         yaw = self._unwrapped_yaw(yaw)
         pose = ur_tool0_pose(position, yaw, self.flange_to_tcp)
@@ -233,9 +273,11 @@ class UrArm:
         self.yaw = yaw
         if force_threshold is None:
             return self._wait("moveL", before, duration, should_stop)
+        force_contact = self._force_contact(force_threshold) if self.force_threshold_check else None
+        if not self.contact_detection:  # the TCP force alone (contact_sensing_problem: it is checked)
+            return self._wait("moveL", before, duration, should_stop, force_contact=force_contact)
         try:
             self._call("startContactDetection", self.control.startContactDetection, DOWN)
-            force_contact = self._force_contact(force_threshold) if self.force_threshold_check else None
             return self._wait("moveL", before, duration, should_stop, self.control.readContactDetection,
                               force_contact)
         finally:

@@ -9,7 +9,8 @@ robot arrives at every commanded pose at once and keeps its connection until tol
 an object only when `contact_height` says where (TCP height in base_link, m): the contact detection started
 after the moveL finds the arm there and reports it (as ur-rtde's control script, which stops the move and
 retracts to the first contact, leaves the arm at the object). The controller stays in safety mode NORMAL
-(1) and robot mode RUNNING (7) unless a test sets the state's `safety_mode` / `robot_mode`.
+(1) and robot mode RUNNING (7) unless a test sets the state's `safety_mode` / `robot_mode`, and reports
+PolyScope `polyscope` (DRY_RUN_POLYSCOPE: an e-Series, with contact detection).
 
 Each record (one JSON object per line of the log file):
     {"seq": 3, "interface": "rtde_control", "command": "moveL",
@@ -33,6 +34,7 @@ from ur5_motion import ur5_kinematics
 from .poses import tcp_from_ur_pose, ur_tool0_pose
 
 MOTION_COMMANDS = ("moveL", "moveJ", "moveJ_IK")
+DRY_RUN_POLYSCOPE = "5.11.1"  # the dry run's controller version (as DashboardClient.polyscopeVersion)
 
 
 class CommandLog:
@@ -278,11 +280,14 @@ class DryRunGripper:
 class DryRunRobot:
     """control + receive (ur-rtde stand-ins) and a gripper sharing one CommandLog and one simulated
     controller. drop_after: the connection drops at motion command number drop_after + 1 (None: never);
-    contact_height: TCP height (m, base_link) where guarded moves meet an object (None: never)."""
+    contact_height: TCP height (m, base_link) where guarded moves meet an object (None: never);
+    polyscope: the controller's PolyScope version, as the dashboard server reports it."""
 
     def __init__(self, log: CommandLog, drop_after: int | None = None, held_width: float = 0.03,
-                 contact_height: float | None = None, flange_to_tcp: float = cell.FLANGE_TO_TCP):
+                 contact_height: float | None = None, flange_to_tcp: float = cell.FLANGE_TO_TCP,
+                 polyscope: str = DRY_RUN_POLYSCOPE):
         self.log = log
+        self.polyscope = polyscope
         self.state = _DryRunState(drop_after, contact_height, flange_to_tcp)
         self.control = DryRunControl(log, self.state)
         self.receive = DryRunReceive(self.state)
