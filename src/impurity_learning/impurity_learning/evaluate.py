@@ -115,8 +115,9 @@ class PerceptionSimCell(SimCell):
         if int(attention.mode) == AttentionMode.TARGET:
             placed = full_mask(attention.mask > 0, attention.crop_origin, height.shape)
             mask, score = (placed if placed.any() else None), float(attention.score)
+        heap = float(attention.score) if int(attention.mode) == AttentionMode.OCCLUDED_REGION else 0.0
         return picking.View(sensed.obs.mode, sensed.maps.color, sensed, height, mask, score,
-                            bool(attention.last_look))
+                            bool(attention.last_look), heap_height=heap)
 
     def execute(self, action: picking.Action) -> picking.Outcome:
         x, y, z = action.position

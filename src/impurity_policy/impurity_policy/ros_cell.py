@@ -273,8 +273,9 @@ class RosCell:
         self._after_what = "the last view"
         color = self._color(attention)
         height, mask = self._height_and_mask(attention, color)
+        heap = float(attention.score) if attention.mode == AttentionResult.MODE_OCCLUDED_REGION else 0.0
         return View(int(attention.mode), color, (attention, primitive), height, mask, float(attention.score),
-                    bool(attention.last_look))
+                    bool(attention.last_look), heap_height=heap)
 
     def decide(self, view: View) -> Action | None:
         attention, primitive = view.source

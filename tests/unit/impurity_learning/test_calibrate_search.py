@@ -117,6 +117,48 @@ def test_evaluation_seeds_are_refused(monkeypatch):
         search.search_jobs(["blocks"], seeds=1)
 
 
+# ------------------------------------------------------------------------------------------- low heaps
+LOW, TALL = 0.05, 0.09  # m: heap heights either side of 2 x 35 mm
+
+
+def heaps(spec, remaining=1):
+    """Views from a string: 'l' a push at a low heap, 'h' at a tall one, 't' a target."""
+    kinds = {"l": (H, LOW), "h": (H, TALL), "t": (T, 0.0)}
+    counts = remaining if isinstance(remaining, list) else [remaining] * len(spec)
+    return [[kinds[c][0], n, kinds[c][1]] for c, n in zip(spec, counts, strict=True)]
+
+
+def test_a_reveal_counts_its_last_pushes_at_low_heaps_in_a_row():
+    assert search.reveal_runs(heaps("hhllt"), low_height=0.07) == [(4, 2)]
+    assert search.reveal_runs(heaps("llhlt"), low_height=0.07) == [(4, 1)]  # a tall heap breaks the low run
+    assert search.reveal_runs(heaps("hhllt")) == [(4, 0)]  # no low height: nothing is low
+
+
+def test_low_heap_pushes_ends_the_search_at_low_heaps_first():
+    views = heaps("hhlllt")
+    assert search.cut_at(views, 5) is None
+    assert search.cut_at(views, 5, k_low=2, low_height=0.07) == 4  # the third low heap in a row
+    assert search.cut_at(views, 5, k_low=3, low_height=0.07) is None
+
+
+LOW_ROWS = [{"scenario": "invisible", "palette": "blocks", "seed": 70_000, "max_actions": 0, "actions": a,
+             "impurities": 1, "remaining_end": 0, "views": v}
+            for a, v in [(3, heaps("hht")), (4, heaps("hlht")), (5, heaps("lllt")),
+                         (6, heaps("tlllll", remaining=[1, 0, 0, 0, 0, 0]))]]
+
+
+def test_the_least_low_heap_pushes_within_the_share_is_chosen_with_search_pushes_fixed():
+    assert search.choose_low_heap_pushes(LOW_ROWS, 5, 0.07, 0.0)[0] == 3  # the reveal after 3 low heaps
+    k_low, table = search.choose_low_heap_pushes(LOW_ROWS, 5, 0.07, 0.25)
+    assert k_low == 1 and table[1]["reveals_left"] == 1  # 1 of 4 left behind, within 25 %
+    assert table[1]["actions_saved"] > table[3]["actions_saved"]  # the clean bin ends sooner
+
+
+def test_with_no_low_height_low_heap_pushes_changes_nothing():
+    k_low, table = search.choose_low_heap_pushes(LOW_ROWS, 5, 0.0, 0.0)
+    assert k_low == 1 and table[1] == search.search_table(LOW_ROWS, [5])[5]
+
+
 # ------------------------------------------------------------------------------------------- the tool
 def write(path, rows):
     path.write_text("\n".join(json.dumps(r) for r in rows) + "\n")
@@ -130,6 +172,8 @@ def test_the_subcommand_writes_the_chosen_search_pushes_and_its_reveals(tmp_path
                  "--max-left-behind", "0.25"]) == 0
     chosen = json.loads((out / "search_pushes.json").read_text())
     assert chosen["search_pushes"] == 3 and chosen["max_left_behind"] == 0.25
+    # views without heap heights are all low: low_heap_pushes is search_pushes
+    assert chosen["low_heap_pushes"] == 3 and chosen["piece_height"] == pytest.approx(0.035)
     assert chosen["reveals"] == [1, 3, 5] and chosen["impurities"] == 4 and chosen["episodes"] == 3
     assert chosen["seeds"] == [70_000] and chosen["palettes"] == ["blocks"]
     assert "search_pushes 3" in capsys.readouterr().out
@@ -163,4 +207,5 @@ def test_a_short_simulated_episode_records_each_decided_view_with_the_truth(tmp_
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
     assert row["seed"] == search.SEARCH_SEED_BASE and row["impurities"] >= 1
     assert 1 <= len(row["views"]) <= 3 and row["actions"] <= 3
-    assert all(mode in (H, T) and 0 <= remaining <= row["impurities"] for mode, remaining in row["views"])
+    assert all(mode in (H, T) and 0 <= remaining <= row["impurities"] for mode, remaining, _ in row["views"])
+    assert all((heap > 0) == (mode == H) for mode, _, heap in row["views"])  # the attended heap's height

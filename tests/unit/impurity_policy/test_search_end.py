@@ -1,7 +1,8 @@
-"""The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes): counted by perception,
-after `search_pushes` pushes in a row at heaps that showed no impurity, the next such view ends the episode
-as "nothing left"; a target in view starts the count over. Counted by truth it never applies (the paper's
-protocol ends on the count). Specified against a scripted cell."""
+"""The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes, low_heap_pushes,
+piece_height): counted by perception, after `search_pushes` pushes in a row at heaps that showed no impurity
+(`low_heap_pushes` at heaps lower than two pieces), the next such view ends the episode as "nothing left"; a
+target in view starts the count over. Counted by truth it never applies (the paper's protocol ends on the
+count). Specified against a scripted cell."""
 
 import pytest
 
@@ -10,20 +11,23 @@ from impurity_policy.core.picking import Action, EpisodeLimits, Outcome, View, r
 from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
 
 OCCLUDED, TARGET = MODE_OCCLUDED_REGION, MODE_TARGET
+TALL, LOW = 0.1, 0.05  # m: heap heights either side of two 35 mm pieces
 
 
 class ScriptedCell:
-    """Attention answers `modes` in turn, then OCCLUDED_REGION for ever; every decision pushes. counts:
-    reset's target count (None: the loop counts by perception)."""
+    """Attention answers `modes` in turn, then OCCLUDED_REGION for ever, each heap `heights` in turn (then
+    TALL); every decision pushes. counts: reset's target count (None: the loop counts by perception)."""
 
-    def __init__(self, modes=(), counts=None):
-        self.modes, self.counts, self.pushes = list(modes), counts, 0
+    def __init__(self, modes=(), counts=None, heights=()):
+        self.modes, self.counts, self.heights, self.pushes = list(modes), counts, list(heights), 0
 
     def reset(self, request):
         return self.counts
 
     def observe(self):
-        return View(self.modes.pop(0) if self.modes else OCCLUDED)
+        mode = self.modes.pop(0) if self.modes else OCCLUDED
+        height = (self.heights.pop(0) if self.heights else TALL) if mode == OCCLUDED else 0.0
+        return View(mode, heap_height=height)
 
     def decide(self, view):
         return Action("push", (0.5, 0.0, 0.02), 0.0, 1.0, 0, (100, 100), view.mode)
@@ -69,7 +73,26 @@ def test_more_search_pushes_cost_more_actions_on_a_clean_bin():
     assert actions == [2, 4, 8]
 
 
+def test_low_heaps_end_the_search_after_low_heap_pushes():
+    summary = run(ScriptedCell(heights=[LOW] * 30), search_pushes=5, low_heap_pushes=2)
+    assert summary["actions"] == 2 and summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+
+
+def test_a_tall_heap_breaks_the_run_of_low_ones_but_not_the_search():
+    # low, low, tall, low, low: never three low in a row; the sixth push in a row ends it
+    summary = run(ScriptedCell(heights=[LOW, LOW, TALL, LOW, LOW, TALL]), search_pushes=5, low_heap_pushes=2)
+    assert summary["actions"] == 5
+
+
+@pytest.mark.parametrize("piece,actions", [(0.035, 2), (0.02, 5)])
+def test_a_heap_is_low_below_two_pieces_of_the_products_height(piece, actions):
+    # a 50 mm heap: low for 35 mm pieces (below 70 mm), not for 20 mm ones (above 40 mm)
+    summary = run(ScriptedCell(heights=[LOW] * 30), search_pushes=5, low_heap_pushes=2, piece_height=piece)
+    assert summary["actions"] == actions
+
+
+@pytest.mark.parametrize("field", ["search_pushes", "low_heap_pushes"])
 @pytest.mark.parametrize("pushes", [0, -2])
-def test_a_count_below_one_is_refused_naming_the_field(pushes):
-    with pytest.raises(ValueError, match="search_pushes"):
-        EpisodeLimits(search_pushes=pushes)
+def test_a_count_below_one_is_refused_naming_the_field(field, pushes):
+    with pytest.raises(ValueError, match=field):
+        EpisodeLimits(**{field: pushes})

@@ -10,6 +10,7 @@ from impurity_policy.core.picking import Action, EpisodeLimits, Outcome, View, r
 from impurity_policy.core.policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TARGET
 
 OCCLUDED, TARGET, NONE = MODE_OCCLUDED_REGION, MODE_TARGET, MODE_NONE
+TALL_HEAP = 0.1  # m: a heap taller than two pieces (EpisodeLimits.piece_height)
 
 
 class StallingCell:
@@ -27,11 +28,11 @@ class StallingCell:
 
     def observe(self):
         self.views += 1
-        return View(self.modes.pop(0) if self.modes else OCCLUDED)
+        return View(self.modes.pop(0) if self.modes else OCCLUDED, heap_height=TALL_HEAP)
 
     def look_closer(self):
         self.looks.append(self.views)
-        return View(self.closer.pop(0) if self.closer else OCCLUDED, source="closer")
+        return View(self.closer.pop(0) if self.closer else OCCLUDED, source="closer", heap_height=TALL_HEAP)
 
     def decide(self, view):
         self.decided.append((view.mode, view.source))

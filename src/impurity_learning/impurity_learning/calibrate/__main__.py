@@ -13,6 +13,8 @@ import json
 import pathlib
 import sys
 
+from impurity_policy.core.episode import DEFAULT_PIECE_HEIGHT
+
 from . import attention_fit, episodes, scenes, search
 from .scenes import CalibrationRefused
 
@@ -165,8 +167,18 @@ def run_search_pushes(args) -> int:
     chosen, _ = search.choose_search_pushes(rows, args.max_left_behind, args.cap)
     print(f"search_pushes {chosen}: the least that leaves at most {args.max_left_behind:.1%} of the "
           f"impurities behind ({table[chosen]['left_behind']:.1%})")
+    low_height = 2.0 * args.piece_height
+    low, low_table = search.choose_low_heap_pushes(rows, chosen, low_height, args.max_left_behind)
+    print(f"low heaps (lower than {low_height * 1000:.0f} mm), search_pushes {chosen}:")
+    print("low_heap_pushes  left_behind  reveals_left  replayed  actions_saved")
+    for k, f in low_table.items():
+        print(f"{k:15d}  {f['left_behind']:11.1%}  {f['reveals_left']:12d}  {f['replayed']:8.1%}  "
+              f"{f['actions_saved']:13.2f}")
+    print(f"low_heap_pushes {low}: the least that keeps it within {args.max_left_behind:.1%} "
+          f"({low_table[low]['left_behind']:.1%})")
     _write_json(args.out / search.RESULT_FILE,
-                {"search_pushes": chosen, "max_left_behind": args.max_left_behind, "reveals": lengths,
+                {"search_pushes": chosen, "low_heap_pushes": low, "piece_height": args.piece_height,
+                 "max_left_behind": args.max_left_behind, "reveals": lengths,
                  "impurities": total, "episodes": len(rows), "seeds": sorted({r["seed"] for r in rows}),
                  "palettes": sorted({r["palette"] for r in rows}),
                  "figures": {str(k): f for k, f in table.items()}})
@@ -277,6 +289,9 @@ def parse_args(argv=None):
                    choices=search.SEARCH_SCENARIOS, help="scenarios run (default all three)")
     p.add_argument("--max-actions", type=int, default=0,
                    help="actions per episode (default 0: the loop's max_actions_uncounted)")
+    p.add_argument("--piece-height", type=float, default=DEFAULT_PIECE_HEIGHT,
+                   help="one piece of your product (m): heaps lower than twice this are low heaps "
+                        f"(episode.piece_height; default {DEFAULT_PIECE_HEIGHT})")
     p.add_argument("--cap", type=int, default=search.SEARCH_PUSHES_CAP,
                    help=f"the largest search_pushes chosen (default {search.SEARCH_PUSHES_CAP})")
     p.set_defaults(run=run_search_pushes)

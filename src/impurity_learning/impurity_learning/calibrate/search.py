@@ -1,7 +1,8 @@
 """The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes), measured on fast-sim
 episodes counted as a real cell counts (evaluate.PerceptionSimCell, the policy with the `cell` rules) with
-the search never ended (search_pushes SEARCH_UNENDED): each view decided on is recorded with the mode
-attention decided on and the simulator's truth (targets remaining in the workspace).
+the search never ended (search_pushes and low_heap_pushes SEARCH_UNENDED): each view decided on is recorded
+with the mode attention decided on, the simulator's truth (targets remaining in the workspace) and the
+attended heap's height (m; 0 but for OCCLUDED_REGION).
 
 A reveal is a run of OCCLUDED_REGION views in a row (pushes at heaps that showed no impurity) that ends in
 a TARGET view while the truth still had a target remaining: a hidden impurity that showed after L pushes.
@@ -13,6 +14,11 @@ Share left behind at K: reveals with L > K over the impurities in all the episod
 replays each episode cut where search_pushes = K would have ended it: the impurities still in the
 workspace there that the unended episode went on to pick (a reveal left behind can take later impurities
 of its episode with it), and the actions saved.
+
+Low heaps (EpisodeLimits.low_heap_pushes): a view at a heap lower than two pieces (2 x --piece-height) is
+low. A reveal whose last L_low pushes were at low heaps is also left behind by low_heap_pushes < L_low; with
+search_pushes chosen, the tool chooses the least low_heap_pushes that keeps the share within
+--max-left-behind.
 
 An episode file is JSON lines, one episode each, appended as episodes finish (a run that stops resumes).
 """
@@ -38,41 +44,52 @@ OCCLUDED, TARGET, NONE = "OCCLUDED_REGION", "TARGET", "NONE"
 
 # ------------------------------------------------------------------------------------------- statistics
 def decided(views) -> list:
-    """The views decided on: (mode, targets remaining) without the NONE views."""
-    return [(mode, remaining) for mode, remaining in views if mode != NONE]
+    """The views decided on: (mode, targets remaining, heap height m) without the NONE views (a view of
+    two fields has heap height 0)."""
+    return [(view[0], view[1], view[2] if len(view) > 2 else 0.0) for view in views if view[0] != NONE]
 
 
-def reveals(views) -> list:
-    """The length of every reveal in one episode's views ((mode, targets remaining) in order): a run of
-    OCCLUDED_REGION views in a row ending in a TARGET view with targets remaining (module docstring)."""
-    found, run = [], 0
-    for mode, remaining in decided(views):
-        if mode == OCCLUDED:
-            run += 1
-            continue
+def _runs(mode: str, heap: float, run: int, low_run: int, low_height: float) -> tuple[int, int]:
+    """The counts (pushes at heaps in a row, the last of them at low heaps in a row) after one view."""
+    if mode != OCCLUDED:
+        return 0, 0
+    return run + 1, low_run + 1 if heap < low_height else 0
+
+
+def reveal_runs(views, low_height: float = 0.0) -> list:
+    """(L, L_low) of every reveal in one episode's views ((mode, targets remaining, heap height) in
+    order): a run of L OCCLUDED_REGION views in a row ending in a TARGET view with targets remaining, the
+    last L_low of them at heaps lower than `low_height` (m) in a row (module docstring)."""
+    found, run, low_run = [], 0, 0
+    for mode, remaining, heap in decided(views):
         if mode == TARGET and run and remaining > 0:
-            found.append(run)
-        run = 0
+            found.append((run, low_run))
+        run, low_run = _runs(mode, heap, run, low_run, low_height)
     return found
 
 
-def cut_at(views, k: int) -> int | None:
-    """The index among the decided views of the one on which search_pushes = k ends the episode (the
-    (k + 1)-th OCCLUDED_REGION view in a row), or None when it never does."""
-    run = 0
-    for index, (mode, _) in enumerate(decided(views)):
-        run = run + 1 if mode == OCCLUDED else 0
-        if run > k:
+def reveals(views) -> list:
+    """The length L of every reveal in one episode's views (reveal_runs)."""
+    return [length for length, _ in reveal_runs(views)]
+
+
+def cut_at(views, k: int, k_low: int | None = None, low_height: float = 0.0) -> int | None:
+    """The index among the decided views of the one on which search_pushes = k (and low_heap_pushes =
+    k_low at heaps lower than `low_height`) ends the episode, or None when it never does."""
+    run = low_run = 0
+    for index, (mode, _, heap) in enumerate(decided(views)):
+        run, low_run = _runs(mode, heap, run, low_run, low_height)
+        if run > k or (k_low is not None and low_run > k_low):
             return index
     return None
 
 
-def replay(row: dict, k: int) -> tuple[int, int]:
-    """(impurities left behind, actions saved) had the recorded episode `row` run with search_pushes = k:
-    those in the workspace where it would have ended that the unended episode picked, and the actions it
-    took from there on."""
+def replay(row: dict, k: int, k_low: int | None = None, low_height: float = 0.0) -> tuple[int, int]:
+    """(impurities left behind, actions saved) had the recorded episode `row` run with search_pushes = k
+    (and low_heap_pushes = k_low): those in the workspace where it would have ended that the unended
+    episode picked, and the actions it took from there on."""
     views = decided(row["views"])
-    cut = cut_at(views, k)
+    cut = cut_at(views, k, k_low, low_height)
     if cut is None:
         return 0, 0
     return max(0, views[cut][1] - row["remaining_end"]), max(0, row["actions"] - cut)
@@ -86,15 +103,25 @@ def search_table(rows, ks) -> dict:
     """{k: {"left_behind": share of the impurities whose reveal needed more than k pushes, "reveals_left":
     their count, "replayed": share left behind replaying the episodes (replay), "actions_saved": mean
     actions saved per episode}}. ValueError when the episodes hold no impurity."""
+    return _table(rows, [(k, None) for k in ks], 0.0, key=0)
+
+
+def low_heap_table(rows, search_pushes: int, low_height: float, k_lows) -> dict:
+    """search_table's figures per low_heap_pushes k_low in `k_lows`, with search_pushes fixed and low heaps
+    lower than `low_height` (m)."""
+    return _table(rows, [(search_pushes, k_low) for k_low in k_lows], low_height, key=1)
+
+
+def _table(rows, pairs, low_height: float, key: int) -> dict:
     total = impurities(rows)
     if total <= 0:
         raise ValueError("no impurity in the episodes: run more episodes")
-    lengths = [length for row in rows for length in reveals(row["views"])]
+    runs = [pair for row in rows for pair in reveal_runs(row["views"], low_height)]
     table = {}
-    for k in ks:
-        replayed = [replay(row, k) for row in rows]
-        left = sum(length > k for length in lengths)
-        table[k] = {"left_behind": left / total, "reveals_left": left,
+    for k, k_low in pairs:
+        replayed = [replay(row, k, k_low, low_height) for row in rows]
+        left = sum(length > k or (k_low is not None and low > k_low) for length, low in runs)
+        table[(k, k_low)[key]] = {"left_behind": left / total, "reveals_left": left,
                     "replayed": sum(lost for lost, _ in replayed) / total,
                     "actions_saved": sum(saved for _, saved in replayed) / max(len(rows), 1)}
     return table
@@ -110,6 +137,17 @@ def choose_search_pushes(rows, max_left_behind: float, cap: int = SEARCH_PUSHES_
     worst = max(length for row in rows for length in reveals(row["views"]))
     raise ValueError(f"no search_pushes up to {cap} leaves at most {max_left_behind:.1%} of the impurities "
                      f"behind (a reveal needed {worst} pushes): raise --max-left-behind or --cap")
+
+
+def choose_low_heap_pushes(rows, search_pushes: int, low_height: float, max_left_behind: float) -> tuple:
+    """(the least low_heap_pushes in 1 ... search_pushes whose share left behind, with search_pushes and low
+    heaps lower than `low_height`, is at most max_left_behind, the table); search_pushes itself when no
+    smaller one is (low heaps then searched as long as any)."""
+    table = low_heap_table(rows, search_pushes, low_height, range(1, search_pushes + 1))
+    for k_low, figures in table.items():
+        if figures["left_behind"] <= max_left_behind + 1e-12:
+            return k_low, table
+    return search_pushes, table
 
 
 # ------------------------------------------------------------------------------------------ the episodes
@@ -129,8 +167,8 @@ def key_of(row: dict) -> tuple:
 
 def collect_search_episodes(jobs: list, out: pathlib.Path, checkpoint, params, max_actions: int = 0,
                             progress: bool = True) -> None:
-    """Run the jobs (attention `params`, search_pushes SEARCH_UNENDED, max_actions 0: the loop's default)
-    and append each episode's decided views to `out` (jobs already there are skipped)."""
+    """Run the jobs (attention `params`, search_pushes and low_heap_pushes SEARCH_UNENDED, max_actions 0:
+    the loop's default) and append each episode's decided views to `out` (jobs already there are skipped)."""
     from tqdm import tqdm
 
     from impurity_common.enums import AttentionMode
@@ -142,21 +180,23 @@ def collect_search_episodes(jobs: list, out: pathlib.Path, checkpoint, params, m
     from ..evaluate import PerceptionSimCell, _reraise
 
     class RecordingCell(PerceptionSimCell):
-        """Records each view decided on: attention's mode and the targets remaining in the workspace."""
+        """Records each view decided on: attention's mode, the targets remaining in the workspace and the
+        attended heap's height (m)."""
 
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
             self.views = []
 
         def decide(self, view):
-            self.views.append([AttentionMode(int(view.mode)).name, int(self.truth().targets_remaining)])
+            self.views.append([AttentionMode(int(view.mode)).name, int(self.truth().targets_remaining),
+                               round(float(view.heap_height), 4)])
             return super().decide(view)
 
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {key_of(row) for row in read_episodes([out])} if out.exists() else set()
     world = CellWorld(mode="floating")
     agent = make_agent("ours", pathlib.Path(checkpoint), "cell")
-    limits = picking.EpisodeLimits(search_pushes=SEARCH_UNENDED)
+    limits = picking.EpisodeLimits(search_pushes=SEARCH_UNENDED, low_heap_pushes=SEARCH_UNENDED)
     try:
         with out.open("a") as sink:
             for scenario, palette, seed in tqdm(jobs, desc="search episodes", disable=not progress):

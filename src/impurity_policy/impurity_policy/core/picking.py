@@ -55,7 +55,9 @@ Two ways to count:
   (EpisodeLimits.search_pushes): a heap that hides an impurity shows it after a few pushes, so once
   `search_pushes` views in a row have been pushes at heaps with no impurity in view (a stall look
   included), the next such view ends the episode "no_target_or_cluster_left" too: the bin is taken as
-  clean. A last look (View.last_look) is
+  clean. Low heaps, lower than two pieces (2 x EpisodeLimits.piece_height), are searched more
+  briefly: after `low_heap_pushes` pushes in a row at them the next such view ends it as well. A last
+  look (View.last_look) is
   acted on until one was in vain (answered by a push, or by a grasp its verdict says lifted no impurity);
   after that a last look counts as NONE. A grasp that lifts a product piece the verdict takes for an
   impurity does not stop them. With a cell that offers truth()
@@ -83,9 +85,11 @@ from .episode import (
     COUNTED_BY_PERCEPTION,
     COUNTED_BY_TRUTH,
     DEFAULT_ACTIONS_PER_TARGET,
+    DEFAULT_LOW_HEAP_PUSHES,
     DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
     DEFAULT_NONE_FRAMES_TO_FINISH,
+    DEFAULT_PIECE_HEIGHT,
     DEFAULT_SEARCH_PUSHES,
     TERMINATION_ACTION_LIMIT,
     TERMINATION_CANCELED,
@@ -149,7 +153,9 @@ class View:
     (TARGET only, else None); target_score: its saliency contrast (inf when not given), recorded with a
     judged grasp; color, height and target_mask let the next view judge a grasp (core/verdict.py);
     source: the adapter's own data (attention result, sensed state); last_look: a TARGET attention gave as
-    a last look (AttentionResult.last_look: no heap left, no region judged an impurity)."""
+    a last look (AttentionResult.last_look: no heap left, no region judged an impurity); heap_height:
+    OCCLUDED_REGION only, the attended heap's height (m, attention's cluster height: AttentionResult.score),
+    0 otherwise."""
 
     mode: int
     color: np.ndarray | None = None
@@ -158,6 +164,7 @@ class View:
     target_mask: np.ndarray | None = None
     target_score: float = float("inf")  # TARGET: attention's saliency contrast (AttentionResult.score)
     last_look: bool = False
+    heap_height: float = 0.0  # OCCLUDED_REGION: the attended heap's height (m)
 
 
 @dataclass
@@ -233,6 +240,12 @@ class EpisodeLimits:
                                "that showed no impurity after which the bin is taken as clean (the end of "
                                "the search, module docstring); more leaves fewer hidden impurities behind "
                                "and costs more actions", low=1, high=1000)
+    low_heap_pushes: int = param(DEFAULT_LOW_HEAP_PUSHES, "Counting by perception: the same for pushes in "
+                                 "a row at low heaps, lower than two pieces (2 x piece_height)",
+                                 low=1, high=1000)
+    piece_height: float = param(DEFAULT_PIECE_HEIGHT, "Height of one piece of the product (m): a heap lower "
+                                "than twice this is a low heap (low_heap_pushes); set it to your product's",
+                                low=0.001, high=0.5)
 
     def __post_init__(self):
         check_fields(self)
@@ -432,6 +445,7 @@ class _Episode:
             self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
         none_views = 0
         searched = 0  # OCCLUDED_REGION views in a row decided on: pushes at heaps that showed no impurity
+        searched_low = 0  # the last of them in a row at low heaps (lower than 2 x piece_height)
         view = None
         looked_in_vain = False  # a last look was in vain (see below): later last looks count as NONE
         while True:
@@ -453,7 +467,9 @@ class _Episode:
             none_views = 0
             view = self._stall_look(view)
             searched = searched + 1 if view.mode == AttentionMode.OCCLUDED_REGION else 0
-            if searched > limits.search_pushes:
+            low = searched and view.heap_height < 2.0 * limits.piece_height
+            searched_low = searched_low + 1 if low else 0
+            if searched > limits.search_pushes or searched_low > limits.low_heap_pushes:
                 return TERMINATION_NOTHING_LEFT
             action = cell.decide(view)
             if action is None:
