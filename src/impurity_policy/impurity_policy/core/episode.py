@@ -36,9 +36,9 @@ DEFAULT_NONE_FRAMES_TO_FINISH = 3
 DEFAULT_SEARCH_PUSHES = 5
 # The same for low heaps, lower than two pieces of DEFAULT_PIECE_HEIGHT. On tuning seeds 5000-5015 (default
 # palette, 16 episodes per scenario, cut where the rule would end them, as `python -m impurity_learning.
-# calibrate search-pushes` replays them): 3 leaves behind what 5
-# alone does (2 of 32 impurities in invisible scenes, none elsewhere) and cuts the actions from 9.3 / 12.0 /
-# 15.6 to 7.6 / 9.5 / 14.6 (random / challenging / invisible) and clean scenes from 5.0 to 3.1; 2 left 3 of 32.
+# calibrate search-pushes` replays them): 3 leaves behind what 5 alone does (2 of 32 impurities in invisible
+# scenes, none elsewhere) and cuts the actions from 9.3 / 12.0 / 15.6 to 7.6 / 9.5 / 14.6 (random /
+# challenging / invisible) and clean scenes from 5.0 to 3.1; 2 left 3 of 32.
 DEFAULT_LOW_HEAP_PUSHES = 3
 # One piece of the product (m): the simulator's blocks stand 30-45 mm (ur5_driver_sim.core.scenes), so a low
 # heap is lower than 70 mm; low heaps of 60-75 mm gave the same figures on those episodes.
