@@ -72,12 +72,26 @@ class RaceFreeActionClient(ActionClient):
         had registered it. Feedback and status messages record which goals the server knows."""
         with self._registration_lock:
             pass
+        if "goal" in taken_data and self._late_response_of_adopted_goal(*taken_data["goal"]):
+            taken_data = {key: value for key, value in taken_data.items() if key != "goal"}
         if "feedback" in taken_data:
             self._heard.add(bytes(taken_data["feedback"].goal_id.uuid))
         if "status" in taken_data:
             self._heard.update(bytes(status.goal_info.goal_id.uuid)
                                for status in taken_data["status"].status_list)
         return await super().execute(taken_data)
+
+    def _late_response_of_adopted_goal(self, sequence_number, response) -> bool:
+        """Whether this goal response belongs to a goal already followed without it (adopt_accepted_goal): its
+        request's future gets the adopted handle, and rclpy, which would take the response for a second goal
+        of the same id and raise, never sees it."""
+        goal_id = self._goal_sequence_number_to_goal_id.get(sequence_number)
+        adopted = self._goal_handles.get(bytes(goal_id.uuid)) if goal_id is not None else None
+        handle = adopted() if adopted is not None else None
+        if handle is None or not response.accepted:
+            return False
+        self._pending_goal_requests[sequence_number].set_result(handle)
+        return True
 
     def heard_of(self, goal_uuid) -> bool:
         """Whether the server has published feedback or status about this goal (a unique_identifier_msgs

@@ -237,3 +237,22 @@ def test_send_goal_following_gives_none_when_the_server_says_nothing(spinning):
     assert client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=1.0,
                                       on_adopt=lambda: adopted.append(True)) is None
     assert adopted == []
+
+
+def test_a_goal_response_that_comes_after_its_goal_was_followed_is_taken_as_that_goals(spinning):
+    def execute(goal_handle):
+        goal_handle.publish_feedback(ExecutePrimitive.Feedback())
+        goal_handle.succeed()
+        return ExecutePrimitive.Result(success=True)
+
+    client = client_of_a_server_dropping_goal_responses(spinning, "late_response", execute)
+    handle = client.send_goal_following(ExecutePrimitive.Goal(), polling_wait, answer_timeout=ANSWER_TIMEOUT)
+    assert handle is not None and handle.accepted  # followed without its response
+    (sequence_number,) = [n for n, goal_id in client._goal_sequence_number_to_goal_id.items()
+                          if bytes(goal_id.uuid) == bytes(handle.goal_id.uuid)]
+    late = ExecutePrimitive.Impl.SendGoalService.Response(accepted=True)
+    step = client.execute({"goal": (sequence_number, late)})  # the response a loaded machine delivered late
+    with pytest.raises(StopIteration):  # rclpy alone raises "Two goals were accepted with the same ID"
+        step.send(None)
+    assert client._pending_goal_requests.get(sequence_number) is None or \
+        client._pending_goal_requests[sequence_number].result() is handle
