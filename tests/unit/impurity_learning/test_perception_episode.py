@@ -11,7 +11,8 @@ import pytest
 from impurity_learning.agents import make_agent
 from impurity_learning.evaluate import PerceptionSimCell, run_episode
 from impurity_policy.core.checkpoint import SHIPPED_CHECKPOINT
-from impurity_policy.core.episode import EpisodeRecorder, EpisodeRequest
+from impurity_policy.core.episode import TERMINATION_NOTHING_LEFT, EpisodeRecorder, EpisodeRequest
+from impurity_policy.core.picking import EpisodeLimits
 from impurity_policy.core.verdict import GripperReport, judge_grasp
 from ur5_driver_sim.core.world import CellWorld
 
@@ -94,3 +95,16 @@ def test_rendered_views_at_another_exposure_judge_an_untouched_impurity_stays_an
                              exposed(after.color, factor),
                              GripperReport(outcome.holding, outcome.gripper_opening))
         assert lifted.impurity_picked, (factor, lifted.reason)
+
+
+@pytest.mark.parametrize("scenario,seed", [("random", 70_020), ("challenging", 70_021)])
+def test_a_clean_scene_counted_by_perception_ends_nothing_left_well_within_the_action_limit(world, scenario,
+                                                                                           seed):
+    # no impurity anywhere: the end of the search takes the bin as clean after a few pushes at its heaps
+    # (EpisodeLimits.search_pushes, low_heap_pushes) instead of pushing product to the 30-action limit
+    limits = EpisodeLimits()
+    summary = run_episode(world, make_agent("ours", SHIPPED_CHECKPOINT, "cell"),
+                          EpisodeRequest(scenario, seed=seed, num_targets=0), limits, by_perception=True)
+    assert summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+    assert summary["actions"] <= limits.search_pushes + 2  # a last look or two beside the search
+    assert summary["truth_product_lifted"] == 0

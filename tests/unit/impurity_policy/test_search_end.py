@@ -4,6 +4,7 @@ piece_height): counted by perception, after `search_pushes` pushes in a row at h
 target in view starts the count over. Counted by truth it never applies (the paper's protocol ends on the
 count). Specified against a scripted cell."""
 
+import numpy as np
 import pytest
 
 from impurity_policy.core.episode import TERMINATION_ACTION_LIMIT, TERMINATION_NOTHING_LEFT, EpisodeRequest
@@ -96,3 +97,36 @@ def test_a_heap_is_low_below_two_pieces_of_the_products_height(piece, actions):
 def test_a_count_below_one_is_refused_naming_the_field(field, pushes):
     with pytest.raises(ValueError, match=field):
         EpisodeLimits(**{field: pushes})
+
+
+# ----------------------------------------------------------------------- on heightmaps, through attention
+def heap_view(layers: int, piece: float = 0.05):
+    """Attention's view of a product-only heightmap: a 6 x 6 grid of `piece`-tall blocks (45 mm pitch, one
+    colour) with `layers` of them in the middle four (a stack), as the episode node receives it."""
+    from impurity_attention.core.attention import attend
+
+    color = np.full((224, 224, 3), 60, np.uint8)
+    height = np.zeros((224, 224), np.float32)
+    for row in range(6):
+        for col in range(6):
+            r, c = 50 + row * 22, 50 + col * 22
+            stacked = 2 <= row <= 3 and 2 <= col <= 3
+            height[r:r + 18, c:c + 18] = piece * (layers if stacked else 1)
+            color[r:r + 18, c:c + 18] = (150, 120, 90)
+    output = attend(color, height)
+    assert output.mode == OCCLUDED  # product only: a heap, no target
+    return View(int(output.mode), heap_height=float(output.score))
+
+
+@pytest.mark.parametrize("layers,actions", [(1, 2), (3, 5)])
+def test_one_layer_of_pieces_is_a_low_heap_and_a_stack_is_searched_longer(layers, actions):
+    # 50 mm pieces: one layer stands lower than two pieces (a low heap), a stack of three does not
+    view = heap_view(layers)
+    assert (view.heap_height < 0.1) == (layers == 1)
+
+    class Cell(ScriptedCell):
+        def observe(self):
+            return view
+
+    summary = run(Cell(), search_pushes=5, low_heap_pushes=2, piece_height=0.05)
+    assert summary["actions"] == actions and summary["termination_reason"] == TERMINATION_NOTHING_LEFT
