@@ -14,6 +14,7 @@ import pathlib
 import sys
 
 from impurity_policy.core.episode import DEFAULT_PIECE_HEIGHT
+from impurity_policy.core.picking import low_heap_height
 
 from . import attention_fit, episodes, scenes, search
 from .scenes import CalibrationRefused
@@ -167,7 +168,7 @@ def run_search_pushes(args) -> int:
     chosen, _ = search.choose_search_pushes(rows, args.max_left_behind, args.cap)
     print(f"search_pushes {chosen}: the least that leaves at most {args.max_left_behind:.1%} of the "
           f"impurities behind ({table[chosen]['left_behind']:.1%})")
-    low_height = 2.0 * args.piece_height
+    low_height = low_heap_height(args.piece_height)
     low, low_table = search.choose_low_heap_pushes(rows, chosen, low_height, args.max_left_behind)
     print(f"low heaps (lower than {low_height * 1000:.0f} mm), search_pushes {chosen}:")
     print("low_heap_pushes  left_behind  reveals_left  replayed  actions_saved")

@@ -29,6 +29,8 @@ import itertools
 import json
 import pathlib
 
+from impurity_policy.core.picking import SearchRun
+
 from .episodes import read_episodes
 from .scenes import check_palettes, check_seeds
 
@@ -49,22 +51,15 @@ def decided(views) -> list:
     return [(view[0], view[1], view[2] if len(view) > 2 else 0.0) for view in views if view[0] != NONE]
 
 
-def _runs(mode: str, heap: float, run: int, low_run: int, low_height: float) -> tuple[int, int]:
-    """The counts (pushes at heaps in a row, the last of them at low heaps in a row) after one view."""
-    if mode != OCCLUDED:
-        return 0, 0
-    return run + 1, low_run + 1 if heap < low_height else 0
-
-
 def reveal_runs(views, low_height: float = 0.0) -> list:
     """(L, L_low) of every reveal in one episode's views ((mode, targets remaining, heap height) in
     order): a run of L OCCLUDED_REGION views in a row ending in a TARGET view with targets remaining, the
     last L_low of them at heaps lower than `low_height` (m) in a row (module docstring)."""
-    found, run, low_run = [], 0, 0
+    found, run = [], SearchRun()
     for mode, remaining, heap in decided(views):
-        if mode == TARGET and run and remaining > 0:
-            found.append((run, low_run))
-        run, low_run = _runs(mode, heap, run, low_run, low_height)
+        if mode == TARGET and run.pushes and remaining > 0:
+            found.append((run.pushes, run.low))
+        run.add(mode == OCCLUDED, heap, low_height)
     return found
 
 
@@ -76,10 +71,10 @@ def reveals(views) -> list:
 def cut_at(views, k: int, k_low: int | None = None, low_height: float = 0.0) -> int | None:
     """The index among the decided views of the one on which search_pushes = k (and low_heap_pushes =
     k_low at heaps lower than `low_height`) ends the episode, or None when it never does."""
-    run = low_run = 0
+    run = SearchRun()
     for index, (mode, _, heap) in enumerate(decided(views)):
-        run, low_run = _runs(mode, heap, run, low_run, low_height)
-        if run > k or (k_low is not None and low_run > k_low):
+        run.add(mode == OCCLUDED, heap, low_height)
+        if run.over(k, k_low):
             return index
     return None
 

@@ -251,6 +251,31 @@ class EpisodeLimits:
         check_fields(self)
 
 
+def low_heap_height(piece_height: float) -> float:
+    """The height (m) below which a heap is a low heap: two pieces of `piece_height` m."""
+    return 2.0 * piece_height
+
+
+@dataclass
+class SearchRun:
+    """The end of the search's counts (module docstring), as the loop keeps them over the views it decides
+    on: pushes in a row at heaps that showed no impurity, and the last of them in a row at low heaps."""
+
+    pushes: int = 0
+    low: int = 0
+
+    def add(self, occluded: bool, heap_height: float, low_height: float) -> None:
+        """Count one view decided on: an OCCLUDED_REGION view at a heap `heap_height` m high (low below
+        `low_height` m), or any other view, which starts both counts over."""
+        self.pushes = self.pushes + 1 if occluded else 0
+        self.low = self.low + 1 if occluded and heap_height < low_height else 0
+
+    def over(self, search_pushes: int, low_heap_pushes: int | None) -> bool:
+        """Whether the search ends here: more than `search_pushes` in a row, or more than `low_heap_pushes`
+        (None: no such limit) at low heaps."""
+        return self.pushes > search_pushes or (low_heap_pushes is not None and self.low > low_heap_pushes)
+
+
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
                 message: str | None = None, verdict: GraspVerdict | None = None,
                 truth_target_grasped: bool | None = None, target_score: float = -1.0) -> StepRecord:
@@ -444,8 +469,7 @@ class _Episode:
         if self.recorder is not None:
             self.recorder.write_start(self.request, -1, tracker.max_actions, clock_ns() if clock_ns else 0)
         none_views = 0
-        searched = 0  # OCCLUDED_REGION views in a row decided on: pushes at heaps that showed no impurity
-        searched_low = 0  # the last of them in a row at low heaps (lower than 2 x piece_height)
+        searched = SearchRun()
         view = None
         looked_in_vain = False  # a last look was in vain (see below): later last looks count as NONE
         while True:
@@ -466,10 +490,9 @@ class _Episode:
                 continue
             none_views = 0
             view = self._stall_look(view)
-            searched = searched + 1 if view.mode == AttentionMode.OCCLUDED_REGION else 0
-            low = searched and view.heap_height < 2.0 * limits.piece_height
-            searched_low = searched_low + 1 if low else 0
-            if searched > limits.search_pushes or searched_low > limits.low_heap_pushes:
+            searched.add(view.mode == AttentionMode.OCCLUDED_REGION, view.heap_height,
+                         low_heap_height(limits.piece_height))
+            if searched.over(limits.search_pushes, limits.low_heap_pushes):
                 return TERMINATION_NOTHING_LEFT
             action = cell.decide(view)
             if action is None:
