@@ -31,9 +31,10 @@ policy.pt); a
 method without a checkpoint is listed as not trained, with the command that trains it.
 
 With palette groups (generalisation.py), the same rows also run `--group-episodes` episodes per
-scenario on the tuning and held-out palettes, and the attention module alone is measured on rendered
-scenes of every group: docs/generalisation.md, docs/images/generalisation.png and
-docs/images/generalisation_scenes.png.
+scenario on the tuning and held-out palettes, counted as --count says (with perception, as many clean
+scenes of the group's palettes too; their rows in the perception section name the group), and the
+attention module alone is measured on rendered scenes of every group: docs/generalisation.md,
+docs/images/generalisation.png and docs/images/generalisation_scenes.png.
 
     python -m impurity_learning.eval_cli --episodes 20
     python -m impurity_learning.eval_cli --methods ours s_rgm --scenarios random --episodes 3
@@ -704,10 +705,12 @@ def _main(argv=None) -> int:
               *scene_set)
              for count, n in [(c, args.episodes) for c in counts] + [("clean", args.clean_scenes)]
              for scenario in args.scenarios for row, checkpoint in runnable.items() for k in range(n)]
+    group_counts = counts + (["clean"] if args.count != "truth" else [])  # a group's clean scenes as many
     tasks += [(row, checkpoint, scenario, args.seed_base + k, args.threads, args.device, group,
-               generalisation.palette_for(group, k + args.group_palette_offset), "truth", *scene_set)
-              for group in groups if group != "default" for scenario in args.scenarios
-              for row, checkpoint in runnable.items() for k in range(args.group_episodes)]
+               generalisation.palette_for(group, k + args.group_palette_offset), count, *scene_set)
+              for group in groups if group != "default" for count in group_counts
+              for scenario in args.scenarios for row, checkpoint in runnable.items()
+              for k in range(args.group_episodes)]
     journal = pathlib.Path(args.journal or pathlib.Path(args.json).with_suffix(".partial.jsonl"))
     if args.no_resume:
         journal.unlink(missing_ok=True)
@@ -731,9 +734,15 @@ def _main(argv=None) -> int:
                 results[row]["groups"].setdefault(group, {})[scenario] = aggregate(
                     [e for e in mine if e["group"] == group])
             results[row]["episodes"] += mine
-        counted = [e for e in by_perception if e["row"] == row]
-        if counted:
-            results[row]["by_perception"] = perception_figures.by_scenario(counted, args.scenarios)
+        for group in groups:
+            counted = [e for e in by_perception if e["row"] == row and e["group"] == group]
+            if not counted:
+                continue
+            figures = perception_figures.by_scenario(counted, args.scenarios)
+            if group == "default":
+                results[row]["by_perception"] = figures
+            else:
+                results[row].setdefault("by_perception_groups", {})[group] = figures
     perception_started = time.perf_counter()
     from ur5_driver_sim.core.world import CellWorld
 
@@ -767,7 +776,8 @@ def _main(argv=None) -> int:
     plot_results(results, rows, args.scenarios, chart)
     write_markdown(results, rows, args.scenarios, markdown, chart, command.strip())
     if by_perception:
-        section = perception_figures.perception_section(results, rows, args.scenarios, label)
+        section = perception_figures.perception_section(results, rows, args.scenarios, label,
+                                                        generalisation.GROUP_LABELS)
         with open(markdown, "a") as out:
             out.write(f"\n{section}\n")
     gen_path, gen_chart = pathlib.Path(args.generalisation), pathlib.Path(args.generalisation_chart)
@@ -783,7 +793,8 @@ def _main(argv=None) -> int:
     print(table)
     print(generalisation.table(results, rows, args.scenarios, groups, label))
     if by_perception:
-        print(perception_figures.perception_section(results, rows, args.scenarios, label))
+        print(perception_figures.perception_section(results, rows, args.scenarios, label,
+                                                    generalisation.GROUP_LABELS))
     gen = results["_generalisation"]["seconds"]
     print(f"eval: wrote {markdown}, {chart}, {raw}, {gen_path}, {gen_chart}, {pictures}; episodes "
           f"{gen['episodes']:.0f} s, perception {gen['perception']:.0f} s", file=sys.stderr)

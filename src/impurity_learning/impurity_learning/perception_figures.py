@@ -3,7 +3,9 @@ real cell counts: attention's NONE ends the episode, and the simulator's truth i
 
 Per row and scenario, over episodes (each a run_episode summary with its truth audit): impurities picked
 and left behind by truth, product pieces lifted (grasps that lifted something but no target, by truth),
-actions, action efficiency by truth (picked / actions, %), each as a mean with a 95 % t interval over
+actions, action efficiency by truth (picked / actions, %), grasp success by truth (grasps that removed an
+impurity / grasps, %; 0 in an episode without a grasp, as the truth count's episode.EpisodeTracker
+counts it), each as a mean with a 95 % t interval over
 episodes, and how the episodes ended: the cell's own "nothing left", the action limit, or otherwise
 (repeated failures, an error). Scenes without any impurity (clean scenes) give actions and product lifted.
 
@@ -55,7 +57,8 @@ def product_lifted(steps) -> int:
 
 def perception_figures(episodes: list) -> dict:
     """Figures of episodes counted by perception on scenes with impurities: episodes, picked, left,
-    product_lifted, actions, efficiency (% by truth) as mean_interval dicts per scene, picked_total and
+    product_lifted, actions, efficiency (% by truth) as mean_interval dicts per scene, grasp_success (% by
+    truth, per episode, as the truth count's), picked_total and
     targets_total (by truth) and ended ({ENDINGS: episodes})."""
     picked = [e["truth_targets_picked"] for e in episodes]
     return {"episodes": len(episodes), "picked": mean_interval(picked),
@@ -64,6 +67,8 @@ def perception_figures(episodes: list) -> dict:
             "actions": mean_interval(e["actions"] for e in episodes),
             "efficiency": mean_interval(100.0 * e["truth_targets_picked"] / e["actions"] if e["actions"]
                                         else 0.0 for e in episodes),
+            "grasp_success": mean_interval(100.0 * e["truth_targets_picked"] / e["grasp_attempts"]
+                                           if e["grasp_attempts"] else 0.0 for e in episodes),
             "picked_total": int(sum(picked)),
             "targets_total": int(sum(e["truth_targets_total"] for e in episodes)),
             "ended": endings(episodes)}
@@ -108,34 +113,46 @@ def ended(counts: dict) -> str:
     return " / ".join(str(counts[k]) for k in ENDINGS)
 
 
-def perception_section(results: dict, rows, scenarios, label) -> str:
-    """Markdown section of the figures in results[row]["by_perception"] ("scenarios", "clean_scenes"):
-    a table of scenes with impurities and, when any ran, one of clean scenes; label(row) names a row."""
+def counted_groups(entry: dict) -> list:
+    """[(group, by_scenario figures)] of one row's results: the default palette's ("by_perception") first,
+    then each other palette group's ("by_perception_groups")."""
+    groups = [("default", entry.get("by_perception"))] + list(entry.get("by_perception_groups", {}).items())
+    return [(group, counted) for group, counted in groups if counted]
+
+
+def perception_section(results: dict, rows, scenarios, label, group_labels=None) -> str:
+    """Markdown section of the figures in results[row]["by_perception"] ("scenarios", "clean_scenes") and
+    results[row]["by_perception_groups"][group] (other palette groups): a table of scenes with impurities
+    and, when any ran, one of clean scenes; label(row) names a row, group_labels[group] a palette group
+    (default: its name) after the row's label, the default palette's rows without it."""
     lines = ["## Counted by perception", "",
              "The same episodes (rows, scenarios, seeds) counted as a real cell counts: no target count "
              "reaches the loop, attention's NONE ends the episode, grasps are judged by perception. Picked, "
-             "left and product lifted are the simulator's truth recorded beside the verdicts. Figures are "
-             "means per scene with a 95 % t interval over episodes in brackets (Student's t, n - 1 degrees "
-             "of freedom; – with fewer than two); ended: episodes ended by the cell's own \"nothing left\" / "
-             "at the action limit / otherwise (repeated failures).", "",
+             "left, product lifted and grasp success are the simulator's truth recorded beside the verdicts. "
+             "Figures are means per scene with a 95 % t interval over episodes in brackets (Student's t, "
+             "n - 1 degrees of freedom; – with fewer than two); ended: episodes ended by the cell's own "
+             "\"nothing left\" / at the action limit / otherwise (repeated failures).", "",
              "| Method | Scenario | Episodes | Impurities picked | Left behind | Product lifted | Actions | "
-             "Action efficiency, % | Ended: nothing left / limit / other |",
-             "|---|---|---|---|---|---|---|---|---|"]
+             "Action efficiency, % | Grasp success, % | Ended: nothing left / limit / other |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
     clean = []
     for row in rows:
-        counted = results[row].get("by_perception") if not results[row].get("missing") else None
-        if not counted:
+        if results[row].get("missing"):
             continue
-        for scenario in scenarios:
-            f = counted["scenarios"].get(scenario)
-            if f and f["episodes"]:
-                lines.append(f"| {label(row)} | {scenario} | {f['episodes']} | {shown(f['picked'], 2)} | "
-                             f"{shown(f['left'], 2)} | {shown(f['product_lifted'], 2)} | "
-                             f"{shown(f['actions'])} | {shown(f['efficiency'])} | {ended(f['ended'])} |")
-            c = counted["clean_scenes"].get(scenario)
-            if c and c["episodes"]:
-                clean.append(f"| {label(row)} | {scenario} | {c['episodes']} | {shown(c['actions'])} | "
-                             f"{shown(c['product_lifted'], 2)} | {ended(c['ended'])} |")
+        for group, counted in counted_groups(results[row]):
+            name = label(row) if group == "default" else \
+                f"{label(row)} · {(group_labels or {}).get(group, group)}"
+            for scenario in scenarios:
+                f = counted["scenarios"].get(scenario)
+                if f and f["episodes"]:
+                    lines.append(f"| {name} | {scenario} | {f['episodes']} | {shown(f['picked'], 2)} | "
+                                 f"{shown(f['left'], 2)} | {shown(f['product_lifted'], 2)} | "
+                                 f"{shown(f['actions'])} | {shown(f['efficiency'])} | "
+                                 f"{shown(f['grasp_success'])} | {ended(f['ended'])} |")
+                c = counted["clean_scenes"].get(scenario)
+                if c and c["episodes"]:
+                    clean.append(f"| {name} | {scenario} | {c['episodes']} | {shown(c['actions'])} | "
+                                 f"{shown(c['product_lifted'], 2)} | {ended(c['ended'])} |")
     if clean:
         lines += ["", "**Clean scenes (no impurity), counted by perception**", "",
                   "| Method | Scenario | Scenes | Actions | Product lifted | "

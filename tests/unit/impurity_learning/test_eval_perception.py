@@ -20,11 +20,13 @@ from impurity_policy.core.episode import StepRecord
 
 
 def record(picked, total, actions, reason="no_target_or_cluster_left", lifted=0, scenario="random",
-           clean=False) -> dict:
-    """A perception-counted episode's record, as eval_cli.run_task writes it (the figures' fields only)."""
+           clean=False, grasps=None) -> dict:
+    """A perception-counted episode's record, as eval_cli.run_task writes it (the figures' fields only);
+    grasps: grasp attempts (default: one per impurity picked)."""
     return {"scenario": scenario, "clean_scene": clean, "counted_by": "perception",
             "truth_targets_picked": picked, "truth_targets_total": total, "truth_product_lifted": lifted,
-            "actions": actions, "termination_reason": reason}
+            "actions": actions, "termination_reason": reason, "grasp_attempts": picked if grasps is None
+            else grasps}
 
 
 def test_the_interval_is_students_t_over_episodes():
@@ -56,6 +58,13 @@ def test_figures_count_picked_left_product_and_efficiency_by_truth():
     assert figures["efficiency"]["mean"] == pytest.approx((50.0 + 10.0 + 0.0) / 3)
     assert (figures["picked_total"], figures["targets_total"]) == (3, 6)
     assert figures["picked"]["low"] < 1.0 < figures["picked"]["high"]
+
+
+def test_grasp_success_is_counted_by_truth_per_episode_as_the_truth_count_counts_it():
+    # 2 of 2 grasps removed an impurity, 1 of 4, and no grasp at all (0, as episode.EpisodeTracker counts it)
+    episodes = [record(2, 2, 4), record(1, 2, 10, grasps=4), record(0, 2, 6, grasps=0)]
+    figures = perception_figures.perception_figures(episodes)
+    assert figures["grasp_success"]["mean"] == pytest.approx((100.0 + 25.0 + 0.0) / 3)
 
 
 def test_endings_split_the_cells_own_nothing_left_from_the_action_limit_and_the_rest():
@@ -103,7 +112,8 @@ def test_the_section_names_the_interval_and_lists_each_row_and_scenario():
     section = perception_section(results, ["ours@cell", "vpg@cell"], ["random"], lambda row: row)
     assert section.startswith("## Counted by perception")
     assert "95 % t interval" in section
-    assert "| ours@cell | random | 2 | 1.50 [" in section and "| 2 / 0 / 0 |" in section
+    assert "| ours@cell | random | 2 | 1.50 [" in section
+    assert "| 100.0 [100.0, 100.0] | 2 / 0 / 0 |" in section  # grasp success by truth, then the endings
     assert "Clean scenes" in section and "| ours@cell | random | 1 | 1.0 [–, –] |" in section
     assert "vpg@cell" not in section
 
@@ -131,3 +141,21 @@ def test_eval_cli_counts_the_same_episodes_by_truth_and_by_perception(tmp_path):
     markdown = (out / "results.md").read_text()
     assert "## Counted by perception" in markdown and "| Ours [rules: cell] | random | 1 |" in markdown
     assert "Clean scenes" in markdown
+
+
+def test_other_palette_groups_are_counted_by_perception_on_their_own_rows(tmp_path):
+    out = tmp_path / "docs"
+    assert main(["--count", "both", "--episodes", "1", "--scenarios", "random", "--methods", "ours",
+                 "--rules", "cell", "--clean-scenes", "1", "--palette-groups", "default", "held_out",
+                 "--group-episodes", "1", "--perception-scenes", "1",
+                 "--markdown", str(out / "results.md"), "--no-progress", "--jobs", "1"]) == 0
+    records = json.loads((out / "results.json").read_text())["ours@cell"]
+    assert [e["group"] for e in records["by_perception"]["episodes"]] == ["default", "default"]
+    held_out = records["by_perception_groups"]["held_out"]
+    assert {e["group"] for e in held_out["episodes"]} == {"held_out"}
+    (counted,), (clean,) = ([e for e in held_out["episodes"] if e["clean_scene"] == c] for c in (False, True))
+    assert counted["palette"] == clean["palette"] != ""
+    assert held_out["scenarios"]["random"]["episodes"] == held_out["clean_scenes"]["random"]["episodes"] == 1
+    assert records["groups"]["held_out"]["random"]["episodes"] == 1  # its truth count: one episode
+    markdown = (out / "results.md").read_text()
+    assert "| Ours [rules: cell] · held-out palettes | random | 1 |" in markdown
