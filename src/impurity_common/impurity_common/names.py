@@ -59,13 +59,14 @@ DIAGNOSTICS_TOPIC = "/diagnostics"  # diagnostic_msgs/DiagnosticArray
 RESET_SCENE_SERVICE = "cell/reset_scene"  # impurity_interfaces/srv/ResetScene
 GROUND_TRUTH_SERVICE = "cell/ground_truth"  # impurity_interfaces/srv/GetGroundTruth
 
-# What a recording of an episode holds (bag_recorder's default): the camera in, every decision out, and
-# what a 3-D view of the bag needs (TF, the robot model, the markers; /tf_static, /robot_description,
-# /cell/markers and /attention/known_product are transient local: the recorder asks for that when every
-# publisher offers it, so the latched messages published before it started are in the bag too).
-EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, KNOWN_PRODUCT_TOPIC,
-                  ATTENTION_TOPIC, PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC, JOINT_STATES_TOPIC, TF_TOPIC,
-                  TF_STATIC_TOPIC, ROBOT_DESCRIPTION_TOPIC, MARKERS_TOPIC)
+# What a recording of an episode holds (bag_recorder's default): the camera in, the frames dropped and
+# why, every decision out, and what a 3-D view of the bag needs (TF, the robot model, the markers;
+# /tf_static, /robot_description, /cell/markers and /attention/known_product are transient local: the
+# recorder asks for that when every publisher offers it, so the latched messages published before it
+# started are in the bag too).
+EPISODE_TOPICS = (COLOR_TOPIC, DEPTH_TOPIC, CAMERA_INFO_TOPIC, HEIGHTMAP_TOPIC, HEIGHTMAP_DROPPED_TOPIC,
+                  KNOWN_PRODUCT_TOPIC, ATTENTION_TOPIC, PRIMITIVE_TOPIC, EPISODE_STEPS_TOPIC,
+                  JOINT_STATES_TOPIC, TF_TOPIC, TF_STATIC_TOPIC, ROBOT_DESCRIPTION_TOPIC, MARKERS_TOPIC)
 
 
 def absolute(name: str, namespace: str = "/") -> str:
