@@ -128,10 +128,34 @@ def heaps(spec, remaining=1):
     return [[kinds[c][0], n, kinds[c][1]] for c, n in zip(spec, counts, strict=True)]
 
 
+def explored(spec, remaining=1, area=0.0005):
+    """heaps(spec) with unexplored ground per view: 'e' a push at a heap with none left (explored)."""
+    views = heaps(spec.replace("e", "h"), remaining)
+    return [[*view, 0.0 if c == "e" else 1.0] for view, c in zip(views, spec, strict=True)]
+
+
+def test_a_reveal_after_a_view_with_too_little_unexplored_ground_is_left_behind_by_the_table_memory():
+    assert search.reveal_runs(explored("hhht"), impurity_area=0.0005) == [(3, 0, False)]
+    assert search.reveal_runs(explored("hhet"), impurity_area=0.0005) == [(3, 0, True)]
+    assert search.reveal_runs(explored("hetht"), impurity_area=0.0005) == [(2, 0, True), (1, 0, False)]
+    # the first view of a run is given its push: the memory ends the search from the second on
+    assert search.reveal_runs(explored("ehtet"), impurity_area=0.0005) == [(2, 0, False), (1, 0, False)]
+    assert search.reveal_runs(explored("hhet")) == [(3, 0, False)]  # no impurity area: no memory
+
+
+def test_the_table_memory_ends_a_replay_on_the_first_explored_view_and_counts_what_it_leaves():
+    row = episode([H, H, H, H, H, T])
+    row["views"] = explored("hhehht")  # the impurity showed after 5 pushes, one of them at explored ground
+    assert search.cut_at(row["views"], 10, impurity_area=0.0005) == 2
+    assert search.replay(row, 10, impurity_area=0.0005) == (1, row["actions"] - 2)
+    table = search.search_table([row], [10], impurity_area=0.0005)
+    assert table[10]["left_behind"] == 1.0 and search.search_table([row], [10])[10]["left_behind"] == 0.0
+
+
 def test_a_reveal_counts_its_last_pushes_at_low_heaps_in_a_row():
-    assert search.reveal_runs(heaps("hhllt"), low_height=0.07) == [(4, 2)]
-    assert search.reveal_runs(heaps("llhlt"), low_height=0.07) == [(4, 1)]  # a tall heap breaks the low run
-    assert search.reveal_runs(heaps("hhllt")) == [(4, 0)]  # no low height: nothing is low
+    assert search.reveal_runs(heaps("hhllt"), low_height=0.07) == [(4, 2, False)]
+    assert search.reveal_runs(heaps("llhlt"), low_height=0.07) == [(4, 1, False)]  # a tall heap breaks it
+    assert search.reveal_runs(heaps("hhllt")) == [(4, 0, False)]  # no low height: nothing is low
 
 
 def test_low_heap_pushes_ends_the_search_at_low_heaps_first():
@@ -207,5 +231,8 @@ def test_a_short_simulated_episode_records_each_decided_view_with_the_truth(tmp_
     (row,) = [json.loads(line) for line in out.read_text().splitlines()]
     assert row["seed"] == search.SEARCH_SEED_BASE and row["impurities"] >= 1
     assert 1 <= len(row["views"]) <= 3 and row["actions"] <= 3
-    assert all(mode in (H, T) and 0 <= remaining <= row["impurities"] for mode, remaining, _ in row["views"])
-    assert all((heap > 0) == (mode == H) for mode, _, heap in row["views"])  # the attended heap's height
+    modes = [(mode, remaining) for mode, remaining, _, _ in row["views"]]
+    assert all(mode in (H, T) and 0 <= remaining <= row["impurities"] for mode, remaining in modes)
+    assert all((heap > 0) == (mode == H) for mode, _, heap, _ in row["views"])  # the attended heap's height
+    # the invisible layout's closed boxes stand where the first view never saw the table
+    assert row["views"][0][3] > 0.0005

@@ -33,12 +33,16 @@ from impurity_policy.core.policy import MODE_NONE, MODE_OCCLUDED_REGION, MODE_TA
 
 SHAPE = (30, 30)
 TARGET_CELLS = (slice(10, 20), slice(10, 20))
+HEAP_CELLS = (slice(0, 8), slice(20, 30))
 
 
 def view(mode=MODE_TARGET, target_there=True):
-    """A view whose target (red, 3 cm) stands at TARGET_CELLS when target_there; mask on it for TARGET."""
+    """A view whose target (red, 3 cm) stands at TARGET_CELLS when target_there; mask on it for TARGET; an
+    OCCLUDED_REGION view shows the heap attention attends, 8 cm of product at HEAP_CELLS."""
     height = np.zeros(SHAPE, np.float32)
     color = np.full((*SHAPE, 3), 60, np.uint8)
+    if mode == MODE_OCCLUDED_REGION:
+        height[HEAP_CELLS] = 0.08
     mask = None
     if target_there:
         height[TARGET_CELLS] = 0.03

@@ -1,14 +1,16 @@
 """The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes, low_heap_pushes,
-piece_height): counted by perception, after `search_pushes` pushes in a row at heaps that showed no impurity
-(`low_heap_pushes` at heaps lower than two pieces), the next such view ends the episode as "nothing left"; a
-target in view starts the count over. Counted by truth it never applies (the paper's protocol ends on the
-count). Specified against a scripted cell."""
+piece_height, impurity_area): counted by perception, after `search_pushes` pushes in a row at heaps that
+showed no impurity (`low_heap_pushes` at heaps lower than two pieces), the next such view ends the episode as
+"nothing left"; a target in view starts the count over. The table memory ends it sooner: once the ground the
+episode never saw down to the table, under material thicker than one piece, is smaller than one impurity,
+nothing can hide. Counted by truth it never applies (the paper's protocol ends on the count). Specified
+against a scripted cell."""
 
 import numpy as np
 import pytest
 
 from impurity_policy.core.episode import TERMINATION_ACTION_LIMIT, TERMINATION_NOTHING_LEFT, EpisodeRequest
-from impurity_policy.core.picking import Action, EpisodeLimits, Outcome, View, run_episode
+from impurity_policy.core.picking import Action, EpisodeLimits, Outcome, TableMemory, View, run_episode
 from impurity_policy.core.policy import MODE_OCCLUDED_REGION, MODE_TARGET
 
 OCCLUDED, TARGET = MODE_OCCLUDED_REGION, MODE_TARGET
@@ -130,3 +132,93 @@ def test_one_layer_of_pieces_is_a_low_heap_and_a_stack_is_searched_longer(layers
 
     summary = run(Cell(), search_pushes=5, low_heap_pushes=2, piece_height=0.05)
     assert summary["actions"] == actions and summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+
+
+# ------------------------------------------------------------------------------------------ the table memory
+CELL_AREA = 0.448 * 0.448 / (224 * 224)  # m^2: one cell of the 224 x 224 map of the workspace (2 mm)
+HEAP_A, HEAP_B = (slice(40, 80), slice(40, 80)), (slice(140, 180), slice(140, 180))  # 40 x 40 cells each
+
+
+def height_map(*heaps, height=0.08):
+    """A 224 x 224 height map (m): the table, and `height` on each heap's cells."""
+    surface = np.zeros((224, 224), np.float32)
+    for heap in heaps:
+        surface[heap] = height
+    return surface
+
+
+class HeapCell(ScriptedCell):
+    """Attention attends a heap on every view; the height maps are `maps` in turn (then the last for ever)."""
+
+    def __init__(self, maps):
+        super().__init__()
+        self.maps = list(maps)
+
+    def observe(self):
+        surface = self.maps.pop(0) if len(self.maps) > 1 else self.maps[0]
+        return View(OCCLUDED, height=surface, heap_height=float(np.nanmax(surface)))
+
+
+def test_the_memory_measures_ground_never_seen_down_to_the_table_under_thick_material():
+    memory = TableMemory()
+    memory.look(height_map(HEAP_A))
+    assert memory.unexplored_area(height_map(HEAP_A), 0.043) == pytest.approx(1600 * CELL_AREA)
+    assert memory.unexplored_area(height_map(HEAP_B), 0.043) == 0.0  # B stood on ground seen as table
+    assert memory.unexplored_area(height_map(HEAP_A, height=0.04), 0.043) == 0.0  # too thin to cover
+
+
+def test_a_heap_pushed_onto_ground_seen_down_to_the_table_ends_the_search():
+    # the push moves the heap from A (never seen below) to B, seen as table in the first view
+    cell = HeapCell([height_map(HEAP_A), height_map(HEAP_B)])
+    summary = run(cell, search_pushes=5)
+    assert summary["actions"] == 1 and summary["termination_reason"] == TERMINATION_NOTHING_LEFT
+
+
+def test_a_heap_standing_where_the_table_was_never_seen_is_searched_for_search_pushes():
+    summary = run(HeapCell([height_map(HEAP_A)]), search_pushes=5, low_heap_pushes=5)
+    assert summary["actions"] == 5
+
+
+@pytest.mark.parametrize("impurity_area,actions", [(0.0005, 1), (0.0001, 5)])
+def test_unexplored_ground_smaller_than_one_impurity_hides_nothing(impurity_area, actions):
+    # the heap moves to B, of which a 5 x 5 cell corner (1 cm^2) lies on ground A covered in the first view
+    moved = (slice(75, 115), slice(75, 115))
+    cell = HeapCell([height_map(HEAP_A), height_map(moved)])
+    assert 25 * CELL_AREA == pytest.approx(0.0001)
+    summary = run(cell, search_pushes=5, low_heap_pushes=5, impurity_area=impurity_area * 0.99)
+    assert summary["actions"] == actions
+
+
+@pytest.mark.parametrize("piece_height,actions", [(0.035, 1), (0.02, 5)])
+def test_only_material_thicker_than_one_piece_can_cover_an_impurity(piece_height, actions):
+    # one layer 30 mm tall on ground never seen: nothing under it for 35 mm pieces (one push, then the
+    # search ends), a second layer for 20 mm ones
+    cell = HeapCell([height_map(HEAP_A, height=0.03)])
+    summary = run(cell, search_pushes=5, low_heap_pushes=5, piece_height=piece_height)
+    assert summary["actions"] == actions
+
+
+def test_the_memory_ends_the_search_only_after_a_push_at_a_heap():
+    # a target in view, then a heap on ground seen down to the table: a push moved the impurity, maybe
+    # under it, so the heap is pushed once before the memory may end the search
+    class Cell(HeapCell):
+        def observe(self):
+            view = super().observe()
+            return View(TARGET, height=view.height) if self.pushes == 1 else view
+
+    summary = run(Cell([height_map(HEAP_A), height_map(HEAP_A), height_map(HEAP_B)]), search_pushes=5)
+    assert summary["actions"] == 3  # the heap at A, the target, the heap at B; then B is explored
+
+
+def test_ground_of_unknown_height_is_never_taken_for_explored():
+    unknown = height_map(HEAP_A)
+    unknown[HEAP_A] = np.nan  # colour without depth over the heap
+    summary = run(HeapCell([unknown]), search_pushes=5, low_heap_pushes=5)
+    assert summary["actions"] == 5
+
+
+def test_counted_by_truth_the_memory_never_ends_the_episode():
+    cell = HeapCell([height_map(HEAP_A), height_map(HEAP_B)])
+    cell.counts = 2
+    summary = run(cell, search_pushes=2)
+    assert summary["termination_reason"] == TERMINATION_ACTION_LIMIT and summary["actions"] == 30

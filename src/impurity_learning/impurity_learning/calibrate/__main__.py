@@ -13,7 +13,7 @@ import json
 import pathlib
 import sys
 
-from impurity_policy.core.episode import DEFAULT_PIECE_HEIGHT
+from impurity_policy.core.episode import DEFAULT_IMPURITY_AREA, DEFAULT_PIECE_HEIGHT
 from impurity_policy.core.picking import low_heap_height
 
 from . import attention_fit, episodes, scenes, search
@@ -151,25 +151,28 @@ def run_search_pushes(args) -> int:
         jobs = search.search_jobs(palettes, args.seeds, args.scenarios)
         params = attention_fit.attention_params(args.out)
         search.collect_search_episodes(jobs, args.out / search.EPISODES_FILE, args.checkpoint, params,
-                                       args.max_actions, progress=not args.no_progress)
+                                       args.max_actions, progress=not args.no_progress,
+                                       piece_height=args.piece_height)
     rows = episodes.read_episodes(_episode_files(args, search.EPISODES_FILE))
     episodes.check_episodes(rows)
     if not rows:
         raise ValueError("no episodes to choose from")
     lengths = sorted(length for row in rows for length in search.reveals(row["views"]))
-    table = search.search_table(rows, range(1, args.cap + 1))
+    area = args.impurity_area
+    table = search.search_table(rows, range(1, args.cap + 1), area)
     total = search.impurities(rows)
     print(f"{len(rows)} tuning episodes, {total} impurities, {len(lengths)} reveals (pushes at heaps before "
-          f"a hidden impurity showed: {' '.join(map(str, lengths)) or 'none'})")
+          f"a hidden impurity showed: {' '.join(map(str, lengths)) or 'none'}); table memory: impurities "
+          f"of {area * 1e4:.1f} cm^2")
     print("search_pushes  left_behind  reveals_left  replayed  actions_saved")
     for k, f in table.items():
         print(f"{k:13d}  {f['left_behind']:11.1%}  {f['reveals_left']:12d}  {f['replayed']:8.1%}  "
               f"{f['actions_saved']:13.2f}")
-    chosen, _ = search.choose_search_pushes(rows, args.max_left_behind, args.cap)
+    chosen, _ = search.choose_search_pushes(rows, args.max_left_behind, args.cap, area)
     print(f"search_pushes {chosen}: the least that leaves at most {args.max_left_behind:.1%} of the "
           f"impurities behind ({table[chosen]['left_behind']:.1%})")
     low_height = low_heap_height(args.piece_height)
-    low, low_table = search.choose_low_heap_pushes(rows, chosen, low_height, args.max_left_behind)
+    low, low_table = search.choose_low_heap_pushes(rows, chosen, low_height, args.max_left_behind, area)
     print(f"low heaps (lower than {low_height * 1000:.0f} mm), search_pushes {chosen}:")
     print("low_heap_pushes  left_behind  reveals_left  replayed  actions_saved")
     for k, f in low_table.items():
@@ -179,6 +182,7 @@ def run_search_pushes(args) -> int:
           f"({low_table[low]['left_behind']:.1%})")
     _write_json(args.out / search.RESULT_FILE,
                 {"search_pushes": chosen, "low_heap_pushes": low, "piece_height": args.piece_height,
+                 "impurity_area": area,
                  "max_left_behind": args.max_left_behind, "reveals": lengths,
                  "impurities": total, "episodes": len(rows), "seeds": sorted({r["seed"] for r in rows}),
                  "palettes": sorted({r["palette"] for r in rows}),
@@ -277,8 +281,9 @@ def parse_args(argv=None):
     p = add("search-pushes", "choose how many pushes at heaps without an impurity end the search",
             "Runs fast-sim episodes counted as a real cell counts (attention as calibrated in OUT) on the\n"
             "random, challenging and invisible scenes with the search never ended, recording per view\n"
-            "attention's mode and the simulator's truth. A hidden impurity that showed after L pushes in a\n"
-            "row at heaps with none in view is left behind by search_pushes < L. Prints, per\n"
+            "attention's mode, the simulator's truth and the ground not yet seen down to the table. A\n"
+            "hidden impurity that showed after L pushes in a row at heaps with none in view is left behind\n"
+            "by search_pushes < L, or by the table memory (--impurity-area). Prints, per\n"
             "search_pushes, the share of the impurities left behind (and replayed: the episodes cut where\n"
             "they would have ended) and the actions saved per episode, and chooses the least search_pushes\n"
             "leaving at most --max-left-behind behind (episode.search_pushes in bringup/config/cell.yaml).\n"
@@ -291,8 +296,12 @@ def parse_args(argv=None):
     p.add_argument("--max-actions", type=int, default=0,
                    help="actions per episode (default 0: the loop's max_actions_uncounted)")
     p.add_argument("--piece-height", type=float, default=DEFAULT_PIECE_HEIGHT,
-                   help="one piece of your product (m): heaps lower than twice this are low heaps "
+                   help="one piece of your product (m): heaps lower than twice this are low heaps, and "
+                        "only material higher than one piece covers an impurity "
                         f"(episode.piece_height; default {DEFAULT_PIECE_HEIGHT})")
+    p.add_argument("--impurity-area", type=float, default=DEFAULT_IMPURITY_AREA,
+                   help="the footprint of your smallest impurity (m^2): the table memory's "
+                        f"(episode.impurity_area; default {DEFAULT_IMPURITY_AREA}; 0: no table memory)")
     p.add_argument("--cap", type=int, default=search.SEARCH_PUSHES_CAP,
                    help=f"the largest search_pushes chosen (default {search.SEARCH_PUSHES_CAP})")
     p.set_defaults(run=run_search_pushes)

@@ -1,8 +1,10 @@
 """The end of the search (impurity_policy.core.picking, EpisodeLimits.search_pushes), measured on fast-sim
 episodes counted as a real cell counts (evaluate.PerceptionSimCell, the policy with the `cell` rules) with
-the search never ended (search_pushes and low_heap_pushes SEARCH_UNENDED): each view decided on is recorded
-with the mode attention decided on, the simulator's truth (targets remaining in the workspace) and the
-attended heap's height (m; 0 but for OCCLUDED_REGION).
+the search never ended (search_pushes and low_heap_pushes SEARCH_UNENDED, impurity_area 0): each view
+decided on is recorded with the mode attention decided on, the simulator's truth (targets remaining in the
+workspace), the attended heap's height (m; 0 but for OCCLUDED_REGION) and the ground the episode had not
+seen down to the table under material thicker than one piece (m^2, picking.TableMemory with
+--piece-height).
 
 A reveal is a run of OCCLUDED_REGION views in a row (pushes at heaps that showed no impurity) that ends in
 a TARGET view while the truth still had a target remaining: a hidden impurity that showed after L pushes.
@@ -20,6 +22,10 @@ low. A reveal whose last L_low pushes were at low heaps is also left behind by l
 search_pushes chosen, the tool chooses the least low_heap_pushes that keeps the share within
 --max-left-behind.
 
+The table memory (EpisodeLimits.impurity_area): a reveal with a view in its run whose unexplored ground was
+smaller than the impurity area is left behind by any search_pushes; every figure counts it (replays with
+--impurity-area, recorded episodes with other values alike).
+
 An episode file is JSON lines, one episode each, appended as episodes finish (a run that stops resumes).
 """
 
@@ -27,8 +33,10 @@ from __future__ import annotations
 
 import itertools
 import json
+import math
 import pathlib
 
+from impurity_policy.core.episode import DEFAULT_PIECE_HEIGHT
 from impurity_policy.core.picking import SearchRun
 
 from .episodes import read_episodes
@@ -46,45 +54,52 @@ OCCLUDED, TARGET, NONE = "OCCLUDED_REGION", "TARGET", "NONE"
 
 # ------------------------------------------------------------------------------------------- statistics
 def decided(views) -> list:
-    """The views decided on: (mode, targets remaining, heap height m) without the NONE views (a view of
-    two fields has heap height 0)."""
-    return [(view[0], view[1], view[2] if len(view) > 2 else 0.0) for view in views if view[0] != NONE]
+    """The views decided on: (mode, targets remaining, heap height m, unexplored ground m^2) without the
+    NONE views (a view of two fields has heap height 0, one of three unexplored ground inf)."""
+    return [(view[0], view[1], view[2] if len(view) > 2 else 0.0, view[3] if len(view) > 3 else math.inf)
+            for view in views if view[0] != NONE]
 
 
-def reveal_runs(views, low_height: float = 0.0) -> list:
-    """(L, L_low) of every reveal in one episode's views ((mode, targets remaining, heap height) in
-    order): a run of L OCCLUDED_REGION views in a row ending in a TARGET view with targets remaining, the
-    last L_low of them at heaps lower than `low_height` (m) in a row (module docstring)."""
-    found, run = [], SearchRun()
-    for mode, remaining, heap in decided(views):
+def reveal_runs(views, low_height: float = 0.0, impurity_area: float = 0.0) -> list:
+    """(L, L_low, explored) of every reveal in one episode's views ((mode, targets remaining, heap height,
+    unexplored ground) in order): a run of L OCCLUDED_REGION views in a row ending in a TARGET view with
+    targets remaining, the last L_low of them at heaps lower than `low_height` (m) in a row, explored when
+    a view of the run had less unexplored ground than `impurity_area` (m^2) (module docstring)."""
+    found, run, explored = [], SearchRun(), False
+    for mode, remaining, heap, unexplored in decided(views):
         if mode == TARGET and run.pushes and remaining > 0:
-            found.append((run.pushes, run.low))
-        run.add(mode == OCCLUDED, heap, low_height)
+            found.append((run.pushes, run.low, explored))
+        run.add(mode == OCCLUDED, heap, low_height, unexplored, impurity_area)
+        explored = run.pushes > 0 and (explored or run.explored)
     return found
 
 
 def reveals(views) -> list:
     """The length L of every reveal in one episode's views (reveal_runs)."""
-    return [length for length, _ in reveal_runs(views)]
+    return [length for length, _, _ in reveal_runs(views)]
 
 
-def cut_at(views, k: int, k_low: int | None = None, low_height: float = 0.0) -> int | None:
+def cut_at(views, k: int, k_low: int | None = None, low_height: float = 0.0,
+           impurity_area: float = 0.0) -> int | None:
     """The index among the decided views of the one on which search_pushes = k (and low_heap_pushes =
-    k_low at heaps lower than `low_height`) ends the episode, or None when it never does."""
+    k_low at heaps lower than `low_height`, and the table memory with `impurity_area`) ends the episode,
+    or None when it never does."""
     run = SearchRun()
-    for index, (mode, _, heap) in enumerate(decided(views)):
-        run.add(mode == OCCLUDED, heap, low_height)
+    for index, (mode, _, heap, unexplored) in enumerate(decided(views)):
+        run.add(mode == OCCLUDED, heap, low_height, unexplored, impurity_area)
         if run.over(k, k_low):
             return index
     return None
 
 
-def replay(row: dict, k: int, k_low: int | None = None, low_height: float = 0.0) -> tuple[int, int]:
+def replay(row: dict, k: int, k_low: int | None = None, low_height: float = 0.0,
+           impurity_area: float = 0.0) -> tuple[int, int]:
     """(impurities left behind, actions saved) had the recorded episode `row` run with search_pushes = k
-    (and low_heap_pushes = k_low): those in the workspace where it would have ended that the unended
-    episode picked, and the actions it took from there on."""
-    views = decided(row["views"])
-    cut = cut_at(views, k, k_low, low_height)
+    (and low_heap_pushes = k_low, and the table memory with `impurity_area`): those in the workspace where
+    it would have ended that the unended episode picked, and the actions it took from there on."""
+    views = row["views"]
+    cut = cut_at(views, k, k_low, low_height, impurity_area)
+    views = decided(views)
     if cut is None:
         return 0, 0
     return max(0, views[cut][1] - row["remaining_end"]), max(0, row["actions"] - cut)
@@ -94,38 +109,42 @@ def impurities(rows) -> int:
     return sum(row["impurities"] for row in rows)
 
 
-def search_table(rows, ks) -> dict:
+def search_table(rows, ks, impurity_area: float = 0.0) -> dict:
     """{k: {"left_behind": share of the impurities whose reveal needed more than k pushes, "reveals_left":
     their count, "replayed": share left behind replaying the episodes (replay), "actions_saved": mean
-    actions saved per episode}}. ValueError when the episodes hold no impurity."""
-    return _table(rows, [(k, None) for k in ks], 0.0, key=0)
+    actions saved per episode}}, the table memory with `impurity_area` (m^2; 0: none). ValueError when the
+    episodes hold no impurity."""
+    return _table(rows, [(k, None) for k in ks], 0.0, impurity_area, key=0)
 
 
-def low_heap_table(rows, search_pushes: int, low_height: float, k_lows) -> dict:
+def low_heap_table(rows, search_pushes: int, low_height: float, k_lows, impurity_area: float = 0.0) -> dict:
     """search_table's figures per low_heap_pushes k_low in `k_lows`, with search_pushes fixed and low heaps
     lower than `low_height` (m)."""
-    return _table(rows, [(search_pushes, k_low) for k_low in k_lows], low_height, key=1)
+    return _table(rows, [(search_pushes, k_low) for k_low in k_lows], low_height, impurity_area, key=1)
 
 
-def _table(rows, pairs, low_height: float, key: int) -> dict:
+def _table(rows, pairs, low_height: float, impurity_area: float, key: int) -> dict:
     total = impurities(rows)
     if total <= 0:
         raise ValueError("no impurity in the episodes: run more episodes")
-    runs = [pair for row in rows for pair in reveal_runs(row["views"], low_height)]
+    runs = [run for row in rows for run in reveal_runs(row["views"], low_height, impurity_area)]
     table = {}
     for k, k_low in pairs:
-        replayed = [replay(row, k, k_low, low_height) for row in rows]
-        left = sum(length > k or (k_low is not None and low > k_low) for length, low in runs)
+        replayed = [replay(row, k, k_low, low_height, impurity_area) for row in rows]
+        left = sum(explored or length > k or (k_low is not None and low > k_low)
+                   for length, low, explored in runs)
         table[(k, k_low)[key]] = {"left_behind": left / total, "reveals_left": left,
                     "replayed": sum(lost for lost, _ in replayed) / total,
                     "actions_saved": sum(saved for _, saved in replayed) / max(len(rows), 1)}
     return table
 
 
-def choose_search_pushes(rows, max_left_behind: float, cap: int = SEARCH_PUSHES_CAP) -> tuple[int, dict]:
+def choose_search_pushes(rows, max_left_behind: float, cap: int = SEARCH_PUSHES_CAP,
+                         impurity_area: float = 0.0) -> tuple[int, dict]:
     """(the least search_pushes in 1 ... cap whose share left behind is at most max_left_behind, the table
-    for 1 ... cap). ValueError naming --max-left-behind when none is."""
-    table = search_table(rows, range(1, cap + 1))
+    for 1 ... cap; the table memory with `impurity_area`). ValueError naming --max-left-behind when none
+    is."""
+    table = search_table(rows, range(1, cap + 1), impurity_area)
     for k, figures in table.items():
         if figures["left_behind"] <= max_left_behind + 1e-12:
             return k, table
@@ -134,11 +153,12 @@ def choose_search_pushes(rows, max_left_behind: float, cap: int = SEARCH_PUSHES_
                      f"behind (a reveal needed {worst} pushes): raise --max-left-behind or --cap")
 
 
-def choose_low_heap_pushes(rows, search_pushes: int, low_height: float, max_left_behind: float) -> tuple:
+def choose_low_heap_pushes(rows, search_pushes: int, low_height: float, max_left_behind: float,
+                           impurity_area: float = 0.0) -> tuple:
     """(the least low_heap_pushes in 1 ... search_pushes whose share left behind, with search_pushes and low
     heaps lower than `low_height`, is at most max_left_behind, the table); search_pushes itself when no
     smaller one is (low heaps then searched as long as any)."""
-    table = low_heap_table(rows, search_pushes, low_height, range(1, search_pushes + 1))
+    table = low_heap_table(rows, search_pushes, low_height, range(1, search_pushes + 1), impurity_area)
     for k_low, figures in table.items():
         if figures["left_behind"] <= max_left_behind + 1e-12:
             return k_low, table
@@ -161,9 +181,10 @@ def key_of(row: dict) -> tuple:
 
 
 def collect_search_episodes(jobs: list, out: pathlib.Path, checkpoint, params, max_actions: int = 0,
-                            progress: bool = True) -> None:
-    """Run the jobs (attention `params`, search_pushes and low_heap_pushes SEARCH_UNENDED, max_actions 0:
-    the loop's default) and append each episode's decided views to `out` (jobs already there are skipped)."""
+                            progress: bool = True, piece_height: float = DEFAULT_PIECE_HEIGHT) -> None:
+    """Run the jobs (attention `params`, search_pushes and low_heap_pushes SEARCH_UNENDED, impurity_area 0,
+    max_actions 0: the loop's default) and append each episode's decided views to `out` (jobs already there
+    are skipped); unexplored ground is measured for pieces of `piece_height` m."""
     from tqdm import tqdm
 
     from impurity_common.enums import AttentionMode
@@ -175,23 +196,30 @@ def collect_search_episodes(jobs: list, out: pathlib.Path, checkpoint, params, m
     from ..evaluate import PerceptionSimCell, _reraise
 
     class RecordingCell(PerceptionSimCell):
-        """Records each view decided on: attention's mode, the targets remaining in the workspace and the
-        attended heap's height (m)."""
+        """Records each view decided on: attention's mode, the targets remaining in the workspace, the
+        attended heap's height (m) and the unexplored ground (m^2) the loop's table memory measures."""
 
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
-            self.views = []
+            self.views, self.memory = [], picking.TableMemory()
+
+        def observe(self):
+            view = super().observe()
+            self.memory.look(view.height)
+            return view
 
         def decide(self, view):
+            unexplored = self.memory.unexplored_area(view.height, picking.hiding_height(piece_height))
             self.views.append([AttentionMode(int(view.mode)).name, int(self.truth().targets_remaining),
-                               round(float(view.heap_height), 4)])
+                               round(float(view.heap_height), 4), round(unexplored, 6)])
             return super().decide(view)
 
     out.parent.mkdir(parents=True, exist_ok=True)
     done = {key_of(row) for row in read_episodes([out])} if out.exists() else set()
     world = CellWorld(mode="floating")
     agent = make_agent("ours", pathlib.Path(checkpoint), "cell")
-    limits = picking.EpisodeLimits(search_pushes=SEARCH_UNENDED, low_heap_pushes=SEARCH_UNENDED)
+    limits = picking.EpisodeLimits(search_pushes=SEARCH_UNENDED, low_heap_pushes=SEARCH_UNENDED,
+                                   impurity_area=0.0, piece_height=piece_height)
     try:
         with out.open("a") as sink:
             for scenario, palette, seed in tqdm(jobs, desc="search episodes", disable=not progress):

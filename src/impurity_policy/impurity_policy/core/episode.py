@@ -41,6 +41,10 @@ DEFAULT_LOW_HEAP_PUSHES = 3
 # One piece of the product (m): the simulator's blocks stand 30-45 mm (ur5_driver_sim.core.scenes), so a low
 # heap is lower than 70 mm; low heaps of 60-75 mm gave the same figures on those episodes.
 DEFAULT_PIECE_HEIGHT = 0.035
+# The footprint of the smallest impurity (m^2): ground the episode has not seen down to the table, under
+# material thicker than one piece, smaller than this hides none (picking's table memory). 5 cm^2, a 22 mm
+# square: the simulator's smallest impurities are 26 mm cubes (ur5_driver_sim.core.scenes.HEAP_TARGET_EDGE).
+DEFAULT_IMPURITY_AREA = 0.0005
 # Consecutive grasps that lift nothing or pushes whose motion failed before giving up. A motion the
 # driver refuses (goal rejected) is not one of them: it ends the episode at once ("error: ...").
 DEFAULT_MAX_CONSECUTIVE_FAILURES = 5

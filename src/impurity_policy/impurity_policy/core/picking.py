@@ -56,7 +56,12 @@ Two ways to count:
   `search_pushes` views in a row have been pushes at heaps with no impurity in view (a stall look
   included), the next such view ends the episode "no_target_or_cluster_left" too: the bin is taken as
   clean. Low heaps, lower than two pieces (2 x EpisodeLimits.piece_height), are searched more
-  briefly: after `low_heap_pushes` pushes in a row at them the next such view ends it as well. A last
+  briefly: after `low_heap_pushes` pushes in a row at them the next such view ends it as well. The table
+  memory (TableMemory) ends it sooner: every view marks the cells it shows down to the table (lower than
+  cell.OCCUPIED_HEIGHT); an impurity can only hide under material thicker than one piece (higher than
+  piece_height + cell.OCCUPIED_HEIGHT) standing where the episode has never seen the table, so once a heap
+  has been pushed (the second view in a row at heaps: an impurity a push moved is given one look) a view
+  where such ground covers less than `impurity_area` ends the episode too. A last
   look (View.last_look) is
   acted on until one was in vain (answered by a push, or by a grasp its verdict says lifted no impurity);
   after that a last look counts as NONE. A grasp that lifts a product piece the verdict takes for an
@@ -77,6 +82,7 @@ from typing import Protocol
 
 import numpy as np
 
+from impurity_common import cell as cell_geometry
 from impurity_common.enums import AttentionMode
 from impurity_common.parameters import check_fields, param
 
@@ -85,6 +91,7 @@ from .episode import (
     COUNTED_BY_PERCEPTION,
     COUNTED_BY_TRUTH,
     DEFAULT_ACTIONS_PER_TARGET,
+    DEFAULT_IMPURITY_AREA,
     DEFAULT_LOW_HEAP_PUSHES,
     DEFAULT_MAX_ACTIONS_UNCOUNTED,
     DEFAULT_MAX_CONSECUTIVE_FAILURES,
@@ -244,8 +251,13 @@ class EpisodeLimits:
                                  "a row at low heaps, lower than two pieces (2 x piece_height)",
                                  low=1, high=1000)
     piece_height: float = param(DEFAULT_PIECE_HEIGHT, "Height of one piece of the product (m): a heap lower "
-                                "than twice this is a low heap (low_heap_pushes); set it to your product's",
-                                low=0.001, high=0.5)
+                                "than twice this is a low heap (low_heap_pushes), and only material higher "
+                                "than this plus cell.OCCUPIED_HEIGHT can cover an impurity (the table "
+                                "memory); set it to your product's", low=0.001, high=0.5)
+    impurity_area: float = param(DEFAULT_IMPURITY_AREA, "Counting by perception: the footprint of the "
+                                 "smallest impurity (m^2); once the ground never seen down to the table "
+                                 "under material thicker than one piece is smaller than this, the search "
+                                 "ends (the table memory)", low=0.0, high=1.0)
 
     def __post_init__(self):
         check_fields(self)
@@ -256,6 +268,41 @@ def low_heap_height(piece_height: float) -> float:
     return 2.0 * piece_height
 
 
+def hiding_height(piece_height: float) -> float:
+    """The height (m) above which material can cover an impurity: one piece of `piece_height` m and the
+    depth margin that tells an occupied cell from the table (cell.OCCUPIED_HEIGHT)."""
+    return piece_height + cell_geometry.OCCUPIED_HEIGHT
+
+
+class TableMemory:
+    """Where an episode has seen the table (module docstring, the end of the search). look() marks the
+    cells of each height map (H, W) float m, NaN unknown, lower than cell.OCCUPIED_HEIGHT; unexplored_area()
+    is the ground (m^2) of a height map's cells higher than a hiding height that were never seen so, cells
+    of unknown height included. A height map covers the workspace (cell.WORKSPACE_X x WORKSPACE_Y), so a
+    cell's area follows from its shape; one of another shape than the first starts the memory over."""
+
+    def __init__(self):
+        self.seen: np.ndarray | None = None
+
+    def look(self, height: np.ndarray | None) -> None:
+        if height is None:
+            return
+        table = np.isfinite(height) & (height < cell_geometry.OCCUPIED_HEIGHT)
+        if self.seen is None or self.seen.shape != table.shape:
+            self.seen = table
+        else:
+            self.seen |= table
+
+    def unexplored_area(self, height: np.ndarray | None, hiding: float) -> float:
+        """m^2; inf without a height map."""
+        if height is None or self.seen is None or self.seen.shape != height.shape:
+            return float("inf")
+        covering = ~(np.isfinite(height) & (height <= hiding))
+        span = ((cell_geometry.WORKSPACE_X[1] - cell_geometry.WORKSPACE_X[0])
+                * (cell_geometry.WORKSPACE_Y[1] - cell_geometry.WORKSPACE_Y[0]))
+        return float(np.count_nonzero(covering & ~self.seen)) * span / height.size
+
+
 @dataclass
 class SearchRun:
     """The end of the search's counts (module docstring), as the loop keeps them over the views it decides
@@ -263,17 +310,23 @@ class SearchRun:
 
     pushes: int = 0
     low: int = 0
+    explored: bool = False  # the last view: a second OCCLUDED_REGION view in a row, too little unexplored
 
-    def add(self, occluded: bool, heap_height: float, low_height: float) -> None:
+    def add(self, occluded: bool, heap_height: float, low_height: float, unexplored: float = float("inf"),
+            impurity_area: float = 0.0) -> None:
         """Count one view decided on: an OCCLUDED_REGION view at a heap `heap_height` m high (low below
-        `low_height` m), or any other view, which starts both counts over."""
+        `low_height` m) with `unexplored` m^2 of ground that could still cover an impurity
+        (TableMemory.unexplored_area; explored below `impurity_area` from the second such view in a row
+        on), or any other view, which starts both counts over."""
         self.pushes = self.pushes + 1 if occluded else 0
         self.low = self.low + 1 if occluded and heap_height < low_height else 0
+        self.explored = occluded and self.pushes > 1 and unexplored < impurity_area
 
     def over(self, search_pushes: int, low_heap_pushes: int | None) -> bool:
-        """Whether the search ends here: more than `search_pushes` in a row, or more than `low_heap_pushes`
-        (None: no such limit) at low heaps."""
-        return self.pushes > search_pushes or (low_heap_pushes is not None and self.low > low_heap_pushes)
+        """Whether the search ends here: the last view explored, more than `search_pushes` in a row, or more
+        than `low_heap_pushes` (None: no such limit) at low heaps."""
+        return self.explored or self.pushes > search_pushes or (
+            low_heap_pushes is not None and self.low > low_heap_pushes)
 
 
 def step_record(index: int, action: Action, outcome: Outcome, remaining: int, outside: int = 0,
@@ -385,9 +438,11 @@ class _Episode:
         self.truth_targets_total: int | None = None  # simulator truth beside perception, if offered
         self._truth_removed = 0
         self.occluded_views = 0  # OCCLUDED_REGION views in a row, for the stall look
+        self.memory = TableMemory()  # where the episode has seen the table (the end of the search)
 
     def _look(self) -> View:
         view = self.cell.observe()
+        self.memory.look(view.height)
         if self.first_view and self.recorder is not None and view.color is not None:
             self.recorder.write_first_view(view.color)
         if self.reference is None and view.color is not None and view.height is not None:
@@ -412,6 +467,8 @@ class _Episode:
             return view
         self.occluded_views = 0
         closer = look_closer()
+        if closer is not None:
+            self.memory.look(closer.height)
         return view if closer is None else closer
 
     def _record(self, step: StepRecord) -> None:
@@ -490,8 +547,11 @@ class _Episode:
                 continue
             none_views = 0
             view = self._stall_look(view)
-            searched.add(view.mode == AttentionMode.OCCLUDED_REGION, view.heap_height,
-                         low_heap_height(limits.piece_height))
+            occluded = view.mode == AttentionMode.OCCLUDED_REGION
+            unexplored = self.memory.unexplored_area(view.height, hiding_height(limits.piece_height)) \
+                if occluded else float("inf")
+            searched.add(occluded, view.heap_height, low_heap_height(limits.piece_height), unexplored,
+                         limits.impurity_area)
             if searched.over(limits.search_pushes, limits.low_heap_pushes):
                 return TERMINATION_NOTHING_LEFT
             action = cell.decide(view)
