@@ -20,10 +20,13 @@ def truth_record(picked, attempts, actions, total=2) -> dict:
             "false_rejects": 0, "actions": actions, "targets_picked": picked, "targets_total": total}
 
 
-def perception_record(picked, actions, reason="no_target_or_cluster_left", lifted=0, clean=False) -> dict:
+def perception_record(picked, actions, reason="no_target_or_cluster_left", lifted=0, clean=False,
+                      grasps=None) -> dict:
+    """grasps: grasp attempts (default: one per impurity picked)."""
     return {"scenario": "random", "clean_scene": clean, "counted_by": "perception",
             "truth_targets_picked": picked, "truth_targets_total": 0 if clean else 2,
-            "truth_product_lifted": lifted, "actions": actions, "termination_reason": reason}
+            "truth_product_lifted": lifted, "actions": actions, "termination_reason": reason,
+            "grasp_attempts": picked if grasps is None else grasps}
 
 
 def test_truth_counted_metrics_carry_their_95_percent_t_interval():
@@ -118,12 +121,30 @@ def test_the_scene_set_table_puts_each_sets_counts_side_by_side_and_reads_clean_
                 "ours@cell": {"scenarios": {"random": aggregate(truth)},
                               "by_perception": by_scenario(records, ["random"])}}
 
-    tall = run("tall", [perception_record(2, 30, reason="action_limit"), perception_record(1, 10, lifted=1)],
+    tall = run("tall", [perception_record(2, 30, reason="action_limit"),
+                        perception_record(1, 10, lifted=1, grasps=2)],
                [truth_record(2, 2, 4), truth_record(2, 2, 6)])
     clean = run("clean", [perception_record(0, 12, lifted=1, clean=True),
                           perception_record(0, 4, clean=True)], [truth_record(0, 0, 0, total=0)] * 2)
     table = scene_set_table.markdown(scene_set_table.table_rows(tall) + scene_set_table.table_rows(clean))
     assert ("| tall | tuning | ours@cell | random | 2 | 20.0 [-107.1, 147.1] | 5.0 [-7.7, 17.7] | "
+            "75.0 [-242.7, 392.7] | 100.0 [100.0, 100.0] | "
             "1 / 1 / 0 | 0.50 [-5.85, 6.85] | 0.50 [-5.85, 6.85] |") in table
-    assert ("| clean | tuning | ours@cell | random | 2 | 8.0 [-42.8, 58.8] | 0.0 [0.0, 0.0] | "
+    assert ("| clean | tuning | ours@cell | random | 2 | 8.0 [-42.8, 58.8] | 0.0 [0.0, 0.0] | – | – | "
             "2 / 0 / 0 | (clean) | 0.50 [-5.85, 6.85] |") in table
+
+
+def test_the_scene_set_table_gives_another_palette_group_rows_of_its_own_beside_its_truth_count():
+    from impurity_learning import scene_set_table
+
+    results = {"_meta": {"rows": ["ours@cell"], "scenarios": ["random"], "scene_set": "paper",
+                         "split": "evaluation"},
+               "ours@cell": {"scenarios": {"random": aggregate([truth_record(2, 2, 4)])},
+                             "groups": {"held_out": {"random": aggregate([truth_record(2, 2, 3)])}},
+                             "by_perception": by_scenario([perception_record(2, 7)], ["random"]),
+                             "by_perception_groups": {
+                                 "held_out": by_scenario([perception_record(1, 9, grasps=2)], ["random"])}}}
+    table = scene_set_table.markdown(scene_set_table.table_rows(results))
+    assert "| paper | evaluation | ours@cell | random | 1 | 7.0 [–, –] | 4.0 [–, –] | 100.0 [–, –] |" in table
+    assert ("| paper | evaluation | ours@cell · held_out | random | 1 | 9.0 [–, –] | 3.0 [–, –] | "
+            "50.0 [–, –] | 100.0 [–, –] |") in table
