@@ -36,6 +36,11 @@ Of the region (REGION_FEATURES, region_features):
   read cells with at least one channel below SATURATION only, and are unknown (NaN)
   with fewer than ORIENTED_MIN_PRODUCT such product cells or none in m. A model reads an unknown feature as
   its fitted mean: it adds nothing to the score (RegionVerifier.probability).
+- lightness_size, oriented_lightness_size (LIGHTNESS_SIZE_FEATURES): |lightness_offset| and
+  |oriented_lightness| (NaN when it is unknown): how far from the product's lightness, darker or lighter
+  alike. A logistic model is monotonic in each feature, and the signed ones mostly tell the product's
+  shadowed gaps (darker) from its faces; an impurity of the product's hue that is only darker or lighter (a
+  stone among grain, ash among ore) shows in the size.
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
@@ -80,8 +85,10 @@ from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromati
 
 TOP_REGIONS = 3  # salient regions scored, best first
 ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_share")
+LIGHTNESS_SIZE_FEATURES = ("lightness_size", "oriented_lightness_size")
 REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
-                   "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES
+                   "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES + \
+    LIGHTNESS_SIZE_FEATURES
 CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
 FEATURES = REGION_FEATURES + CONTEXT_FEATURES  # a row without the network (candidate_features' default)
 NETWORK_FEATURES = ("network_mean", "network_high")
@@ -157,8 +164,9 @@ class RegionVerifier:
 
     @property
     def reads_oriented(self) -> bool:
-        """Whether the model reads any of ORIENTED_FEATURES (else candidate_features may skip them)."""
-        return any(name in ORIENTED_FEATURES for name in self.features)
+        """Whether the model reads any of ORIENTED_FEATURES or oriented_lightness_size (else
+        candidate_features may skip them)."""
+        return any(name in ORIENTED_FEATURES + ("oriented_lightness_size",) for name in self.features)
 
     @property
     def reads_network(self) -> bool:
@@ -207,7 +215,7 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
     offset, dark = lightness_features(color, region, product, planes)
     facing = oriented_features(color, height, region, product, planes) if oriented else (0.0, 0.0, 0.0)
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
-                     float(np.std(height[region])), offset, dark, *facing])
+                     float(np.std(height[region])), offset, dark, *facing, abs(offset), abs(facing[1])])
 
 
 def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray,
