@@ -41,8 +41,12 @@ Of the region (REGION_FEATURES, region_features):
   absolute deviation: the product's faces, not its few shadowed gaps and edges, set it; NaN when the
   oriented features are unknown): how far from the product's lightness, darker or lighter alike. A
   logistic model is monotonic in each feature, and the signed ones mostly tell the product's shadowed gaps
-  (darker) from its faces; an impurity of the product's hue that is only darker or lighter (a stone among
-  grain, ash among ore) shows in the size.
+  (darker) from its faces; with the sizes beside them it can weigh an impurity of the product's hue that is
+  only darker or lighter (a stone among grain, ash among ore). In the shipped model lightness_size counts
+  for an impurity and oriented_lightness_size against (far outside the product's robust spread lie its
+  gaps and edges more often than an impurity's faces), with relative_i and oriented_lightness refitted
+  beside them on lightness palettes (`python -m impurity_learning.calibrate verifier --refit`, its
+  provenance field).
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
