@@ -36,17 +36,6 @@ Of the region (REGION_FEATURES, region_features):
   read cells with at least one channel below SATURATION only, and are unknown (NaN)
   with fewer than ORIENTED_MIN_PRODUCT such product cells or none in m. A model reads an unknown feature as
   its fitted mean: it adds nothing to the score (RegionVerifier.probability).
-- lightness_size, oriented_lightness_size (LIGHTNESS_SIZE_FEATURES): |lightness_offset|, and the size of
-  m's median log-I residual of the orientation fit in a robust spread of P's (ROBUST_SPREAD x the median
-  absolute deviation: the product's faces, not its few shadowed gaps and edges, set it; NaN when the
-  oriented features are unknown): how far from the product's lightness, darker or lighter alike. A
-  logistic model is monotonic in each feature, and the signed ones mostly tell the product's shadowed gaps
-  (darker) from its faces; with the sizes beside them it can weigh an impurity of the product's hue that is
-  only darker or lighter (a stone among grain, ash among ore). In the shipped model lightness_size counts
-  for an impurity and oriented_lightness_size against (far outside the product's robust spread lie its
-  gaps and edges more often than an impurity's faces), with relative_i and oriented_lightness refitted
-  beside them on lightness palettes (`python -m impurity_learning.calibrate verifier --refit`, its
-  provenance field).
 Of the region among the others (CONTEXT_FEATURES, context_features):
 - rank: 0 for the most salient region, 1, 2;
 - log_regions: log of the number of salient regions in view;
@@ -91,10 +80,8 @@ from .saliency import CHROMA_MIN_INTENSITY, MIN_CHANNEL_LEVEL, opponent_chromati
 
 TOP_REGIONS = 3  # salient regions scored, best first
 ORIENTED_FEATURES = ("oriented_contrast", "oriented_lightness", "oriented_off_share")
-LIGHTNESS_SIZE_FEATURES = ("lightness_size", "oriented_lightness_size")
 REGION_FEATURES = ("colour_contrast", "relative_rg", "relative_by", "relative_i", "off_colour_share",
-                   "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES + \
-    LIGHTNESS_SIZE_FEATURES
+                   "height_spread", "lightness_offset", "dark_share") + ORIENTED_FEATURES
 CONTEXT_FEATURES = ("rank", "log_regions", "best_over_next", "log_object_share")
 FEATURES = REGION_FEATURES + CONTEXT_FEATURES  # a row without the network (candidate_features' default)
 NETWORK_FEATURES = ("network_mean", "network_high")
@@ -116,8 +103,6 @@ ORIENTED_RIDGE = 1e-4  # added to the residual covariance's diagonal (a flat pro
 ORIENTED_OFF = 3.0  # oriented_off_share: a cell's residual beyond this Mahalanobis distance
 LOG_I_FLOOR = 0.02  # log I of the orientation fit: intensities below this count as this
 NETWORK_QUANTILE = 0.9  # network_high: this quantile of the network's probability over the region
-ROBUST_SPREAD = 1.4826  # oriented_lightness_size: x the median absolute deviation = the standard deviation
-#                         of a normal distribution
 
 
 @dataclass(frozen=True)
@@ -172,9 +157,8 @@ class RegionVerifier:
 
     @property
     def reads_oriented(self) -> bool:
-        """Whether the model reads any of ORIENTED_FEATURES or oriented_lightness_size (else
-        candidate_features may skip them)."""
-        return any(name in ORIENTED_FEATURES + ("oriented_lightness_size",) for name in self.features)
+        """Whether the model reads any of ORIENTED_FEATURES (else candidate_features may skip them)."""
+        return any(name in ORIENTED_FEATURES for name in self.features)
 
     @property
     def reads_network(self) -> bool:
@@ -222,9 +206,8 @@ def region_features(color: np.ndarray, height: np.ndarray, objects: np.ndarray, 
         planes = ViewPlanes.of(color, height if oriented else None)
     offset, dark = lightness_features(color, region, product, planes)
     facing = oriented_features(color, height, region, product, planes) if oriented else (0.0, 0.0, 0.0)
-    size = oriented_lightness_size(region, product, planes) if oriented else 0.0
     return np.array([math.log1p(contrast), ratios["RG"], ratios["BY"], ratios["I"], off_share,
-                     float(np.std(height[region])), offset, dark, *facing, abs(offset), size])
+                     float(np.std(height[region])), offset, dark, *facing])
 
 
 def lightness_features(color: np.ndarray, region: np.ndarray, product: np.ndarray,
@@ -288,24 +271,9 @@ def oriented_features(color: np.ndarray, height: np.ndarray, region: np.ndarray,
     planes: ViewPlanes.of(color, height), passed when several regions of one view are read."""
     if planes is None or planes.chroma is None:
         planes = ViewPlanes.of(color, height)
-    residuals = _oriented_residuals(region, product, planes)
-    if residuals is None:
-        return math.nan, math.nan, math.nan
-    residual_p, residual_m = residuals
-    inverse = np.linalg.inv(np.cov(residual_p, rowvar=False) + ORIENTED_RIDGE * np.eye(3))
-    mean = residual_m.mean(axis=0)
-    distance = math.sqrt(max(float(mean @ inverse @ mean), 0.0))
-    per_cell = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", residual_m, inverse, residual_m), 0.0))
-    lightness = float(np.median(residual_m[:, 0]) / (np.std(residual_p[:, 0]) + 1e-3))
-    return math.log1p(min(distance, COLOUR_CAP)), lightness, float(np.mean(per_cell > ORIENTED_OFF))
-
-
-def _oriented_residuals(region: np.ndarray, product: np.ndarray, planes: ViewPlanes) -> tuple | None:
-    """(P's residuals (n, 3), m's residuals (k, 3)) of the orientation fit of oriented_features (log I,
-    RG / I, BY / I over the slope), on readable cells; None when they are unknown."""
     region, product = region & planes.readable, product & planes.readable
     if int(product.sum()) < ORIENTED_MIN_PRODUCT or not region.any():
-        return None
+        return math.nan, math.nan, math.nan
 
     def design(cells: np.ndarray) -> np.ndarray:
         x, y = planes.gx[cells].astype(np.float64), planes.gy[cells].astype(np.float64)
@@ -313,18 +281,13 @@ def _oriented_residuals(region: np.ndarray, product: np.ndarray, planes: ViewPla
 
     own, reference = planes.chroma[region].astype(np.float64), planes.chroma[product].astype(np.float64)
     beta = np.linalg.lstsq(design(product), reference, rcond=None)[0]
-    return reference - design(product) @ beta, own - design(region) @ beta
-
-
-def oriented_lightness_size(region: np.ndarray, product: np.ndarray, planes: ViewPlanes) -> float:
-    """oriented_lightness_size of `region` against `product` (module docstring; planes:
-    ViewPlanes.of(color, height)); NaN when the orientation fit is unknown."""
-    residuals = _oriented_residuals(region, product, planes)
-    if residuals is None:
-        return math.nan
-    residual_p, residual_m = residuals[0][:, 0], residuals[1][:, 0]
-    spread = ROBUST_SPREAD * float(np.median(np.abs(residual_p - np.median(residual_p))))
-    return abs(float(np.median(residual_m) - np.median(residual_p))) / (spread + 1e-3)
+    residual_p, residual_m = reference - design(product) @ beta, own - design(region) @ beta
+    inverse = np.linalg.inv(np.cov(residual_p, rowvar=False) + ORIENTED_RIDGE * np.eye(3))
+    mean = residual_m.mean(axis=0)
+    distance = math.sqrt(max(float(mean @ inverse @ mean), 0.0))
+    per_cell = np.sqrt(np.maximum(np.einsum("ij,jk,ik->i", residual_m, inverse, residual_m), 0.0))
+    lightness = float(np.median(residual_m[:, 0]) / (np.std(residual_p[:, 0]) + 1e-3))
+    return math.log1p(min(distance, COLOUR_CAP)), lightness, float(np.mean(per_cell > ORIENTED_OFF))
 
 
 def context_features(objects: np.ndarray, regions: list, rank: int) -> np.ndarray:

@@ -20,8 +20,8 @@ NETWORK_FILE, VERIFIER_FILE = "impurity_net.pt", "verifier.json"  # the names of
 NETWORK_EPOCHS = 6
 VERIFIER_FOLDS = 5  # palette-grouped cross-validation folds (needs at least as many palettes)
 # Per RegionVerifier threshold field, the share of tuning scenes without a visible impurity it lets through
-# as a TARGET: threshold 1 %; last_look and stall_look the shares that last_look 0.391 and stall_look 0.134
-# let through under the verifier fitted on 2933 such tuning scenes (127 and 333 of them).
+# as a TARGET: threshold 1 %; last_look and stall_look the shares the shipped values (0.391, 0.134) let
+# through under the shipped verifier on its tuning scenes (127 and 333 of 2933).
 CAPS = {"threshold": 0.01, "last_look": 127 / 2933, "stall_look": 333 / 2933}
 
 
