@@ -567,10 +567,11 @@ def parse_args(argv=None) -> argparse.Namespace:
                    help="every finished episode's record, read back on a resumed run (default: --json's "
                         "path with .partial.jsonl; removed when the run completes)")
     p.add_argument("--no-resume", action="store_true", help="ignore (and replace) an existing journal")
-    p.add_argument("--palette-groups", nargs="+", default=list(generalisation.GROUPS),
+    p.add_argument("--palette-groups", nargs="+", default=list(generalisation.DEFAULT_GROUPS),
                    choices=generalisation.GROUPS,
-                   help="generalisation table groups (default: the main table's episodes; tuning, held_out: "
-                        "--group-episodes more per row and scenario, palettes cycling)")
+                   help="generalisation table groups (default: the main table's episodes; tuning, held_out, "
+                        "lightness: --group-episodes more per row and scenario, palettes cycling; default: "
+                        f"{' '.join(generalisation.DEFAULT_GROUPS)})")
     p.add_argument("--group-episodes", type=int, default=4, help="per row, scenario and non-default group")
     p.add_argument("--group-palette-offset", type=int, default=0, metavar="N",
                    help="episode k of a non-default group runs on its palette N + k (cycling): a run on "

@@ -1,6 +1,7 @@
 """The generalisation table: how the cell does on appearances it was not tuned on.
 
-For each scenario x palette group ("default", "tuning", "held_out" of splits.py):
+For each scenario x palette group ("default", "tuning", "held_out" and "lightness", held-out palettes whose
+impurities differ from the product mainly in lightness, of splits.py):
 - perception, measured on rendered scenes with the attention module alone (no policy): detection of
   visible targets (the TARGET mask lies on an impurity) and false TARGET on scenes without impurities;
 - picking, from evaluation episodes (eval_cli): grasp success, action efficiency and completion per
@@ -22,8 +23,10 @@ import numpy as np
 
 from . import splits
 
-GROUPS = ("default", "tuning", "held_out")
-GROUP_LABELS = {"default": "default (blocks)", "tuning": "tuning palettes", "held_out": "held-out palettes"}
+GROUPS = ("default", "tuning", "held_out", "lightness")
+DEFAULT_GROUPS = ("default", "tuning", "held_out")  # eval_cli's --palette-groups unless told
+GROUP_LABELS = {"default": "default (blocks)", "tuning": "tuning palettes", "held_out": "held-out palettes",
+                "lightness": "held-out lightness palettes"}
 RANDOM_PALETTES_PER_GROUP = 4  # random palettes beside the named ones in the tuning group (held-out: all)
 
 
@@ -36,6 +39,8 @@ def group_palettes(group: str) -> list:
                                             splits.TUNING_RANDOM_SEEDS[:RANDOM_PALETTES_PER_GROUP]]
     if group == "held_out":  # the whole held-out set (splits.held_out_palettes)
         return splits.held_out_palettes()
+    if group == "lightness":  # impurities differing mainly in lightness (splits.held_out_lightness_palettes)
+        return splits.held_out_lightness_palettes()
     raise ValueError(f"unknown palette group {group!r} (expected one of {', '.join(GROUPS)})")
 
 

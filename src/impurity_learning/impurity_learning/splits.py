@@ -6,7 +6,9 @@ appearances from the tuning palettes and random palettes of its own seed range, 
 
 Palettes are names for ur5_driver_sim.core.appearance.palette_named: a named palette's split is its
 `split` field in ur5_driver_sim/data/palettes.yaml (default, tuning, held_out, spare); a random palette
-`random-<seed>`'s split is the range of RANDOM_PALETTE_SEEDS holding its seed. Scene seeds are split by
+`random-<seed>`'s split is the range of RANDOM_PALETTE_SEEDS holding its seed, a lightness palette
+`lightness-<seed>`'s (impurities differing from the product mainly in lightness) that of
+LIGHTNESS_PALETTE_SEEDS. Scene seeds are split by
 SCENE_SEEDS. `palette_group` names the split of any palette. The scene sets beyond the paper's blocks
 (ur5_driver_sim.core.scenes.SCENE_SETS) are split by seed the same way: `scene_set_seeds`.
 """
@@ -15,7 +17,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-from ur5_driver_sim.core.appearance import DEFAULT_PALETTE, PALETTE_SPLITS, RANDOM_PREFIX
+from ur5_driver_sim.core.appearance import DEFAULT_PALETTE, LIGHTNESS_PREFIX, PALETTE_SPLITS, RANDOM_PREFIX
 
 
 class SeedRange(NamedTuple):
@@ -68,6 +70,16 @@ RANDOM_PALETTE_SEEDS = (
     SeedRange(range(1000, 10_000), "spare", "neither tuned on nor part of the evaluation"),
     SeedRange(range(1_000_000, 1_005_000), "spare", "neither tuned on nor part of the evaluation"),
 )
+# Lightness palettes lightness-<seed>, by seed.
+TUNING_LIGHTNESS_SEEDS = range(0, 1000)
+HELD_OUT_LIGHTNESS_SEEDS = range(1_005_000, 1_006_000)
+LIGHTNESS_PALETTE_SEEDS = (
+    SeedRange(TUNING_LIGHTNESS_SEEDS, "tuning", "lightness tuning palettes"),
+    SeedRange(HELD_OUT_LIGHTNESS_SEEDS, "held_out", "the lightness group's palettes: only measured"),
+    SeedRange(range(1000, 1_005_000), "spare", "neither tuned on nor part of the evaluation"),
+)
+TUNING_LIGHTNESS_COUNT = 4  # lightness palettes among tuning_palettes' (the calibrate tools' default)
+HELD_OUT_LIGHTNESS_COUNT = 48  # lightness palettes in the lightness group (held_out_lightness_palettes)
 HELD_OUT_RANDOM_COUNT = 196  # random palettes in the held-out group (held_out_palettes' default)
 TRAINING_EXPOSURE = (0.5, 2.0)  # exposure factor drawn log-uniformly while training
 
@@ -75,10 +87,17 @@ TUNING_NAMED = tuple(name for name, split in PALETTE_SPLITS.items() if split == 
 HELD_OUT_NAMED = tuple(name for name, split in PALETTE_SPLITS.items() if split == "held_out")
 
 
-def tuning_palettes(random_count: int = 8) -> list:
-    """The default palette, the named tuning palettes and random-0 ... random-<random_count - 1>."""
+def tuning_palettes(random_count: int = 8, lightness_count: int = TUNING_LIGHTNESS_COUNT) -> list:
+    """The default palette, the named tuning palettes, random-0 ... random-<random_count - 1> and
+    lightness-0 ... lightness-<lightness_count - 1>."""
     randoms = [f"{RANDOM_PREFIX}{s}" for s in TUNING_RANDOM_SEEDS[:random_count]]
-    return [DEFAULT_PALETTE, *TUNING_NAMED, *randoms]
+    lightness = [f"{LIGHTNESS_PREFIX}{s}" for s in TUNING_LIGHTNESS_SEEDS[:lightness_count]]
+    return [DEFAULT_PALETTE, *TUNING_NAMED, *randoms, *lightness]
+
+
+def held_out_lightness_palettes(count: int = HELD_OUT_LIGHTNESS_COUNT) -> list:
+    """The lightness group: the first `count` held-out lightness palettes."""
+    return [f"{LIGHTNESS_PREFIX}{s}" for s in HELD_OUT_LIGHTNESS_SEEDS[:count]]
 
 
 def tuning_random_palettes(start: int, count: int) -> list:
@@ -108,11 +127,13 @@ def palette_group(name: str) -> str:
     base = name.split("@", 1)[0] or DEFAULT_PALETTE
     if base in PALETTE_SPLITS:
         return PALETTE_SPLITS[base]
-    if base.startswith(RANDOM_PREFIX) and base[len(RANDOM_PREFIX):].isdigit():
-        seed = int(base[len(RANDOM_PREFIX):])
-        for block in RANDOM_PALETTE_SEEDS:
-            if seed in block.seeds:
-                return block.split
+    generated = ((RANDOM_PREFIX, RANDOM_PALETTE_SEEDS), (LIGHTNESS_PREFIX, LIGHTNESS_PALETTE_SEEDS))
+    for prefix, blocks in generated:
+        if base.startswith(prefix) and base[len(prefix):].isdigit():
+            seed = int(base[len(prefix):])
+            for block in blocks:
+                if seed in block.seeds:
+                    return block.split
     raise ValueError(f"palette {name!r} belongs to no split")
 
 

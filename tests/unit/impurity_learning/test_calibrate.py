@@ -136,6 +136,29 @@ def test_the_fitted_verifier_round_trips_through_the_shipped_format(tmp_path):
     assert read_verifier(path) == verifier
 
 
+def test_a_refit_learns_an_added_feature_and_holds_the_other_weights():
+    """A model fitted where the last feature said nothing misses impurities that only it tells; refitting
+    that feature alone finds them and leaves every other weight as it was."""
+    from impurity_attention.core.verifier import ALL_FEATURES, FEATURES
+    rng = np.random.default_rng(3)
+    features, on, scene, group, visible = synthetic_rows(rng)
+    model, _ = attention_fit.fit_verifier(features, on, scene, group, visible, feature_names=FEATURES[:-2])
+    told = ALL_FEATURES.index("network_high")
+    half = visible & (np.arange(len(visible)) % 4 == 0)  # half the impurities tell only by network_high
+    for s in np.flatnonzero(half):
+        features[(scene == s) & on, :2] -= 2.0
+        features[(scene == s) & on, told] += 6.0
+    before, _ = attention_fit.extend_verifier(model, features, on, scene, group, visible, added=("rank",))
+    after, figures = attention_fit.extend_verifier(model, features, on, scene, group, visible,
+                                                   added=("network_high",), provenance="refit")
+    assert after.features == model.features + ("network_high",) and after.provenance == "refit"
+    assert after.coef[:-1] == model.coef and after.coef[-1] > 1.0
+    assert figures["fitted"]["found"] > figures["before"]["found"] + 0.1
+    with pytest.raises(ValueError, match="ALL_FEATURES"):
+        attention_fit.extend_verifier(model, features, on, scene, group, visible, added=("shoe_size",))
+    assert before.features == model.features
+
+
 def test_the_verifier_refuses_rows_of_one_class():
     from impurity_attention.core.verifier import FEATURES
     features, on, scene, group, visible = synthetic_rows(np.random.default_rng(1))

@@ -148,3 +148,31 @@ def test_eval_cli_runs_a_scene_set_on_the_split_asked_and_writes_it_apart():
     paper = eval_cli.parse_args([])
     assert (paper.scene_set, paper.markdown, paper.scenarios) == ("", eval_cli.MARKDOWN,
                                                                   list(eval_cli.SCENARIOS))
+
+
+def test_lightness_palette_seed_ranges_never_overlap_and_each_has_a_split():
+    ranges = [block.seeds for block in splits.LIGHTNESS_PALETTE_SEEDS]
+    assert not any(overlaps(a, b) for i, a in enumerate(ranges) for b in ranges[i + 1:])
+    for block in splits.LIGHTNESS_PALETTE_SEEDS:
+        assert block.split in SPLITS and block.meaning
+        assert splits.palette_group(f"lightness-{block.seeds[0]}") == block.split
+        assert splits.palette_group(f"lightness-{block.seeds[-1]}@x1.5") == block.split
+    with pytest.raises(ValueError, match="no split"):
+        splits.palette_group(f"lightness-{max(block.seeds.stop for block in splits.LIGHTNESS_PALETTE_SEEDS)}")
+
+
+def test_the_lightness_group_is_held_out_and_its_tuning_palettes_are_among_the_calibrations():
+    group = generalisation.group_palettes("lightness")
+    assert len(group) == splits.HELD_OUT_LIGHTNESS_COUNT
+    assert all(p.startswith("lightness-") for p in group)
+    assert {splits.palette_group(p) for p in group} == {"held_out"}
+    tuned = [p for p in splits.tuning_palettes() if p.startswith("lightness-")]
+    assert len(tuned) == splits.TUNING_LIGHTNESS_COUNT
+    assert {splits.palette_group(p) for p in tuned} == {"tuning"}
+    assert not set(tuned) & set(group)
+
+
+def test_eval_cli_takes_the_lightness_group_but_runs_it_only_when_asked():
+    from impurity_learning import eval_cli
+    assert "lightness" not in eval_cli.parse_args([]).palette_groups
+    assert eval_cli.parse_args(["--palette-groups", "lightness"]).palette_groups == ["lightness"]

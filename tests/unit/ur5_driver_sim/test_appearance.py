@@ -67,6 +67,44 @@ def test_random_palettes_are_seeded_and_keep_impurities_distinguishable():
         assert generated.min_impurity_delta_e() >= appearance.RANDOM_IMPURITY_DELTA_E[0] - 0.5
 
 
+LIGHTNESS_SEEDS = range(60)
+
+
+def test_lightness_palettes_are_seeded_and_addressed_by_name():
+    assert appearance.palette_named("lightness-7") == appearance.lightness_palette(7)
+    assert appearance.palette_named("lightness-7@x1.2").exposure == 1.2
+    assert appearance.lightness_palette(7) != appearance.lightness_palette(8)
+    assert appearance.lightness_palette(7).name == "lightness-7"
+
+
+@pytest.mark.parametrize("seed", LIGHTNESS_SEEDS)
+def test_a_lightness_palettes_impurities_differ_from_the_product_mainly_in_lightness(seed):
+    generated = appearance.lightness_palette(seed)
+    base = generated.product_shades[0]
+    assert 1 <= len(generated.impurity_colors) <= 2 and 1 <= len(generated.product_shades) <= 3
+    assert all(appearance.delta_e(shade, base) <= appearance.RANDOM_SHADE_DELTA_E + 0.5
+               for shade in generated.product_shades)
+    low, high = appearance.LIGHTNESS_DELTA_E
+    for impurity in generated.impurity_colors:
+        assert low <= appearance.delta_e(impurity, base) <= high
+        assert generated.min_impurity_delta_e() >= low
+        assert appearance.chroma_shift(impurity, base) <= appearance.LIGHTNESS_MAX_CHROMA_SHIFT
+
+
+def test_lightness_palettes_are_darker_and_lighter_at_normal_and_bright_exposure_unclipped_where_lit():
+    palettes = [appearance.lightness_palette(seed) for seed in LIGHTNESS_SEEDS]
+    lighter = [appearance.delta_e(i, (0, 0, 0)) > appearance.delta_e(p.product_shades[0], (0, 0, 0))
+               for p in palettes for i in p.impurity_colors]
+    assert 0.25 < np.mean(lighter) < 0.75
+    exposures = np.array([p.exposure for p in palettes])
+    assert exposures.min() >= appearance.LIGHTNESS_EXPOSURE[0]
+    assert exposures.max() <= appearance.LIGHTNESS_BRIGHT_EXPOSURE[1]
+    assert 0.1 < np.mean(exposures > appearance.LIGHTNESS_EXPOSURE[1]) < 0.4
+    for p in palettes:
+        brightest = max(max(c) for c in p.product_shades + p.impurity_colors)
+        assert brightest * (p.ambient + p.diffuse) * p.exposure <= appearance.LIGHTNESS_CEILING + 1e-6
+
+
 def test_default_palette_draws_the_configured_product_colours():
     """Product blocks take base + uniform(-jitter, jitter) per channel from the layout generator."""
     colours = appearance.PALETTES["blocks"].colours(scene_seed=4)

@@ -68,8 +68,22 @@ def run_verifier(args) -> int:
     names = ALL_FEATURES if network is not None else FEATURES
     provenance = (f"python -m impurity_learning.calibrate verifier: {len(rows[4])} tuning scenes, "
                   f"{len(set(rows[3].tolist()))} palettes")
-    verifier, figures = attention_fit.fit_verifier(*rows, feature_names=names, provenance=provenance)
-    for name in ("out_of_fold", "fitted"):
+    if args.refit:
+        from impurity_attention.core.verifier import read_verifier
+
+        model = read_verifier(None if args.refit_from == "shipped" else args.refit_from)
+        provenance = (f"{model.provenance}; then {', '.join(args.refit)} refitted, the other weights held "
+                      f"(python -m impurity_learning.calibrate verifier --refit {' '.join(args.refit)}): "
+                      f"{len(rows[4])} tuning scenes, {len(set(rows[3].tolist()))} palettes")
+        try:
+            verifier, figures = attention_fit.extend_verifier(model, *rows, added=tuple(args.refit),
+                                                              provenance=provenance)
+        except ValueError as error:
+            print(f"calibrate verifier: --refit: {error}", file=sys.stderr)
+            return 2
+    else:
+        verifier, figures = attention_fit.fit_verifier(*rows, feature_names=names, provenance=provenance)
+    for name in ("before", "out_of_fold", "fitted"):
         if name in figures:
             print(f"{name.replace('_', ' ')}: {100 * figures[name]['found']:.1f} % found, "
                   f"{100 * figures[name]['false_target']:.1f} % false TARGET (threshold at "
@@ -250,6 +264,12 @@ def parse_args(argv=None):
             "write_verifier: feature names, weights and bias over the standardised features, threshold,\n"
             "last_look, stall_look); the cell reads it as impurity_attention/checkpoints/verifier.json.")
     scenes.add_options(p)
+    p.add_argument("--refit", nargs="+", default=None, metavar="FEATURE",
+                   help="refit only these features' weights (and the intercept) of the --refit-from model, "
+                        "its other weights held; a feature it does not read is added "
+                        "(attention_fit.extend_verifier)")
+    p.add_argument("--refit-from", default="shipped", metavar="JSON",
+                   help="the model --refit starts from: a verifier.json or 'shipped' (default)")
     p.add_argument("--network", default=None,
                    help="the impurity network: a weights file, 'shipped' or 'none' (default: "
                         "OUT/impurity_net.pt if there, else the shipped one)")

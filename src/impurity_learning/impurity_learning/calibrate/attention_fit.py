@@ -171,6 +171,90 @@ def fit_verifier(features, on, scene, group, visible, feature_names: tuple, caps
     return verifier, figures
 
 
+def _offset_fit(columns, offset, labels, c: float = 1.0) -> tuple:
+    """(weights (F,), bias) of the logistic regression logit = offset + columns . weights + bias, L2 penalty
+    on the weights as scikit-learn's (C = c): the model given by `offset` held, the added terms fitted."""
+    from scipy.optimize import minimize
+
+    def loss(theta):
+        z = offset + columns @ theta[:-1] + theta[-1]
+        p = 1.0 / (1.0 + np.exp(-z))
+        value = c * np.sum(np.logaddexp(0.0, z) - labels * z) + 0.5 * theta[:-1] @ theta[:-1]
+        gradient = c * np.append(columns.T @ (p - labels), np.sum(p - labels))
+        gradient[:-1] += theta[:-1]
+        return value, gradient
+
+    theta = minimize(loss, np.zeros(columns.shape[1] + 1), jac=True, method="L-BFGS-B").x
+    return theta[:-1], float(theta[-1])
+
+
+def extend_verifier(model, features, on, scene, group, visible, added: tuple, caps: dict = CAPS,
+                    provenance: str = "") -> tuple:
+    """Refit only the terms of `added` (names of verifier.ALL_FEATURES) of the RegionVerifier `model`, on
+    verifier_rows' rows, its other weights held: a feature the model reads has its weight moved, one it does
+    not read is added (standardised over the rows, clipped to their range), and the intercept moves with
+    them (_offset_fit, the model's own logit as the offset). Its threshold, last_look and stall_look are
+    chosen anew by choose_thresholds(caps) on the rows' scenes. For a model fitted on more data than is at
+    hand (the shipped one), taught a kind of impurity its data lacked. Returns (RegionVerifier, figures) as
+    fit_verifier (out of fold: the added terms fitted without the palettes of a fold)."""
+    from impurity_attention.core.verifier import ALL_FEATURES
+
+    unknown = [name for name in added if name not in ALL_FEATURES]
+    if unknown or not added:
+        raise ValueError(f"features to refit must be names of ALL_FEATURES ({', '.join(ALL_FEATURES)}), "
+                         f"got {list(added)}")
+    if len(set(on.tolist())) < 2:
+        raise ValueError("the verifier needs regions on an impurity and regions off one: give more scenes")
+    new = [name for name in added if name not in model.features]
+    raw = features[:, [ALL_FEATURES.index(name) for name in new]]
+    mean, scale = np.nanmean(raw, axis=0), np.nanstd(raw, axis=0)
+    scale = np.where(scale > 0, scale, 1.0)
+    grown = dataclasses.replace(
+        model, features=model.features + tuple(new),
+        mean=model.mean + tuple(round(float(v), 6) for v in mean),
+        scale=model.scale + tuple(round(float(v), 6) for v in scale), coef=model.coef + (0.0,) * len(new),
+        low=model.low + tuple(round(float(v), 6) for v in np.nanmin(raw, axis=0)),
+        high=model.high + tuple(round(float(v), 6) for v in np.nanmax(raw, axis=0)))
+    positions = [grown.features.index(name) for name in added]
+    read = features[:, [ALL_FEATURES.index(name) for name in grown.features]]
+    standard = np.nan_to_num((np.clip(read, grown.low, grown.high) - np.asarray(grown.mean))
+                             / np.asarray(grown.scale), nan=0.0)
+    offset = standard @ np.asarray(grown.coef) + grown.intercept
+    columns = standard[:, positions]
+    count = len(visible)
+
+    def probability_of(weights, bias, rows=slice(None)):
+        return 1.0 / (1.0 + np.exp(-(offset[rows] + columns[rows] @ weights + bias)))
+
+    def rates(probability) -> dict:
+        best, hit = scene_decisions(probability, on, scene, count)
+        taken = best >= threshold_at(best, visible, caps["threshold"])
+        return {"found": float(np.mean(taken[visible] & hit[visible])) if visible.any() else float("nan"),
+                "false_target": float(np.mean(taken[~visible])) if (~visible).any() else float("nan")}
+
+    figures = {"scenes": count, "regions": len(columns), "palettes": len(set(group.tolist()))}
+    figures["before"] = rates(probability_of(np.zeros(len(added)), 0.0))
+    if figures["palettes"] >= VERIFIER_FOLDS:
+        from sklearn.model_selection import GroupKFold
+
+        out_of_fold = np.zeros(len(columns))
+        for train, test in GroupKFold(n_splits=VERIFIER_FOLDS).split(columns, on, group):
+            out_of_fold[test] = probability_of(*_offset_fit(columns[train], offset[train], on[train]), test)
+        figures["out_of_fold"] = rates(out_of_fold)
+    weights, bias = _offset_fit(columns, offset, on.astype(float))
+    probability = probability_of(weights, bias)
+    figures["fitted"] = rates(probability)
+    best, _ = scene_decisions(probability, on, scene, count)
+    figures["thresholds"] = choose_thresholds(best, visible, caps)
+    coef = list(grown.coef)
+    for position, weight in zip(positions, weights, strict=True):
+        coef[position] = round(coef[position] + float(weight), 6)
+    verifier = dataclasses.replace(
+        grown, coef=tuple(coef), intercept=round(grown.intercept + bias, 6), provenance=provenance,
+        **{field: entry["value"] for field, entry in figures["thresholds"].items()})
+    return verifier, figures
+
+
 def choose_thresholds(best, visible, caps: dict = CAPS) -> dict:
     """Per RegionVerifier threshold field of `caps` (threshold, last_look, stall_look): the least probability
     that lets at most that share of the scenes without a visible impurity through (threshold_at, rounded up

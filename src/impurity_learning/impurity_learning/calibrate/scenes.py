@@ -52,8 +52,10 @@ def check_seeds(seeds) -> None:
                                      f"{tuning.start}..{tuning.stop - 1} only")
 
 
-def default_palettes() -> list:
-    return splits.tuning_palettes(RANDOM_PALETTES)
+def default_palettes(lightness: int = splits.TUNING_LIGHTNESS_COUNT) -> list:
+    """The default palette, the named tuning ones, RANDOM_PALETTES random ones and `lightness` lightness ones
+    (splits.tuning_palettes)."""
+    return splits.tuning_palettes(RANDOM_PALETTES, lightness)
 
 
 def plan_scenes(palettes, seed_base: int = SEED_BASE, scale: int = 1) -> list:
@@ -120,7 +122,11 @@ def add_options(parser) -> None:
     """The options choosing the scenes (network, verifier, colour-reference)."""
     parser.add_argument("--palettes", nargs="+", default=None, metavar="NAME",
                         help="default and tuning palettes to render (default: the default palette, the named "
-                             f"tuning palettes and random-0 ... random-{RANDOM_PALETTES - 1})")
+                             f"tuning palettes, random-0 ... random-{RANDOM_PALETTES - 1} and lightness-0 "
+                             "... lightness-<N - 1>, N of --lightness-palettes)")
+    parser.add_argument("--lightness-palettes", type=int, default=splits.TUNING_LIGHTNESS_COUNT, metavar="N",
+                        help="lightness tuning palettes among the default ones (impurities unlike the "
+                             f"product mainly in lightness; default {splits.TUNING_LIGHTNESS_COUNT})")
     parser.add_argument("--scale", type=int, default=1, help="scenes per palette: 19 x this")
     parser.add_argument("--seed-base", type=int, default=SEED_BASE, help="the first tuning scene seed")
     parser.add_argument("--limit", type=int, default=None, help="only the first N scenes (a quick check)")
@@ -135,5 +141,6 @@ def scenes_of(args) -> list:
     """The scene records the options ask for (rendered or read)."""
     if args.views:
         return load_views(args.views)[:args.limit]
-    wanted = plan_scenes(args.palettes or default_palettes(), args.seed_base, args.scale)[:args.limit]
+    wanted = plan_scenes(args.palettes or default_palettes(args.lightness_palettes), args.seed_base,
+                         args.scale)[:args.limit]
     return render(wanted, args.cache or args.out / "scenes.npz", progress=not args.no_progress)

@@ -9,8 +9,9 @@ so the simulator renders the same layouts under many appearances:
   rendered RGB, clipped to 255 like a saturating sensor).
 - `PALETTES`: named palettes modelled on real sorting jobs, read from data/palettes.yaml (`load_palettes`
   checks it; `PALETTE_SPLITS` gives each one's split), plus `random_palette(seed)` generated in code,
-  addressed by name as `random-<seed>`. `palette_named(name)` refuses an unknown name with the list of
-  known ones.
+  addressed by name as `random-<seed>`, and `lightness_palette(seed)`, impurities differing from the
+  product mainly in lightness, addressed as `lightness-<seed>`. `palette_named(name)` refuses an unknown
+  name with the list of known ones.
 - `BlockColours`: the per-scene colour draw. Product blocks take their jitter from the layout's random
   generator (three uniforms in +- LAYOUT_JITTER per block, scaled to the palette's product_jitter); the
   choice of shade and impurity colour comes from a second generator seeded by the scene seed, so one seed
@@ -43,6 +44,18 @@ DEFAULT_DIFFUSE = 0.45
 # what a sorting operator calls "clearly different" on a matte surface; 60 is red among blue.
 RANDOM_IMPURITY_DELTA_E = (12.0, 60.0)
 RANDOM_SHADE_DELTA_E = 4.0  # at most this between a random palette's product shades
+# lightness palettes (lightness_palette): impurities that differ from the product mainly in lightness (stones
+# among grain, ash among ore, grey plastic among white), at this Delta E from the product's base shade ...
+LIGHTNESS_PREFIX = "lightness-"
+LIGHTNESS_DELTA_E = (12.0, 20.0)
+LIGHTNESS_MAX_CHROMA_SHIFT = 4.0  # ... with at most this change in (a*, b*): nearly the product's hue, chroma
+LIGHTNESS_EXPOSURE = (0.7, 1.4)  # the exposure of most lightness palettes, as random palettes'
+LIGHTNESS_BRIGHT_EXPOSURE = (1.4, 1.8)  # a bright exposure, in LIGHTNESS_BRIGHT_SHARE of them
+LIGHTNESS_BRIGHT_SHARE = 0.25
+# every lightness palette's colours keep their brightest channel x (ambient + diffuse) x exposure at most
+# this: a face lit head-on stays below the camera's ceiling, so the lightness difference is in the image (a
+# lighter impurity on a light product clipped to white with it would be no case for any detector)
+LIGHTNESS_CEILING = 0.95
 COLOUR_SEED_SALT = 0x5EED_C010  # the colour generator's seed: scene seed XOR this
 
 
@@ -55,6 +68,13 @@ def delta_e(a, b) -> float:
     pixels = np.array([[a, b]], dtype=np.float32)
     lab = cv2.cvtColor(pixels, cv2.COLOR_RGB2Lab)[0]
     return float(np.linalg.norm(lab[0] - lab[1]))
+
+
+def chroma_shift(a, b) -> float:
+    """The (a*, b*) part of delta_e: how much two RGB colours in [0, 1] differ in hue and chroma, not
+    lightness."""
+    lab = cv2.cvtColor(np.array([[a, b]], dtype=np.float32), cv2.COLOR_RGB2Lab)[0]
+    return float(np.linalg.norm(lab[0, 1:] - lab[1, 1:]))
 
 
 @dataclass(frozen=True)
@@ -295,8 +315,60 @@ def random_palette(seed: int) -> Palette:
                    description=f"random palette {int(seed)}")
 
 
+def lightness_palette(seed: int) -> Palette:
+    """A seeded appearance whose impurities differ from the product mainly in lightness: a product base
+    colour anywhere in sRGB (L* 15 ... 85) with 1-3 shades within RANDOM_SHADE_DELTA_E, 1-2 impurity colours
+    at LIGHTNESS_DELTA_E from the base (and at least its low end from every shade), darker or lighter, whose
+    (a*, b*) differ from the base's by at most LIGHTNESS_MAX_CHROMA_SHIFT; a random light as random_palette's;
+    exposure in LIGHTNESS_EXPOSURE, or in LIGHTNESS_BRIGHT_EXPOSURE for LIGHTNESS_BRIGHT_SHARE of the seeds;
+    colours drawn below LIGHTNESS_CEILING (unclipped where lit head-on; a bright palette's product is the
+    darker for it)."""
+    rng = np.random.default_rng([int(seed), 23])
+    azimuth, elevation = rng.uniform(0, 2 * math.pi), rng.uniform(math.radians(45), math.radians(85))
+    light = (math.cos(azimuth) * math.cos(elevation), math.sin(azimuth) * math.cos(elevation),
+             math.sin(elevation))
+    ambient, diffuse = float(rng.uniform(0.45, 0.75)), float(rng.uniform(0.3, 0.6))
+    bright = rng.uniform() < LIGHTNESS_BRIGHT_SHARE
+    exposure = float(rng.uniform(*(LIGHTNESS_BRIGHT_EXPOSURE if bright else LIGHTNESS_EXPOSURE)))
+    ceiling = LIGHTNESS_CEILING / ((ambient + diffuse) * exposure)
+    while True:
+        base_lab = np.array([rng.uniform(15.0, 85.0), rng.uniform(-35.0, 35.0), rng.uniform(-35.0, 45.0)])
+        base = _lab_to_rgb(base_lab)
+        if base is None or max(base) > ceiling:
+            continue
+        shades = [base]
+        for _ in range(int(rng.integers(0, 3))):
+            for _attempt in range(50):
+                offset = rng.normal(size=3)
+                shade = _lab_to_rgb(base_lab + offset / np.linalg.norm(offset) *
+                                    rng.uniform(1.0, RANDOM_SHADE_DELTA_E))
+                if shade is not None and max(shade) <= ceiling:
+                    shades.append(shade)
+                    break
+        impurities = []
+        for _ in range(int(rng.integers(1, 3))):
+            for _attempt in range(200):
+                angle, shift = rng.uniform(0, 2 * math.pi), rng.uniform(0.0, LIGHTNESS_MAX_CHROMA_SHIFT - 0.5)
+                chroma_step = np.array([math.cos(angle), math.sin(angle)]) * shift
+                distance = rng.uniform(*LIGHTNESS_DELTA_E)
+                lightness_step = math.sqrt(distance * distance - shift * shift) * rng.choice((-1.0, 1.0))
+                colour = _lab_to_rgb(base_lab + np.array([lightness_step, *chroma_step]))
+                if colour is not None and max(colour) <= ceiling and \
+                        chroma_shift(colour, base) <= LIGHTNESS_MAX_CHROMA_SHIFT and \
+                        LIGHTNESS_DELTA_E[0] <= delta_e(colour, base) <= LIGHTNESS_DELTA_E[1] and \
+                        min(delta_e(colour, s) for s in shades) >= LIGHTNESS_DELTA_E[0]:
+                    impurities.append(colour)
+                    break
+        if impurities:  # else a base where no lightness step fits the gamut: draw another
+            break
+    return Palette(name=f"{LIGHTNESS_PREFIX}{int(seed)}", product_shades=tuple(shades),
+                   impurity_colors=tuple(impurities), product_jitter=float(rng.uniform(0.005, 0.03)),
+                   impurity_jitter=float(rng.uniform(0.0, 0.02)), light_direction=light, ambient=ambient,
+                   diffuse=diffuse, exposure=exposure, description=f"lightness palette {int(seed)}")
+
+
 def known_palette_names() -> list:
-    return sorted(PALETTES) + [f"{RANDOM_PREFIX}<seed>"]
+    return sorted(PALETTES) + [f"{RANDOM_PREFIX}<seed>", f"{LIGHTNESS_PREFIX}<seed>"]
 
 
 # name suffixes, the outermost first: (pattern, the Palette method that applies its value)
@@ -305,10 +377,10 @@ _SUFFIXES = ((re.compile(r"^(?P<name>.+)@x(?P<value>[0-9.]+)$"), Palette.with_ex
 
 
 def palette_named(name: str) -> Palette:
-    """A palette by name: "" (the default), a named palette, `random-<seed>`, and any of them with an
-    exposure suffix `@x<factor>` (e.g. `blocks@x0.5`) or a product jitter suffix `@j<jitter>` (e.g.
-    `random-800@j0.05`, Palette.with_product_jitter), both in that order (`random-800@j0.05@x0.5`). ValueError
-    lists the known names otherwise, or names the field out of range."""
+    """A palette by name: "" (the default), a named palette, `random-<seed>`, `lightness-<seed>`, and any of
+    them with an exposure suffix `@x<factor>` (e.g. `blocks@x0.5`) or a product jitter suffix `@j<jitter>`
+    (e.g. `random-800@j0.05`, Palette.with_product_jitter), both in that order (`random-800@j0.05@x0.5`).
+    ValueError lists the known names otherwise, or names the field out of range."""
     name = (name or DEFAULT_PALETTE).strip()
     for pattern, apply in _SUFFIXES:
         suffix = pattern.match(name)
@@ -322,5 +394,7 @@ def palette_named(name: str) -> Palette:
         return PALETTES[name]
     if name.startswith(RANDOM_PREFIX) and name[len(RANDOM_PREFIX):].isdigit():
         return random_palette(int(name[len(RANDOM_PREFIX):]))
+    if name.startswith(LIGHTNESS_PREFIX) and name[len(LIGHTNESS_PREFIX):].isdigit():
+        return lightness_palette(int(name[len(LIGHTNESS_PREFIX):]))
     raise ValueError(f"unknown palette {name!r}; known: {', '.join(known_palette_names())} "
                      f"(any of them with @j<product jitter> and @x<exposure>, e.g. random-800@j0.05@x0.5)")
