@@ -325,7 +325,7 @@ def test_preset_none_leaves_the_q_maps_untouched():
 
 def test_preset_cell_has_every_rule_in_order_and_can_leave_some_out():
     assert RulePipeline.preset("cell").names == PRESETS["cell"] == RULE_ORDER
-    assert len(RULE_ORDER) == 11
+    assert len(RULE_ORDER) == 12
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
     left_out = ("finger_clearance", "grasp_at_target_core")
     assert without == tuple(n for n in PRESETS["cell"] if n not in left_out)

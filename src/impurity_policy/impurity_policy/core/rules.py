@@ -23,7 +23,10 @@ out (sets their Q value to -inf); none ever adds an action. They are applied in 
  10. grasp_at_target_core          mask  grasps at the middle of the target; after the preferences, so that
                                          when no grasp is left there the policy pushes (grasps 10 mm off a
                                          free 26 mm cube closed on nothing)
- 11. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp turns
+ 11. grasp_before_push             mask  with a target in view and a grasp on it left whose Q is high, no
+                                         push (the network, rewarded in training for pushes that change the
+                                         scene, values them above grasps that would pick the target)
+ 12. grasp_square_to_faces         pose  with a target whose top is a flat rectangle, the chosen grasp turns
                                          its closing axis onto the nearer face normal (tuning seeds,
                                          invisible scenes: +1.6 points of pooled grasp success)
 
@@ -113,6 +116,8 @@ class RuleParams:
                                        "target's mask", low=0, high=224)
     grasp_core_depth_px: float = param(1.0, "grasp_at_target_core: grasps this close (px) to the depth of "
                                        "the target mask's deepest point", low=0.0, high=56.0)
+    grasp_before_push_q: float = param(0.6, "grasp_before_push: with a target in view, no push while a grasp "
+                                       "on it with at least this Q value is left (PLACEHOLDER)")
     face_min_fill: float = param(0.85, "grasp_square_to_faces: the share of its least-area rectangle the "
                                  "target's mask fills for its top to count as a rectangle "
                                  "(pose.face_direction; a cube or slab seen from above fills 0.9-1.0, a disc "
@@ -134,10 +139,22 @@ class RuleContext:
 
     obs: policy.Observation; rotations: R of the Q maps; grid: the heightmap's geometry."""
 
-    def __init__(self, obs, rotations: int, pose_rules: PoseRules, params: RuleParams, grid: HeightmapGrid):
+    def __init__(self, obs, rotations: int, pose_rules: PoseRules, params: RuleParams, grid: HeightmapGrid,
+                 q: np.ndarray | None = None, valid: np.ndarray | None = None):
         self.obs, self.rotations, self.pose_rules, self.params, self.grid = (
             obs, rotations, pose_rules, params, grid)
         self.size = obs.mask.shape[0]
+        self.q, self.valid = q, valid  # the decision's Q maps (R, 2, S, S) and valid actions (2, S, S)
+        self.ruled_out = None if q is None else np.zeros(q.shape, dtype=bool)  # by the rules applied so far
+
+    def best_left(self, primitive: int) -> float:
+        """The highest Q value of `primitive` among the valid actions the rules applied so far leave; -inf
+        when none is left (or without Q maps)."""
+        if self.q is None:
+            return -math.inf
+        left = ~self.ruled_out[:, primitive] & self.valid[primitive][None]
+        values = self.q[:, primitive][left]
+        return float(values.max()) if values.size else -math.inf
 
     @functools.cached_property
     def target(self) -> np.ndarray:
@@ -363,6 +380,21 @@ class GraspAtTargetCore(Rule):
         return (Keep(GRASP, target_core(ctx.obs.mask, ctx.params.grasp_core_depth_px)[None]),)
 
 
+class GraspBeforePush(Rule):
+    """With a target in view, a push while a grasp on the target is left (after every grasp rule before
+    this one) whose Q value is at least `grasp_before_push_q`. The network was rewarded in training for
+    pushes that change the scene, and with a target in view it values them above grasps that would pick it:
+    in packed scenes it pushed around a target it could have grasped. Where the grasp rules leave no
+    grasp (a wedged target, failed grasps) or only poor ones, it still pushes."""
+
+    name = "grasp_before_push"
+
+    def keeps(self, ctx: RuleContext) -> tuple:
+        if not ctx.target_in_view or ctx.best_left(GRASP) < ctx.params.grasp_before_push_q:
+            return ()
+        return (Keep(PUSH, np.zeros((1, 1, 1), dtype=bool)),)
+
+
 class GraspSquareToFaces(Rule):
     """A pose rule: it rules nothing out (`keeps` gives ()); after the decision the chosen grasp, on a target
     whose top outline is a rectangle (pose.face_direction) and whose top is flat (pose.top_slope at most
@@ -403,7 +435,7 @@ class GraspSquareToFaces(Rule):
 RULES = {rule.name: rule for rule in (TriedActions, FingerClearance, GraspOnTarget, OccludedPushThroughHeap,
                                       PushEndInside, OccludedPushOffEdge, OccludedPushStartOnFlank,
                                       GraspWhereTargetOnTop, TargetPushStartNear, GraspAtTargetCore,
-                                      GraspSquareToFaces)}
+                                      GraspBeforePush, GraspSquareToFaces)}
 RULE_ORDER = tuple(RULES)
 PRESETS = {"none": (), "cell": RULE_ORDER}
 
@@ -453,8 +485,8 @@ class RulePipeline:
         `q` itself otherwise). `valid` (2, S, S): where each primitive may act at all."""
         if not self.rules:
             return q
-        ctx = RuleContext(obs, q.shape[0], pose_rules, self.params, grid)
-        ruled_out = np.zeros(q.shape, dtype=bool)
+        ctx = RuleContext(obs, q.shape[0], pose_rules, self.params, grid, q, valid)
+        ruled_out = ctx.ruled_out  # grows as the rules apply; rules read it through ctx.best_left
         for rule in self.rules:
             for verdict in rule.keeps(ctx):
                 p = verdict.primitive
