@@ -404,11 +404,10 @@ class GraspAtTargetCore(Rule):
 
 class GraspBeforePush(Rule):
     """With a target in view, a push while a grasp on the target is left (after every grasp rule before
-    this one) whose Q value is at least `grasp_before_push_q`. With a target in view the network values
-    pushes above grasps that would pick it: on the tuning seeds' challenging scenes, 61 of the cell's 111
-    pushes at a visible target came with such a grasp left, and that grasp, tried in a copy of the scene,
-    picked the target in 53 of them. Where the grasp rules leave no grasp on the target (a wedged target,
-    failed grasps) or only poor ones, the policy still pushes."""
+    this one) whose Q value is at least `grasp_before_push_q`. With a target in view the network often
+    values a push above a grasp that would pick the target (in packed scenes it pushed around targets it
+    could have grasped). Where the grasp rules leave no grasp on the target (a wedged target, failed
+    grasps) or only poor ones, the policy still pushes."""
 
     name = "grasp_before_push"
 
@@ -509,7 +508,7 @@ class RulePipeline:
         if not self.rules:
             return q
         ctx = RuleContext(obs, q.shape[0], pose_rules, self.params, grid, q, valid)
-        ruled_out = ctx.ruled_out  # grows as the rules apply; rules read it through ctx.best_left
+        ruled_out = ctx.ruled_out  # grows as the rules apply; rules read it through ctx.left
         for rule in self.rules:
             for verdict in rule.keeps(ctx):
                 p = verdict.primitive
