@@ -325,7 +325,7 @@ def test_preset_none_leaves_the_q_maps_untouched():
 
 def test_preset_cell_has_every_rule_in_order_and_can_leave_some_out():
     assert RulePipeline.preset("cell").names == PRESETS["cell"] == RULE_ORDER
-    assert len(RULE_ORDER) == 11
+    assert len(RULE_ORDER) == 12
     without = RulePipeline.preset("cell", without=("finger_clearance", "grasp_at_target_core")).names
     left_out = ("finger_clearance", "grasp_at_target_core")
     assert without == tuple(n for n in PRESETS["cell"] if n not in left_out)
@@ -347,7 +347,8 @@ def test_unknown_preset_or_rule_names_are_refused_listing_the_known_ones(make, k
     ("occluded_push_radius_px", 0), ("target_push_radius_px", -1), ("heap_sigma_px", -0.5),
     ("heap_sigma_px", math.nan), ("push_end_margin", -0.01), ("occluded_push_edge_margin", -0.01),
     ("target_on_top_tolerance", -0.001),
-    ("grasp_core_depth_px", -1.0), ("occluded_push_start_band", (0.7, 0.5)),
+    ("grasp_core_depth_px", -1.0), ("grasp_core_fallback_depth_px", -1.0),
+    ("grasp_core_fallback_depth_px", 0.5), ("occluded_push_start_band", (0.7, 0.5)),
     ("occluded_push_start_band", (0.5, 1.2)),
 ])
 def test_rule_params_refuse_a_bad_value_naming_the_field(field, value):
@@ -437,8 +438,25 @@ def test_policy_grasps_the_middle_of_a_free_target_or_else_pushes():
     middle = RulePipeline.preset("cell", without=("finger_clearance",))
     assert Policy(QNetwork(SMALL), rules=middle).decide(obs, q=q).decision.pixel == (56, 56)
     assert Policy(QNetwork(SMALL)).decide(obs, q=q).decision.pixel == (56, 51)
-    q[:, GRASP, 55:58, 55:58] = -np.inf  # e.g. tried already: no grasp at the middle, a push instead
+    q[:, GRASP, 54:59, 54:59] = -np.inf  # e.g. tried already: no grasp within 2 px of the middle, a push
     assert Policy(QNetwork(SMALL), rules=middle).decide(obs, q=q).decision.primitive == PUSH
+
+
+def test_with_no_grasp_left_at_the_targets_middle_the_policy_grasps_next_to_it_before_pushing():
+    height = np.zeros((224, 224), np.float32)
+    block(height, (112, 112), 6, 0.026)  # the target, free: its mask 13 px wide, 7 px deep at (56, 56)
+    obs = _observation(MODE_TARGET, height, _square_mask())
+    q = _q(-1.0)
+    q[:, PUSH] = -2.0
+    q[4, GRASP, 56, 51] = 1.0  # the net's grasp: at the target's edge
+    q[4, GRASP, 56, 54] = 0.5  # 2 px off the middle (5 px deep)
+    q[:, GRASP, 55:58, 55:58] = -np.inf  # no grasp left within grasp_core_depth_px (1 px) of the middle
+    middle = Policy(QNetwork(SMALL), rules=RulePipeline.preset("cell", without=("finger_clearance",)))
+    decision = middle.decide(obs, q=q).decision
+    assert decision.primitive == GRASP and decision.pixel == (56, 54)  # within the fallback's 2 px
+    narrow = RuleParams(grasp_core_fallback_depth_px=1.0)
+    assert Policy(QNetwork(SMALL), rules=RulePipeline.preset("cell", narrow, without=("finger_clearance",))
+                  ).decide(obs, q=q).decision.primitive == PUSH
 
 
 def test_a_greedy_policy_with_the_cell_rules_does_not_repeat_a_failed_grasp():
