@@ -36,6 +36,25 @@ def _spin_until(spin_once, done, timeout: float, should_stop) -> bool:
     return True
 
 
+GET_STATE_RESEND = 2.0  # s: get_state asked again after this without an answer
+
+
+def _current_state(get_state, spin_once, timeout: float, should_stop) -> str | None:
+    """The node's lifecycle state label, or None without an answer within `timeout` s. The question is asked
+    again every GET_STATE_RESEND s: a service whose request reader has matched may not yet have matched the
+    client's response reader, and DDS then drops the answer (asking is harmless; a transition is not asked
+    twice)."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        asked = get_state.call_async(GetState.Request())
+        wait = min(GET_STATE_RESEND, deadline - time.monotonic())
+        if _spin_until(spin_once, asked.done, wait, should_stop):
+            return asked.result().current_state.label
+        if should_stop():
+            return None
+    return None
+
+
 def _reason(node, target: str, spin_once, should_stop) -> str | None:
     """The node's own status message on /diagnostics (None when it publishes none within REASON_WAIT s)."""
     name = target.rsplit("/", 1)[-1]
@@ -72,10 +91,9 @@ def bring_to_active(node, target: str, timeout: float = 60.0, should_stop=lambda
         if not _spin_until(spin_once, ready, timeout, should_stop):
             raise LifecycleFailed(f"{target}: its lifecycle services did not appear within {timeout:.0f} s")
         for label, transition, reached in ACTIVATION:
-            asked = get_state.call_async(GetState.Request())
-            if not _spin_until(spin_once, asked.done, timeout, should_stop):
+            state = _current_state(get_state, spin_once, timeout, should_stop)
+            if state is None:
                 raise LifecycleFailed(f"{target}: get_state was not answered within {timeout:.0f} s")
-            state = asked.result().current_state.label
             if state == "active" or (state == reached and label == "configure"):
                 continue
             answer = change_state.call_async(ChangeState.Request(transition=Transition(id=transition)))
