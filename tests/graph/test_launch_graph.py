@@ -73,8 +73,9 @@ def test_a_namespaced_simulated_cell_has_every_node_and_name_under_its_namespace
     cell = start_cell(launch, "--namespace", namespace)
     node_names = {NODE_NAMES[executable] for _, executable in CELLS["sim"]}
     wait_for_nodes(ros_node, namespace, node_names, cell)
-    # none of them at the root (discovery may still list an earlier test's nodes there for a moment)
-    spin_until(ros_node, lambda: not node_names & nodes_in(ros_node, "/"), 30.0,
+    # none of them at the root (discovery may still list an earlier test's nodes there until their
+    # participants' DDS lease runs out: Fast DDS's default lease is 20 s, and a loaded machine is slower)
+    spin_until(ros_node, lambda: not node_names & nodes_in(ros_node, "/"), 60.0,
                "no node of the cell at the root", [cell])
     found = wait_for_endpoints(ros_node, namespace, node_names, cell)
     stray = {node: outside(namespace, kinds) for node, kinds in found.items()}
