@@ -19,10 +19,13 @@ activated once their process runs (impurity_bringup.lifecycle); a transition tha
 naming the node and its reason.
 
 Ctrl-C (SIGINT) or SIGTERM stops all of them; if any node dies, the others are stopped and the
-launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node.
+launcher exits non-zero, naming the node and its exit code. Output lines are prefixed with the node. A
+launcher that is killed outright (SIGKILL) takes its nodes with it: on Linux each node gets SIGTERM when
+the launcher dies (prctl PR_SET_PDEATHSIG), so none is left running on the domain.
 """
 
 import argparse
+import ctypes
 import os
 import pathlib
 import shlex
@@ -79,6 +82,21 @@ def parse_override(text: str) -> tuple[str, str, str]:
     return executable_name, name, value
 
 
+PR_SET_PDEATHSIG = 1  # prctl(2): the signal a process gets when its parent dies
+
+
+def _die_with_launcher(launcher: int):
+    """A Popen preexec_fn: SIGTERM to the child when the launcher (pid `launcher`) dies (Linux; elsewhere
+    nothing); a launcher already gone by then ends the child at once."""
+    def arm() -> None:
+        if not sys.platform.startswith("linux"):
+            return
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, int(signal.SIGTERM), 0, 0, 0)
+        if os.getppid() != launcher:
+            os.kill(os.getpid(), signal.SIGTERM)
+    return arm
+
+
 class CellProcesses:
     def __init__(self, commands: list[tuple[str, list[str]]], log_dir: pathlib.Path | None, quiet: bool):
         self.processes: list[tuple[str, subprocess.Popen]] = []
@@ -90,7 +108,7 @@ class CellProcesses:
         for name, command in commands:
             proc = subprocess.Popen(command,
                                     stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True, env=env,
-                                    start_new_session=True)
+                                    start_new_session=True, preexec_fn=_die_with_launcher(os.getpid()))
             self.processes.append((name, proc))
             threading.Thread(target=self._pump, args=(name, proc), daemon=True).start()
 
