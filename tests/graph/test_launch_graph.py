@@ -70,13 +70,15 @@ def wait_for_endpoints(ros_node, namespace: str, node_names, cell) -> dict[str, 
 
 def test_a_namespaced_simulated_cell_has_every_node_and_name_under_its_namespace(ros_node, launch):
     namespace = "/cell_a"
-    cell = start_cell(launch, "--namespace", namespace)
     node_names = {NODE_NAMES[executable] for _, executable in CELLS["sim"]}
+    # what discovery lists at the root before the cell starts is an earlier test's, not this cell's
+    earlier = node_names & nodes_in(ros_node, "/")
+    cell = start_cell(launch, "--namespace", namespace)
     wait_for_nodes(ros_node, namespace, node_names, cell)
-    # none of them at the root (discovery may still list an earlier test's nodes there until their
-    # participants' DDS lease runs out: Fast DDS's default lease is 20 s, and a loaded machine is slower)
-    spin_until(ros_node, lambda: not node_names & nodes_in(ros_node, "/"), 60.0,
-               "no node of the cell at the root", [cell])
+    # none of them at the root
+    spin_until(ros_node, lambda: not (node_names & nodes_in(ros_node, "/")) - earlier, 60.0,
+               f"no node of the cell at the root (listed there before it started: {sorted(earlier)})",
+               [cell])
     found = wait_for_endpoints(ros_node, namespace, node_names, cell)
     stray = {node: outside(namespace, kinds) for node, kinds in found.items()}
     assert {node: names_outside for node, names_outside in stray.items() if names_outside} == {}
