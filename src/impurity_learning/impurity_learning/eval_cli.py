@@ -735,7 +735,7 @@ def _main(argv=None) -> int:
                 results[row]["groups"].setdefault(group, {})[scenario] = aggregate(
                     [e for e in mine if e["group"] == group])
             results[row]["episodes"] += mine
-        for group in groups:
+        for group in dict.fromkeys(("default", *groups)):  # the main table's episodes are the default's
             counted = [e for e in by_perception if e["row"] == row and e["group"] == group]
             if not counted:
                 continue

@@ -159,3 +159,14 @@ def test_other_palette_groups_are_counted_by_perception_on_their_own_rows(tmp_pa
     assert records["groups"]["held_out"]["random"]["episodes"] == 1  # its truth count: one episode
     markdown = (out / "results.md").read_text()
     assert "| Ours [rules: cell] · held-out palettes | random | 1 |" in markdown
+
+
+def test_the_main_tables_episodes_are_counted_by_perception_whichever_palette_groups_are_asked(tmp_path):
+    out = tmp_path / "docs"
+    assert main(["--count", "perception", "--episodes", "1", "--scenarios", "random", "--methods", "ours",
+                 "--rules", "cell", "--palette-groups", "held_out", "--group-episodes", "0",
+                 "--perception-scenes", "1", "--markdown", str(out / "results.md"), "--no-progress",
+                 "--jobs", "1"]) == 0
+    records = json.loads((out / "results.json").read_text())["ours@cell"]
+    assert records["by_perception"]["scenarios"]["random"]["episodes"] == 1
+    assert "by_perception_groups" not in records
