@@ -97,9 +97,8 @@ def replay(row: dict, k: int, k_low: int | None = None, low_height: float = 0.0,
     """(impurities left behind, actions saved) had the recorded episode `row` run with search_pushes = k
     (and low_heap_pushes = k_low, and the table memory with `impurity_area`): those in the workspace where
     it would have ended that the unended episode picked, and the actions it took from there on."""
-    views = row["views"]
+    views = decided(row["views"])
     cut = cut_at(views, k, k_low, low_height, impurity_area)
-    views = decided(views)
     if cut is None:
         return 0, 0
     return max(0, views[cut][1] - row["remaining_end"]), max(0, row["actions"] - cut)
