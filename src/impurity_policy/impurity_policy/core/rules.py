@@ -512,10 +512,8 @@ class RulePipeline:
         for rule in self.rules:
             for verdict in rule.keeps(ctx):
                 p = verdict.primitive
-                if rule.kind == PREFERENCE:
-                    left = ~ruled_out[:, p] & np.isfinite(q[:, p])
-                    if not (left & (verdict.actions & valid[p])).any():
-                        continue  # it would leave nothing: it gives way
+                if rule.kind == PREFERENCE and not (ctx.left(p) & verdict.actions).any():
+                    continue  # it would leave nothing: it gives way
                 ruled_out[:, p] |= ~verdict.actions
         return np.where(ruled_out, -np.inf, q).astype(q.dtype) if ruled_out.any() else q
 
